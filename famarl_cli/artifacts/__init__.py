@@ -1,0 +1,6 @@
+"""On-disk formats: one module per artifact kind, all built on :mod:`famarl_cli.artifacts.hdf5`."""
+
+from famarl_cli.artifacts.demos import Demos, Episode, read_demos, write_demos
+from famarl_cli.artifacts.hdf5 import atomic_path, prepare_output, provenance, sha256
+
+__all__ = ["Demos", "Episode", "atomic_path", "prepare_output", "provenance", "read_demos", "sha256", "write_demos"]

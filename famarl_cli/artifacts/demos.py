@@ -1,0 +1,170 @@
+"""The demos file: expert episodes plus the ground truth their scripts know.
+
+Layout (HDF5, after Minari's, so plain h5py and Minari-style readers find their way)::
+
+    /                      attrs: schema="famarl.demos", schema_version, famarl_version, provenance (JSON),
+                                  env_id, env_kwargs (JSON), script, seed, n_episodes, total_steps,
+                                  factor_names (JSON)
+    /episode_{i}/          attrs: id, seed (the episode's reset seed), total_steps, success
+        observations       (T+1, obs_dim) float32, the reset observation first
+        actions            (T, act_dim)   float32
+        rewards            (T,)           float64
+        terminations       (T,)           bool
+        truncations        (T,)           bool
+        ground_truth/
+            segment_starts (K,)           int64, first step of each expert phase; starts at 0, increasing
+            factors        (K, F)         float64, each phase's factors, columns named by factor_names
+
+Nothing downstream of the demos stage may read ``ground_truth`` except evaluation metrics.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from famarl_cli.artifacts.hdf5 import atomic_path, check, open_artifact, write_header
+
+SCHEMA = "famarl.demos"
+SCHEMA_VERSION = 1
+
+
+@dataclass
+class Episode:
+    observations: np.ndarray
+    actions: np.ndarray
+    rewards: np.ndarray
+    terminations: np.ndarray
+    truncations: np.ndarray
+    seed: int
+    segment_starts: np.ndarray
+    factors: np.ndarray
+
+    @property
+    def length(self) -> int:
+        return len(self.actions)
+
+    @property
+    def success(self) -> bool:
+        return bool(self.terminations[-1])
+
+
+@dataclass
+class Demos:
+    episodes: list[Episode]
+    env_id: str
+    script: str
+    seed: int
+    factor_names: tuple[str, ...]
+    env_kwargs: dict = field(default_factory=dict)
+    provenance: dict = field(default_factory=dict)
+
+    @property
+    def total_steps(self) -> int:
+        return sum(e.length for e in self.episodes)
+
+    @property
+    def success_rate(self) -> float:
+        return float(np.mean([e.success for e in self.episodes])) if self.episodes else 0.0
+
+
+def write_demos(path: str | os.PathLike, demos: Demos) -> None:
+    """Write ``demos`` to ``path`` atomically (see :func:`~famarl_cli.artifacts.hdf5.atomic_path`)."""
+    with atomic_path(path) as temp, h5py.File(temp, "w", track_order=False) as handle:
+        write_header(
+            handle,
+            SCHEMA,
+            SCHEMA_VERSION,
+            demos.provenance,
+            env_id=demos.env_id,
+            env_kwargs=demos.env_kwargs,
+            script=demos.script,
+            seed=demos.seed,
+            n_episodes=len(demos.episodes),
+            total_steps=demos.total_steps,
+            factor_names=list(demos.factor_names),
+        )
+        for i, episode in enumerate(demos.episodes):
+            group = handle.create_group(f"episode_{i}")
+            group.attrs.update(id=i, seed=episode.seed, total_steps=episode.length, success=episode.success)
+            group.create_dataset("observations", data=episode.observations.astype(np.float32))
+            group.create_dataset("actions", data=episode.actions.astype(np.float32))
+            group.create_dataset("rewards", data=episode.rewards.astype(np.float64))
+            group.create_dataset("terminations", data=episode.terminations.astype(bool))
+            group.create_dataset("truncations", data=episode.truncations.astype(bool))
+            truth = group.create_group("ground_truth")
+            truth.create_dataset("segment_starts", data=episode.segment_starts.astype(np.int64))
+            truth.create_dataset("factors", data=episode.factors.astype(np.float64))
+
+
+def read_demos(path: str | os.PathLike) -> Demos:
+    """Read and validate a demos file; every problem is an ArtifactError naming the file and the fault."""
+    path = Path(path)
+    with open_artifact(path, SCHEMA, SCHEMA_VERSION) as handle:
+        attrs = handle.attrs
+        for key in ("env_id", "script", "seed", "n_episodes", "factor_names"):
+            check(key in attrs, path, f"missing attribute {key!r}")
+        n_episodes = int(attrs["n_episodes"])
+        factor_names = tuple(json.loads(attrs["factor_names"]))
+        check(n_episodes > 0, path, "holds no episodes")
+        episodes = [_read_episode(handle, i, len(factor_names), path) for i in range(n_episodes)]
+        return Demos(
+            episodes=episodes,
+            env_id=str(attrs["env_id"]),
+            script=str(attrs["script"]),
+            seed=int(attrs["seed"]),
+            factor_names=factor_names,
+            env_kwargs=json.loads(attrs.get("env_kwargs", "{}")),
+            provenance=json.loads(attrs.get("provenance", "{}")),
+        )
+
+
+def _read_episode(handle: h5py.File, i: int, n_factors: int, path: Path) -> Episode:
+    name = f"episode_{i}"
+    check(name in handle, path, f"missing group {name!r} (file says it holds more episodes)")
+    group = handle[name]
+    for key in ("observations", "actions", "rewards", "terminations", "truncations", "ground_truth"):
+        check(key in group, path, f"{name} has no {key!r}")
+    episode = Episode(
+        observations=group["observations"][()],
+        actions=group["actions"][()],
+        rewards=group["rewards"][()],
+        terminations=group["terminations"][()],
+        truncations=group["truncations"][()],
+        seed=int(group.attrs.get("seed", -1)),
+        segment_starts=group["ground_truth/segment_starts"][()],
+        factors=group["ground_truth/factors"][()],
+    )
+    steps = episode.actions.shape[0] if episode.actions.ndim == 2 else -1
+    check(steps >= 1, path, f"{name}: actions must be a non-empty (T, action_dim) array, got {episode.actions.shape}")
+    check(
+        episode.observations.ndim == 2 and episode.observations.shape[0] == steps + 1,
+        path,
+        f"{name}: observations must have T+1 = {steps + 1} rows, got shape {episode.observations.shape}",
+    )
+    for key in ("rewards", "terminations", "truncations"):
+        shape = getattr(episode, key).shape
+        check(shape == (steps,), path, f"{name}: {key} must have shape ({steps},), got {shape}")
+    for key in ("observations", "actions", "rewards"):
+        check(np.isfinite(getattr(episode, key)).all(), path, f"{name}: {key} contain NaN or Inf")
+    starts = episode.segment_starts
+    check(
+        starts.ndim == 1
+        and len(starts) >= 1
+        and starts[0] == 0
+        and bool(np.all(np.diff(starts) > 0))
+        and starts[-1] < steps,
+        path,
+        f"{name}: ground_truth/segment_starts must increase from 0 and stay below {steps}, got {starts}",
+    )
+    check(
+        episode.factors.shape == (len(starts), n_factors),
+        path,
+        f"{name}: ground_truth/factors must have shape ({len(starts)}, {n_factors}), got {episode.factors.shape}",
+    )
+    return episode

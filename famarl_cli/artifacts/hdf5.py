@@ -1,0 +1,141 @@
+"""What every artifact shares: atomic writes, schema checks, provenance and content hashes.
+
+Each artifact kind (demos, segments, models, ...) has its own module beside this one that defines its layout
+on top of these helpers.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from famarl_cli import __version__
+from famarl_cli.errors import ArtifactError
+
+TEMP_MARKER = ".tmp-"
+"""Part of the name of every temporary file; a name with it is never a finished artifact."""
+
+_UMASK = os.umask(0)
+os.umask(_UMASK)
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
+    """Yield a temporary path beside ``path``; on success it is renamed over ``path``, on failure removed.
+
+    A reader (or DVC) therefore sees the previous complete file or the new complete one, never a partial one.
+    """
+    path = prepare_output(path)
+    try:
+        fd, temp = tempfile.mkstemp(prefix=f".{path.name}{TEMP_MARKER}", dir=path.parent)
+        os.close(fd)
+        # mkstemp creates files readable by the owner only; artifacts get the usual permissions.
+        os.chmod(temp, 0o666 & ~_UMASK)
+    except OSError as exc:
+        raise ArtifactError(f"cannot write {path}: {exc.strerror or exc}") from exc
+    temp = Path(temp)
+    try:
+        yield temp
+        with open(temp, "rb+") as handle:
+            os.fsync(handle.fileno())
+        os.replace(temp, path)
+    except OSError as exc:
+        raise ArtifactError(f"cannot write {path}: {exc.strerror or exc}") from exc
+    finally:
+        temp.unlink(missing_ok=True)
+
+
+def prepare_output(path: str | os.PathLike) -> Path:
+    """Make ``path``'s folder and check a file can be written there, before a stage spends time on it."""
+    path = Path(path)
+    if path.is_dir():
+        raise ArtifactError(f"cannot write {path}: it is a directory")
+    for parent in reversed(path.parents):
+        if parent.exists() and not parent.is_dir():
+            raise ArtifactError(f"cannot write {path}: {parent} is not a directory")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ArtifactError(f"cannot write {path}: {exc.strerror or exc}") from exc
+    if not os.access(path.parent, os.W_OK):
+        raise ArtifactError(f"cannot write {path}: {path.parent} is not writable")
+    return path
+
+
+def sha256(path: str | os.PathLike) -> str:
+    """Content hash of a file, recorded by the stages that read it."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def provenance(command: str, params: dict[str, Any], seed: int | None, inputs: list[Path] = ()) -> dict:
+    """What made an artifact: command, parameters, seed, package version and the inputs' content hashes."""
+    return {
+        "command": command,
+        "params": params,
+        "seed": seed,
+        "famarl_version": __version__,
+        "inputs": {str(p): sha256(p) for p in inputs},
+    }
+
+
+def write_header(handle: h5py.File, schema: str, version: int, prov: dict, **attrs: Any) -> None:
+    """Top-level attributes every artifact carries; non-scalar values are stored as JSON strings."""
+    handle.attrs["schema"] = schema
+    handle.attrs["schema_version"] = version
+    handle.attrs["famarl_version"] = __version__
+    handle.attrs["provenance"] = json.dumps(prov, sort_keys=True)
+    for key, value in attrs.items():
+        handle.attrs[key] = value if isinstance(value, str | int | float | np.number) else json.dumps(value)
+
+
+@contextlib.contextmanager
+def open_artifact(path: str | os.PathLike, schema: str, version: int) -> Iterator[h5py.File]:
+    """Open ``path`` for reading after checking it is a readable HDF5 file of ``schema`` at most ``version``.
+
+    Any low-level failure while the caller reads (a truncated dataset, say) becomes an ArtifactError too.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise ArtifactError(f"{path}: no such file")
+    if path.is_dir():
+        raise ArtifactError(f"{path}: is a directory, expected an HDF5 {schema} file")
+    try:
+        handle = h5py.File(path, "r")
+    except OSError as exc:
+        raise ArtifactError(f"{path}: not a readable HDF5 file (empty, truncated or corrupt?)") from exc
+    with handle:
+        found = handle.attrs.get("schema")
+        if found is None:
+            raise ArtifactError(f"{path}: has no 'schema' attribute; not a famarl artifact")
+        if found != schema:
+            raise ArtifactError(f"{path}: is a {found!r} file, expected {schema!r}")
+        found_version = int(handle.attrs.get("schema_version", -1))
+        if found_version > version:
+            raise ArtifactError(
+                f"{path}: schema version {found_version} is newer than this famarl reads ({version}); upgrade famarl"
+            )
+        if found_version < 1:
+            raise ArtifactError(f"{path}: invalid schema_version {found_version}")
+        try:
+            yield handle
+        except (OSError, KeyError, ValueError, TypeError) as exc:
+            raise ArtifactError(f"{path}: unreadable or malformed content ({exc})") from exc
+
+
+def check(condition: bool, path: str | os.PathLike, message: str) -> None:
+    """Raise an ArtifactError naming ``path`` unless ``condition`` holds."""
+    if not condition:
+        raise ArtifactError(f"{path}: {message}")

@@ -1,0 +1,143 @@
+"""The ``famarl`` command line: thin typer commands that parse options and call the library.
+
+Every command turns a :class:`~famarl_cli.errors.FamarlError` into one line on stderr and its exit code;
+``famarl --debug ...`` shows the traceback instead.
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.table import Table
+
+from famarl_cli import __version__
+from famarl_cli.artifacts import Demos
+from famarl_cli.errors import FamarlError
+from famarl_cli.experts import Script
+
+app = typer.Typer(
+    name="famarl",
+    help="FaMARL: macro-action RL over disentangled latents of expert action sequences, stage by stage.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+console = Console(stderr=True)
+_debug = False
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        typer.echo(f"famarl {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _global_options(
+    version: Annotated[
+        bool, typer.Option("--version", callback=_print_version, is_eager=True, help="Print the version and exit.")
+    ] = False,
+    debug: Annotated[bool, typer.Option("--debug", help="Show the full traceback when a command fails.")] = False,
+) -> None:
+    global _debug
+    _debug = debug
+
+
+def reports_errors(command):
+    """Print a FamarlError as ``error: <message>`` and exit with its code, unless ``--debug`` is on."""
+
+    @functools.wraps(command)
+    def wrapper(*args, **kwargs):
+        try:
+            return command(*args, **kwargs)
+        except FamarlError as exc:
+            if _debug:
+                raise
+            typer.echo(f"error: {exc}", err=True)
+            raise typer.Exit(exc.exit_code) from None
+
+    return wrapper
+
+
+def _progress() -> Progress:
+    return Progress(
+        TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(), console=console
+    )
+
+
+@app.command()
+@reports_errors
+def demos(
+    script: Annotated[
+        Script, typer.Option("--script", "-s", help="Expert script that acts in ContinuousWorld Base.")
+    ] = Script.PUSHED_DOWN_ONLY,
+    episodes: Annotated[int, typer.Option(min=1, help="Number of episodes to record.")] = 100,
+    seed: Annotated[int, typer.Option(help="Seed of the episodes' layouts; same seed, same file.")] = 0,
+    out: Annotated[
+        Path | None, typer.Option(help="Output HDF5 file.  [default: data/demos/<script>.h5]", dir_okay=False)
+    ] = None,
+    plot: Annotated[bool, typer.Option(help="Also draw the trajectories to <out>.png.")] = True,
+) -> None:
+    """Record scripted-expert demos (with their true phase boundaries and factors) to an HDF5 file."""
+    from famarl_cli.artifacts import prepare_output, write_demos
+    from famarl_cli.demos import record_demos
+    from famarl_cli.plots import plot_demos
+
+    out = prepare_output(out or Path("data/demos") / f"{script.value}.h5")
+    with _progress() as progress:
+        task = progress.add_task(f"demos {script.value}", total=episodes)
+        recorded = record_demos(script, episodes, seed, on_episode=lambda _: progress.advance(task))
+    write_demos(out, recorded)
+    written = [out]
+    if plot:
+        written.append(out.with_suffix(".png"))
+        plot_demos(recorded, written[-1])
+
+    table = _demos_table(recorded, f"demos: {script.value}")
+    table.add_row("written", ", ".join(map(str, written)))
+    Console().print(table)
+
+
+@app.command()
+@reports_errors
+def inspect(
+    path: Annotated[Path, typer.Argument(help="Artifact to check, e.g. data/demos/pushed-down-only.h5.")],
+    plot: Annotated[Path | None, typer.Option(help="Draw the demos' trajectories to this PNG.")] = None,
+) -> None:
+    """Check that a file is a valid artifact, and print what it holds and what made it."""
+    from famarl_cli.artifacts import read_demos
+    from famarl_cli.plots import plot_demos
+
+    loaded = read_demos(path)
+    table = _demos_table(loaded, str(path))
+    table.add_row("environment", f"{loaded.env_id} {loaded.env_kwargs}")
+    made_by = loaded.provenance
+    table.add_row(
+        "made by", f"{made_by.get('command')} {made_by.get('params')} (famarl {made_by.get('famarl_version')})"
+    )
+    if plot:
+        plot_demos(loaded, plot)
+        table.add_row("written", str(plot))
+    Console().print(table)
+
+
+def _demos_table(demos: Demos, title: str) -> Table:
+    lengths = [e.length for e in demos.episodes]
+    table = Table(title=title, show_header=False)
+    table.add_row("script", demos.script)
+    table.add_row("episodes", str(len(demos.episodes)))
+    table.add_row("steps", str(demos.total_steps))
+    table.add_row("success rate", f"{demos.success_rate:.1%}")
+    table.add_row("episode length", f"{np.mean(lengths):.1f} mean, {min(lengths)}-{max(lengths)}")
+    table.add_row("phases per episode", f"{np.mean([len(e.segment_starts) for e in demos.episodes]):.2f}")
+    return table
+
+
+def main() -> None:
+    app()

@@ -1,0 +1,77 @@
+"""ContinuousWorld for many worlds at once, in numpy, for training.
+
+It runs :func:`~famarl_cli.envs.continuous_world.physics_step` on all worlds in one call, so its transitions
+are those of :class:`~famarl_cli.envs.continuous_world.ContinuousWorldEnv` (a test checks it). Finished
+worlds reset in the same step (gymnasium's SAME_STEP autoreset): the returned observation is the new
+episode's first one and the last observation of the finished episode is in ``info["final_obs"]``, which is
+what a learner needs to bootstrap the value of a time-limit truncation.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from famarl_cli.envs.continuous_world import (
+    GOAL_RADIUS,
+    ROWS,
+    TASKS,
+    Layouts,
+    distance_to_goal,
+    observe,
+    physics_step,
+    sample_layouts,
+)
+
+
+class ContinuousWorldBatch:
+    """``n_envs`` ContinuousWorld episodes stepped together; actions are (n_envs, 2) arrays."""
+
+    def __init__(
+        self,
+        task: str = "maze",
+        n_envs: int = 64,
+        seed: int = 0,
+        goal_rows: tuple[str, ...] = ROWS,
+        max_episode_steps: int | None = None,
+    ) -> None:
+        if n_envs < 1:
+            raise ValueError(f"n_envs must be >= 1, got {n_envs}")
+        self.task = TASKS[task]
+        self.n_envs = n_envs
+        self.goal_rows = tuple(goal_rows)
+        self.max_episode_steps = max_episode_steps or self.task.max_episode_steps
+        self.rng = np.random.default_rng(seed)
+        self.load(sample_layouts(self.rng, n_envs, self.task, self.goal_rows))
+
+    def load(self, layouts: Layouts) -> np.ndarray:
+        """Start a fresh episode in every world from the given layouts; returns the observations."""
+        if len(layouts) != self.n_envs:
+            raise ValueError(f"expected {self.n_envs} layouts, got {len(layouts)}")
+        self.layouts = layouts
+        self.pos = layouts.start.copy()
+        self.vel = np.zeros_like(self.pos)
+        self.elapsed = np.zeros(self.n_envs, dtype=np.int64)
+        return observe(self.pos, self.vel, self.layouts)
+
+    def reset(self) -> np.ndarray:
+        return self.load(sample_layouts(self.rng, self.n_envs, self.task, self.goal_rows))
+
+    def step(self, actions: np.ndarray):
+        """Returns observations, rewards, terminations, truncations and an info dict (see module doc)."""
+        self.pos, self.vel = physics_step(self.pos, self.vel, np.asarray(actions, np.float64), self.layouts)
+        self.elapsed += 1
+        dist = distance_to_goal(self.pos, self.layouts)
+        terminated = dist < GOAL_RADIUS
+        truncated = ~terminated & (self.elapsed >= self.max_episode_steps)
+        obs = observe(self.pos, self.vel, self.layouts)
+        info = {}
+        done = terminated | truncated
+        if done.any():
+            info["final_obs"] = obs.copy()
+            fresh = sample_layouts(self.rng, int(done.sum()), self.task, self.goal_rows)
+            self.layouts = self.layouts.assign(done, fresh)
+            self.pos[done] = fresh.start
+            self.vel[done] = 0.0
+            self.elapsed[done] = 0
+            obs[done] = observe(self.pos[done], self.vel[done], fresh)
+        return obs, -dist, terminated, truncated, info
