@@ -1,0 +1,97 @@
+"""Environment throughput: ContinuousWorld single env and batched env, in env steps per second.
+
+    python benchmarks/env_throughput.py [--seconds 2] [--out benchmarks/results/env_throughput.json]
+
+Each measurement steps random actions for about ``--seconds`` (after a short warm-up) and counts every
+world's step, resets included. Prints a table and writes the numbers as JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import resource
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+import famarl_cli
+from famarl_cli.envs import ENV_IDS
+from famarl_cli.envs.batched import ContinuousWorldBatch
+
+
+def timed(step, steps_per_call: int, seconds: float) -> float:
+    """Calls ``step`` repeatedly for about ``seconds``; returns env steps per second."""
+    for _ in range(10):
+        step()
+    calls, start = 0, time.perf_counter()
+    while (elapsed := time.perf_counter() - start) < seconds:
+        for _ in range(50):
+            step()
+        calls += 50
+    return calls * steps_per_call / elapsed
+
+
+def single_env(task: str, seconds: float, unwrapped: bool) -> float:
+    env = gym.make(ENV_IDS[task])
+    if unwrapped:
+        env = env.unwrapped
+    env.reset(seed=0)
+    actions = np.random.default_rng(0).uniform(-1, 1, (1024, 2)).astype(np.float32)
+    counter = iter(range(1 << 62))
+    limit = gym.spec(ENV_IDS[task]).max_episode_steps
+    elapsed = [0]
+
+    def step():
+        _, _, terminated, truncated, _ = env.step(actions[next(counter) % 1024])
+        elapsed[0] += 1
+        if terminated or truncated or elapsed[0] >= limit:
+            env.reset()
+            elapsed[0] = 0
+
+    return timed(step, 1, seconds)
+
+
+def batched_env(task: str, n_envs: int, seconds: float) -> float:
+    batch = ContinuousWorldBatch(task, n_envs=n_envs, seed=0)
+    actions = np.random.default_rng(0).uniform(-1, 1, (8, n_envs, 2))
+    counter = iter(range(1 << 62))
+    return timed(lambda: batch.step(actions[next(counter) % 8]), n_envs, seconds)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=2.0)
+    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "env_throughput.json")
+    args = parser.parse_args()
+
+    rows = []
+    for task in ("base", "maze"):
+        rows.append((task, "single (gym.make)", 1, single_env(task, args.seconds, unwrapped=False)))
+        rows.append((task, "single (unwrapped)", 1, single_env(task, args.seconds, unwrapped=True)))
+        for n_envs in (1, 64, 1024):
+            rows.append((task, "batched", n_envs, batched_env(task, n_envs, args.seconds)))
+
+    print(f"{'task':<6} {'env':<20} {'worlds':>7} {'env steps/s':>14}")
+    for task, kind, n_envs, rate in rows:
+        print(f"{task:<6} {kind:<20} {n_envs:>7} {rate:>14,.0f}")
+    peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"peak RSS {peak_mib:.0f} MiB")
+
+    result = {
+        "famarl_version": famarl_cli.__version__,
+        "machine": {"processor": platform.processor() or platform.machine(), "python": platform.python_version()},
+        "seconds_per_measurement": args.seconds,
+        "peak_rss_mib": round(peak_mib, 1),
+        "rows": [{"task": t, "env": k, "worlds": n, "env_steps_per_s": round(r)} for t, k, n, r in rows],
+    }
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(result, indent=2) + "\n")
+    print(f"written {args.out}")
+
+
+if __name__ == "__main__":
+    main()
