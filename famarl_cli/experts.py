@@ -6,7 +6,7 @@ true segment boundary and its factors (direction, distance, push, map size) are 
 macro action. Only evaluation metrics may read them.
 
 Along its leg's axis the expert "arrives": it tracks a speed that cruises at CRUISE_SPEED and falls off as
-``sqrt(2 * BRAKE * remaining distance)``, so it brakes smoothly and stops at the target. Across the axis the
+``sqrt(2 * BRAKE * remaining distance)``, then linearly near the target, so it brakes smoothly and stops there. Across the axis the
 plain scripts hold zero velocity; the *pushed* scripts instead accelerate at PUSH toward the goal's row all
 the while (the paper: "the agent always accelerates upward or downward, according to the goal position"),
 so their horizontal legs bend towards the goal's row and end pressed against the edge.
@@ -27,6 +27,9 @@ BRAKE = 1.0
 """Deceleration the arrival profile plans with (m/s^2), half of MAX_ACCEL, so braking never saturates."""
 GAIN = 5.0
 """Speed-tracking gain (1/s): the speed error closes with a time constant of two steps."""
+APPROACH_GAIN = 2.0
+"""Near the target (within 2 * BRAKE / APPROACH_GAIN^2 = 0.5 m) the desired speed falls linearly with this slope
+(1/s) instead of as a square root, whose infinite slope at the target makes the stepped controller chatter."""
 PUSH = 0.5
 """The pushed scripts' constant cross-axis action toward the goal's row (in action units)."""
 ARRIVE_TOLERANCE = 0.05
@@ -130,7 +133,8 @@ class ScriptedExpert:
             remaining = leg.target - position[leg.axis]
         self.steps += 1
 
-        desired = np.sign(remaining) * min(CRUISE_SPEED, np.sqrt(2 * BRAKE * abs(remaining)))
+        distance = abs(remaining)
+        desired = np.sign(remaining) * min(CRUISE_SPEED, np.sqrt(2 * BRAKE * distance), APPROACH_GAIN * distance)
         action = np.empty(2, dtype=np.float32)
         action[leg.axis] = _track_speed(desired, velocity[leg.axis])
         cross = 1 - leg.axis
