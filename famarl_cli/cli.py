@@ -7,6 +7,8 @@ Every command turns a :class:`~famarl_cli.errors.FamarlError` into one line on s
 from __future__ import annotations
 
 import functools
+from dataclasses import asdict
+from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
@@ -67,7 +69,12 @@ def reports_errors(command):
 
 def _progress() -> Progress:
     return Progress(
-        TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(), console=console
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeRemainingColumn(),
+        console=console,
+        transient=True,
     )
 
 
@@ -100,6 +107,118 @@ def demos(
         plot_demos(recorded, written[-1])
 
     table = _demos_table(recorded, f"demos: {script.value}")
+    table.add_row("written", ", ".join(map(str, written)))
+    Console().print(table)
+
+
+class Distance(StrEnum):
+    EUCLIDEAN = "euclidean"
+    NORMALISED = "normalised"
+
+
+class LongSegments(StrEnum):
+    SPLIT = "split"
+    DROP = "drop"
+    FAIL = "fail"
+
+
+@app.command()
+@reports_errors
+def segment(
+    demos: Annotated[Path, typer.Option(help="Demos HDF5 file to segment.")] = Path("data/demos/pushed-down-only.h5"),
+    out: Annotated[
+        Path | None,
+        typer.Option(help="Output segments HDF5.  [default: data/segments/<demos name>.h5]", dir_okay=False),
+    ] = None,
+    encoder: Annotated[
+        Path | None,
+        typer.Option(help="Use this trained segmenter (a .segmenter.pt) instead of training one."),
+    ] = None,
+    window: Annotated[int, typer.Option(min=2, help="Steps per sliding window.")] = 4,
+    peak_neighbours: Annotated[
+        int, typer.Option(min=2, help="A peak is highest among this many adjacent points.")
+    ] = 10,
+    margin: Annotated[
+        float,
+        typer.Option(min=0.0, max=1.0, help="Peak threshold, as a fraction of the distance range over all episodes."),
+    ] = 0.05,
+    distance: Annotated[Distance, typer.Option(help="Distance between adjacent windows' codes.")] = Distance.EUCLIDEAN,
+    length: Annotated[
+        int | None, typer.Option(min=1, help="FAVAE input length L.  [default: longest segment, rounded up to 8]")
+    ] = None,
+    long: Annotated[
+        LongSegments, typer.Option(help="Segments longer than L: split into pieces, drop, or fail.")
+    ] = LongSegments.SPLIT,
+    tolerance: Annotated[int, typer.Option(min=0, help="Boundary tolerance (steps) for the second F1.")] = 2,
+    code_dim: Annotated[int, typer.Option(min=1, help="Size of the autoencoder's code.")] = 4,
+    hidden: Annotated[int, typer.Option(min=1, help="Width of the autoencoder's hidden layer.")] = 32,
+    epochs: Annotated[int, typer.Option(min=1, help="Training epochs of the autoencoder.")] = 300,
+    seed: Annotated[int, typer.Option(help="Seed of the autoencoder's initialisation and batches.")] = 0,
+    plot: Annotated[bool, typer.Option(help="Also draw distance curves and boundaries to <out>.png.")] = True,
+) -> None:
+    """Cut demos into macro actions at the peaks of an autoencoder's code distance (paper Alg. 1)."""
+    import torch
+
+    from famarl_cli.artifacts import prepare_output, provenance, read_demos, write_json
+    from famarl_cli.artifacts.segments import write_segments
+    from famarl_cli.plots import plot_segmentation
+    from famarl_cli.segmentation import (
+        AutoencoderConfig,
+        SegmentParams,
+        TrainingConfig,
+        load_autoencoder,
+        save_autoencoder,
+        segment_demos,
+        train_autoencoder,
+    )
+
+    torch.set_num_threads(1)
+    out = prepare_output(out or Path("data/segments") / f"{demos.stem}.h5")
+    metrics_path, segmenter_path = out.with_suffix(".metrics.json"), out.with_suffix(".segmenter.pt")
+    loaded = read_demos(demos)
+    params = SegmentParams(peak_neighbours, margin, distance.value, length, long.value, tolerance, seed)
+    options = {**asdict(params), "window": window, "code_dim": code_dim, "hidden": hidden, "epochs": epochs}
+    inputs = [demos] + ([encoder] if encoder else [])
+    if encoder:
+        model, train_mse = load_autoencoder(encoder), None
+    else:
+        config = AutoencoderConfig(
+            window=window, action_dim=loaded.episodes[0].actions.shape[1], hidden=hidden, code_dim=code_dim
+        )
+        with _progress() as progress:
+            task = progress.add_task("segmenter", total=epochs)
+            model, train_mse = train_autoencoder(
+                [e.actions for e in loaded.episodes],
+                config,
+                TrainingConfig(epochs=epochs),
+                seed,
+                on_epoch=lambda epoch, mse: progress.update(task, advance=1, description=f"segmenter mse {mse:.2e}"),
+            )
+    segments, metrics = segment_demos(loaded, model, params)
+    metrics["autoencoder_mse"] = train_mse
+    segments.provenance = provenance("famarl segment", options, seed, inputs)
+    write_segments(out, segments)
+    written = [out, metrics_path]
+    if not encoder:
+        save_autoencoder(segmenter_path, model, provenance("famarl segment", options, seed, [demos]))
+        written.append(segmenter_path)
+    write_json(metrics_path, metrics)
+    if plot:
+        written.append(out.with_suffix(".png"))
+        plot_segmentation(loaded, segments, written[-1])
+
+    table = Table(title=f"segments of {demos}", show_header=False)
+    table.add_row("segments", f"{metrics['segments']} ({metrics['segments_per_episode']:.2f} per episode)")
+    lengths = metrics["segment_length"]
+    table.add_row("length", f"{lengths['mean']:.1f} mean, {lengths['min']}-{lengths['max']}; L = {metrics['length_L']}")
+    table.add_row("longer than L", f"{metrics['split_segments']} split, {metrics['dropped_segments']} dropped")
+    for key in ("boundaries_exact", f"boundaries_within_{tolerance}"):
+        score = metrics[key]
+        table.add_row(
+            f"boundary F1 (±{score['tolerance']})",
+            f"{score['f1']:.3f}  (precision {score['precision']:.3f}, recall {score['recall']:.3f}; "
+            f"{score['predicted']} found, {score['true']} true)",
+        )
     table.add_row("written", ", ".join(map(str, written)))
     Console().print(table)
 

@@ -6,10 +6,10 @@ true segment boundary and its factors (direction, distance, push, map size) are 
 macro action. Only evaluation metrics may read them.
 
 Along its leg's axis the expert "arrives": it tracks a speed that cruises at CRUISE_SPEED and falls off as
-``sqrt(2 * BRAKE * remaining distance)``, then linearly near the target, so it brakes smoothly and stops there. Across the axis the
-plain scripts hold zero velocity; the *pushed* scripts instead accelerate at PUSH toward the goal's row all
-the while (the paper: "the agent always accelerates upward or downward, according to the goal position"),
-so their horizontal legs bend towards the goal's row and end pressed against the edge.
+``sqrt(2 * BRAKE * remaining distance)``, then linearly near the target, so it brakes smoothly and stops there.
+Across the axis the plain scripts hold zero velocity; the *pushed* scripts instead accelerate at PUSH toward the
+goal's row all the while (the paper: "the agent always accelerates upward or downward, according to the goal
+position"), so their horizontal legs bend towards the goal's row and end pressed against the edge.
 """
 
 from __future__ import annotations

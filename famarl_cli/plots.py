@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import os
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from famarl_cli.artifacts import Demos, atomic_path  # noqa: E402
+from famarl_cli.artifacts import Demos, atomic_path
+from famarl_cli.artifacts.segments import Segments
 
 PHASE_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")
 
@@ -20,7 +20,8 @@ def plot_demos(demos: Demos, path: str | os.PathLike, max_episodes: int = 100) -
     Like the paper's Figure 3: the script's family of trajectories at a glance, with the true phase boundaries
     marked, so a user sees what macro actions the demos can teach.
     """
-    fig, ax = plt.subplots(figsize=(5, 5.3))
+    fig = Figure(figsize=(5, 5.3))
+    ax = fig.subplots()
     for episode in demos.episodes[:max_episodes]:
         xy = episode.observations[:, 0:2] / episode.observations[0, 6]
         bounds = [*episode.segment_starts.tolist(), episode.length]
@@ -38,6 +39,51 @@ def plot_demos(demos: Demos, path: str | os.PathLike, max_episodes: int = 100) -
     ax.set_title(f"{demos.script}: {shown} episodes, success {demos.success_rate:.0%}")
     ax.legend(loc="center", fontsize=8)
     fig.tight_layout()
+    _save(fig, path)
+
+
+def plot_segmentation(demos: Demos, segments: Segments, path: str | os.PathLike, n_episodes: int = 4) -> None:
+    """A few episodes' actions and distance curves, with detected and true boundaries.
+
+    Half the episodes shown have true boundaries and half have none (where the demos have both), so a user sees
+    both kinds of mistake: a missed boundary and a cut where the expert did not change phase.
+    """
+    with_boundary = [i for i, e in enumerate(demos.episodes) if len(e.segment_starts) > 1]
+    without = [i for i, e in enumerate(demos.episodes) if len(e.segment_starts) == 1]
+    half = n_episodes // 2
+    chosen = with_boundary[:half] + without[: n_episodes - half]
+    chosen = sorted(chosen + [i for i in range(len(demos.episodes)) if i not in chosen][: n_episodes - len(chosen)])
+    fig = Figure(figsize=(8, 2.2 * len(chosen)))
+    axes = fig.subplots(len(chosen), 1, squeeze=False)
+    offset = segments.window // 2
+    for ax, index in zip(axes[:, 0], chosen, strict=True):
+        episode = demos.episodes[index]
+        for dim in range(episode.actions.shape[1]):
+            ax.plot(episode.actions[:, dim], lw=1, alpha=0.6, label=f"action {dim}")
+        ax.set_ylabel("action")
+        curve_ax = ax.twinx()
+        curve = segments.distance[index]
+        curve_ax.plot(np.arange(len(curve)) + offset, curve, "k", lw=1.2, label="distance")
+        curve_ax.axhline(segments.threshold, color="grey", ls=":", lw=1)
+        curve_ax.set_ylabel("code distance")
+        for step in episode.segment_starts[1:]:
+            ax.axvline(step, color="tab:red", lw=2.5, alpha=0.5)
+        for step in segments.boundaries[index]:
+            ax.axvline(step, color="k", ls="--", lw=1)
+        ax.set_title(f"episode {index}", fontsize=9, loc="left")
+    handles = [
+        Line2D([], [], color="k", lw=1.2, label="code distance (right axis)"),
+        Line2D([], [], color="grey", ls=":", label="threshold"),
+        Line2D([], [], color="k", ls="--", label="detected boundary"),
+        Line2D([], [], color="tab:red", lw=2.5, alpha=0.5, label="true boundary"),
+    ]
+    axes[0, 0].legend(handles=handles, fontsize=7, loc="upper right", ncol=2)
+    axes[-1, 0].set_xlabel("step")
+    fig.suptitle(f"segmentation of {demos.script} demos", fontsize=10)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def _save(fig: Figure, path: str | os.PathLike) -> None:
     with atomic_path(path) as temp:
-        fig.savefig(temp, format="png", dpi=120)
-    plt.close(fig)
+        fig.savefig(temp, format="png", dpi=110)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from famarl_cli.artifacts import atomic_path, read_demos, write_demos
+from famarl_cli.artifacts.base import TEMP_MARKER
 from famarl_cli.artifacts.demos import SCHEMA_VERSION
-from famarl_cli.artifacts.hdf5 import TEMP_MARKER
 from famarl_cli.errors import ArtifactError
 
 

@@ -1,4 +1,5 @@
 import hashlib
+import json
 import re
 
 import numpy as np
@@ -6,7 +7,8 @@ import pytest
 from typer.testing import CliRunner
 
 from famarl_cli import __version__
-from famarl_cli.artifacts import read_demos
+from famarl_cli.artifacts import read_demos, write_demos
+from famarl_cli.artifacts.segments import read_segments
 from famarl_cli.cli import app
 
 runner = CliRunner()
@@ -102,3 +104,89 @@ def test_reading_a_broken_file_is_a_one_line_error(tmp_path):
 def test_debug_flag_shows_the_traceback(tmp_path):
     result = famarl("--debug", "inspect", tmp_path / "missing.h5")
     assert result.exit_code != 0 and result.exception is not None
+
+
+@pytest.fixture(scope="module")
+def demos_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("demos") / "demos.h5"
+    assert famarl("demos", "--episodes", 8, "--seed", 2, "--out", path, "--no-plot").exit_code == 0
+    return path
+
+
+def test_segment_end_to_end_and_reuse_of_the_segmenter(demos_file, tmp_path):
+    out = tmp_path / "seg.h5"
+    result = famarl("segment", "--demos", demos_file, "--out", out, "--epochs", 5, "--margin", 0.3)
+    assert result.exit_code == 0, result.output
+    assert "boundary F1 (±2)" in result.stdout
+    metrics = json.loads(out.with_suffix(".metrics.json").read_text())
+    assert metrics["segments"] >= 8 and "f1" in metrics["boundaries_within_2"]
+    assert out.with_suffix(".png").read_bytes()[:4] == b"\x89PNG"
+    segments = read_segments(out)
+    assert segments.provenance["inputs"][str(demos_file)] == digest(demos_file)
+    assert segments.provenance["params"]["margin"] == 0.3
+
+    again = tmp_path / "again.h5"
+    encoder = out.with_suffix(".segmenter.pt")
+    result = famarl("segment", "--demos", demos_file, "--out", again, "--encoder", encoder, "--margin", 0.3)
+    assert result.exit_code == 0, result.output
+    assert not again.with_suffix(".segmenter.pt").exists()
+    np.testing.assert_array_equal(read_segments(again).padded, segments.padded)
+    assert str(encoder) in read_segments(again).provenance["inputs"]
+
+
+def test_segment_same_seed_same_segments(demos_file, tmp_path):
+    outs = [tmp_path / f"{name}.h5" for name in "abc"]
+    for out, seed in zip(outs, (4, 4, 5), strict=True):
+        famarl("segment", "--demos", demos_file, "--out", out, "--epochs", 3, "--seed", seed, "--no-plot")
+    a, b, c = (read_segments(o) for o in outs)
+    np.testing.assert_array_equal(a.padded, b.padded)
+    assert [x.tolist() for x in a.distance] == [x.tolist() for x in b.distance]
+    assert [x.tolist() for x in a.distance] != [x.tolist() for x in c.distance]
+
+
+def test_segment_bad_inputs(demos_file, tmp_path):
+    seg = tmp_path / "seg.h5"
+    famarl("segment", "--demos", demos_file, "--out", seg, "--epochs", 2, "--no-plot")
+    one_line_error(famarl("segment", "--demos", seg, "--out", tmp_path / "x.h5"), 1, "expected 'famarl.demos'")
+    one_line_error(famarl("segment", "--demos", tmp_path / "none.h5"), 1, "no such file")
+    one_line_error(
+        famarl("segment", "--demos", demos_file, "--encoder", demos_file, "--out", tmp_path / "x.h5"),
+        1,
+        "not a readable checkpoint",
+    )
+
+    demos = read_demos(demos_file)
+    demos.episodes[1].actions[2, 0] = np.nan
+    with_nan = tmp_path / "nan.h5"
+    write_demos(with_nan, demos)
+    one_line_error(famarl("segment", "--demos", with_nan, "--out", tmp_path / "x.h5"), 1, "actions contain NaN")
+
+    demos = read_demos(demos_file)
+    short = demos.episodes[3]
+    for key in ("actions", "rewards", "terminations", "truncations"):
+        setattr(short, key, getattr(short, key)[:3])
+    short.observations = short.observations[:4]
+    short.segment_starts, short.factors = short.segment_starts[:1], short.factors[:1]
+    too_short = tmp_path / "short.h5"
+    write_demos(too_short, demos)
+    one_line_error(
+        famarl("segment", "--demos", too_short, "--out", tmp_path / "x.h5"), 1, "episode 3 has 3 steps, fewer than"
+    )
+
+    assert "less than or equal to 1" in usage_error(famarl("segment", "--demos", demos_file, "--margin", 2))
+    refused = famarl(
+        "segment",
+        "--demos",
+        demos_file,
+        "--out",
+        tmp_path / "x.h5",
+        "--epochs",
+        1,
+        "--length",
+        4,
+        "--long",
+        "fail",
+        "--no-plot",
+    )
+    one_line_error(refused, 2, "longer than L = 4")
+    assert not (tmp_path / "x.h5").exists()

@@ -1,6 +1,16 @@
-"""On-disk formats: one module per artifact kind, all built on :mod:`famarl_cli.artifacts.hdf5`."""
+"""On-disk formats: one module per artifact kind, all built on :mod:`famarl_cli.artifacts.base`."""
 
+from famarl_cli.artifacts.base import atomic_path, prepare_output, provenance, sha256, write_json
 from famarl_cli.artifacts.demos import Demos, Episode, read_demos, write_demos
-from famarl_cli.artifacts.hdf5 import atomic_path, prepare_output, provenance, sha256
 
-__all__ = ["Demos", "Episode", "atomic_path", "prepare_output", "provenance", "read_demos", "sha256", "write_demos"]
+__all__ = [
+    "Demos",
+    "Episode",
+    "atomic_path",
+    "prepare_output",
+    "provenance",
+    "read_demos",
+    "sha256",
+    "write_demos",
+    "write_json",
+]

@@ -28,7 +28,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from famarl_cli.artifacts.hdf5 import atomic_path, check, open_artifact, write_header
+from famarl_cli.artifacts.base import atomic_path, check, open_artifact, write_header
 
 SCHEMA = "famarl.demos"
 SCHEMA_VERSION = 1
@@ -74,7 +74,7 @@ class Demos:
 
 
 def write_demos(path: str | os.PathLike, demos: Demos) -> None:
-    """Write ``demos`` to ``path`` atomically (see :func:`~famarl_cli.artifacts.hdf5.atomic_path`)."""
+    """Write ``demos`` to ``path`` atomically (see :func:`~famarl_cli.artifacts.base.atomic_path`)."""
     with atomic_path(path) as temp, h5py.File(temp, "w", track_order=False) as handle:
         write_header(
             handle,

@@ -1,4 +1,4 @@
-"""What every artifact shares: atomic writes, schema checks, provenance and content hashes.
+"""What every artifact shares: atomic writes, schema checks, provenance, content hashes and JSON metrics.
 
 Each artifact kind (demos, segments, models, ...) has its own module beside this one that defines its layout
 on top of these helpers.
@@ -139,3 +139,9 @@ def check(condition: bool, path: str | os.PathLike, message: str) -> None:
     """Raise an ArtifactError naming ``path`` unless ``condition`` holds."""
     if not condition:
         raise ArtifactError(f"{path}: {message}")
+
+
+def write_json(path: str | os.PathLike, data: dict) -> None:
+    """Write ``data`` as indented JSON, atomically (metrics files that DVC reads)."""
+    with atomic_path(path) as temp:
+        temp.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
