@@ -218,7 +218,7 @@ class SegmentParams:
     """Every option of the segment stage (recorded in the output's provenance)."""
 
     neighbours: int = 10
-    margin: float = 0.05
+    margin: float = 0.7
     distance: str = "euclidean"
     length: int | None = None
     """L, FAVAE's input length; None picks the longest segment rounded up to LENGTH_MULTIPLE."""

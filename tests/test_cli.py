@@ -98,7 +98,8 @@ def test_reading_a_broken_file_is_a_one_line_error(tmp_path):
     with h5py.File(not_ours, "w") as f:
         f.attrs["schema"] = "someone.else"
         f.attrs["schema_version"] = 1
-    one_line_error(famarl("inspect", not_ours), 1, "expected 'famarl.demos'")
+    one_line_error(famarl("inspect", not_ours), 1, "famarl inspect reads 'famarl.demos' and 'famarl.segments'")
+    one_line_error(famarl("inspect", tmp_path), 1, "is a directory")
 
 
 def test_debug_flag_shows_the_traceback(tmp_path):
@@ -132,6 +133,9 @@ def test_segment_end_to_end_and_reuse_of_the_segmenter(demos_file, tmp_path):
     assert not again.with_suffix(".segmenter.pt").exists()
     np.testing.assert_array_equal(read_segments(again).padded, segments.padded)
     assert str(encoder) in read_segments(again).provenance["inputs"]
+
+    shown = famarl("inspect", again)
+    assert shown.exit_code == 0 and "segments" in shown.stdout and "famarl segment" in shown.stdout
 
 
 def test_segment_same_seed_same_segments(demos_file, tmp_path):

@@ -1,12 +1,20 @@
 """On-disk formats: one module per artifact kind, all built on :mod:`famarl_cli.artifacts.base`."""
 
-from famarl_cli.artifacts.base import atomic_path, prepare_output, provenance, sha256, write_json
+from famarl_cli.artifacts.base import (
+    atomic_path,
+    peek_schema,
+    prepare_output,
+    provenance,
+    sha256,
+    write_json,
+)
 from famarl_cli.artifacts.demos import Demos, Episode, read_demos, write_demos
 
 __all__ = [
     "Demos",
     "Episode",
     "atomic_path",
+    "peek_schema",
     "prepare_output",
     "provenance",
     "read_demos",

@@ -135,6 +135,23 @@ def open_artifact(path: str | os.PathLike, schema: str, version: int) -> Iterato
             raise ArtifactError(f"{path}: unreadable or malformed content ({exc})") from exc
 
 
+def peek_schema(path: str | os.PathLike) -> str:
+    """The ``schema`` of an artifact file, after the same checks :func:`open_artifact` makes first."""
+    path = Path(path)
+    if not path.exists():
+        raise ArtifactError(f"{path}: no such file")
+    if path.is_dir():
+        raise ArtifactError(f"{path}: is a directory, expected an HDF5 artifact")
+    try:
+        with h5py.File(path, "r") as handle:
+            schema = handle.attrs.get("schema")
+    except OSError as exc:
+        raise ArtifactError(f"{path}: not a readable HDF5 file (empty, truncated or corrupt?)") from exc
+    if schema is None:
+        raise ArtifactError(f"{path}: has no 'schema' attribute; not a famarl artifact")
+    return str(schema)
+
+
 def check(condition: bool, path: str | os.PathLike, message: str) -> None:
     """Raise an ArtifactError naming ``path`` unless ``condition`` holds."""
     if not condition:
