@@ -101,6 +101,22 @@ def write_header(handle: h5py.File, schema: str, version: int, prov: dict, **att
         handle.attrs[key] = value if isinstance(value, str | int | float | np.number) else json.dumps(value)
 
 
+def _open_hdf5(path: Path, expected: str) -> h5py.File:
+    """An open, readable HDF5 file that carries a ``schema`` attribute; ``expected`` words the errors."""
+    if not path.exists():
+        raise ArtifactError(f"{path}: no such file")
+    if path.is_dir():
+        raise ArtifactError(f"{path}: is a directory, expected {expected}")
+    try:
+        handle = h5py.File(path, "r")
+    except OSError as exc:
+        raise ArtifactError(f"{path}: not a readable HDF5 file (empty, truncated or corrupt?)") from exc
+    if handle.attrs.get("schema") is None:
+        handle.close()
+        raise ArtifactError(f"{path}: has no 'schema' attribute; not a famarl artifact")
+    return handle
+
+
 @contextlib.contextmanager
 def open_artifact(path: str | os.PathLike, schema: str, version: int) -> Iterator[h5py.File]:
     """Open ``path`` for reading after checking it is a readable HDF5 file of ``schema`` at most ``version``.
@@ -108,18 +124,8 @@ def open_artifact(path: str | os.PathLike, schema: str, version: int) -> Iterato
     Any low-level failure while the caller reads (a truncated dataset, say) becomes an ArtifactError too.
     """
     path = Path(path)
-    if not path.exists():
-        raise ArtifactError(f"{path}: no such file")
-    if path.is_dir():
-        raise ArtifactError(f"{path}: is a directory, expected an HDF5 {schema} file")
-    try:
-        handle = h5py.File(path, "r")
-    except OSError as exc:
-        raise ArtifactError(f"{path}: not a readable HDF5 file (empty, truncated or corrupt?)") from exc
-    with handle:
-        found = handle.attrs.get("schema")
-        if found is None:
-            raise ArtifactError(f"{path}: has no 'schema' attribute; not a famarl artifact")
+    with _open_hdf5(path, f"an HDF5 {schema} file") as handle:
+        found = handle.attrs["schema"]
         if found != schema:
             raise ArtifactError(f"{path}: is a {found!r} file, expected {schema!r}")
         found_version = int(handle.attrs.get("schema_version", -1))
@@ -136,20 +142,9 @@ def open_artifact(path: str | os.PathLike, schema: str, version: int) -> Iterato
 
 
 def peek_schema(path: str | os.PathLike) -> str:
-    """The ``schema`` of an artifact file, after the same checks :func:`open_artifact` makes first."""
-    path = Path(path)
-    if not path.exists():
-        raise ArtifactError(f"{path}: no such file")
-    if path.is_dir():
-        raise ArtifactError(f"{path}: is a directory, expected an HDF5 artifact")
-    try:
-        with h5py.File(path, "r") as handle:
-            schema = handle.attrs.get("schema")
-    except OSError as exc:
-        raise ArtifactError(f"{path}: not a readable HDF5 file (empty, truncated or corrupt?)") from exc
-    if schema is None:
-        raise ArtifactError(f"{path}: has no 'schema' attribute; not a famarl artifact")
-    return str(schema)
+    """The ``schema`` of an artifact file, after the checks :func:`open_artifact` makes first."""
+    with _open_hdf5(Path(path), "an HDF5 artifact") as handle:
+        return str(handle.attrs["schema"])
 
 
 def check(condition: bool, path: str | os.PathLike, message: str) -> None:
