@@ -65,3 +65,59 @@ def length_summary(lengths: Sequence[int]) -> dict[str, float]:
         "p90": float(np.percentile(lengths, 90)),
         "max": int(lengths.max()),
     }
+
+
+def discretise(values: np.ndarray, bins: int) -> np.ndarray:
+    """Equal-width histogram bin index (0..bins-1) of every value, per column, as disentanglement_lib does."""
+    values = np.asarray(values, dtype=np.float64)
+    out = np.zeros(values.shape, dtype=np.int64)
+    for j in range(values.shape[1]):
+        edges = np.histogram(values[:, j], bins)[1]
+        out[:, j] = np.digitize(values[:, j], edges[:-1]) - 1
+    return out
+
+
+def _mutual_information(a: np.ndarray, b: np.ndarray) -> float:
+    """Mutual information (nats) of two discrete label arrays."""
+    joint = np.zeros((a.max() + 1, b.max() + 1))
+    np.add.at(joint, (a, b), 1.0)
+    joint /= joint.sum()
+    outer = joint.sum(axis=1, keepdims=True) * joint.sum(axis=0, keepdims=True)
+    nonzero = joint > 0
+    return float((joint[nonzero] * np.log(joint[nonzero] / outer[nonzero])).sum())
+
+
+def _entropy(labels: np.ndarray) -> float:
+    p = np.bincount(labels) / len(labels)
+    p = p[p > 0]
+    return float(-(p * np.log(p)).sum())
+
+
+def mig(codes: np.ndarray, factors: np.ndarray, bins: int | None = None) -> dict:
+    """Mutual Information Gap (Chen et al. 2018) as disentanglement_lib computes it.
+
+    ``codes`` (N, Z) are posterior means, ``factors`` (N, F) the true factors. Both are discretised into ``bins``
+    equal-width bins (20 in disentanglement_lib; by default ``min(20, N // 10)``, at least 2, so that the histogram
+    is not mostly empty when samples are few). For each factor, the two latents with the most mutual information
+    with it are found; their gap, divided by the factor's entropy, is that factor's score; MIG is the mean over
+    factors. Factors that never vary (zero entropy) have no score and are left out.
+    """
+    n = len(codes)
+    if n != len(factors) or n < 2:
+        raise ValueError(f"need as many codes as factors and at least 2, got {n} and {len(factors)}")
+    bins = bins or max(2, min(20, n // 10))
+    discrete_codes = discretise(codes, bins)
+    discrete_factors = discretise(factors, bins)
+    per_factor = {}
+    for k in range(factors.shape[1]):
+        entropy = _entropy(discrete_factors[:, k])
+        if entropy <= 0:
+            continue
+        info = sorted(
+            (_mutual_information(discrete_codes[:, j], discrete_factors[:, k]) for j in range(codes.shape[1])),
+            reverse=True,
+        )
+        gap = info[0] - (info[1] if len(info) > 1 else 0.0)
+        per_factor[k] = gap / entropy
+    score = float(np.mean(list(per_factor.values()))) if per_factor else float("nan")
+    return {"mig": score, "per_factor": per_factor, "bins": bins, "samples": n}

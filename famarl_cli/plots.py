@@ -5,11 +5,13 @@ from __future__ import annotations
 import os
 
 import numpy as np
+from matplotlib import cm
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
 from famarl_cli.artifacts import Demos, atomic_path
 from famarl_cli.artifacts.segments import Segments
+from famarl_cli.traversal import Traversal
 
 PHASE_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")
 
@@ -87,3 +89,30 @@ def plot_segmentation(demos: Demos, segments: Segments, path: str | os.PathLike,
 def _save(fig: Figure, path: str | os.PathLike) -> None:
     with atomic_path(path) as temp:
         fig.savefig(temp, format="png", dpi=110)
+
+
+def plot_traversal(traversal: Traversal, path: str | os.PathLike, title: str = "") -> None:
+    """One panel per latent variable, one path per value (blue to red), like the paper's Figure 5."""
+    n = len(traversal.variables)
+    columns = min(n, 3)
+    rows = int(np.ceil(n / columns))
+    fig = Figure(figsize=(3.4 * columns, 3.4 * rows + 0.4))
+    axes = np.atleast_1d(fig.subplots(rows, columns, squeeze=False)).ravel()
+    colours = cm.coolwarm(np.linspace(0, 1, len(traversal.values)))
+    centre = traversal.paths[0, 0, 0]
+    reach = max(1.0, float(np.abs(traversal.paths - centre).max()) * 1.1)
+    for ax, (ladder, index), paths, lengths, effect in zip(
+        axes, traversal.variables, traversal.paths, traversal.lengths, traversal.effects, strict=False
+    ):
+        for value, colour, p, length in zip(traversal.values, colours, paths, lengths, strict=True):
+            ax.plot(p[: length + 1, 0], p[: length + 1, 1], color=colour, lw=1.6, label=f"{value:+g} ({length} steps)")
+        ax.plot(*centre, "ko", ms=4)
+        ax.set(xlim=(centre[0] - reach, centre[0] + reach), ylim=(centre[1] - reach, centre[1] + reach), aspect="equal")
+        ax.set_title(f"({ladder},{index})  effect {effect:.2f} m", fontsize=9)
+        ax.tick_params(labelsize=7)
+        ax.legend(fontsize=6, loc="lower right")
+    for ax in axes[n:]:
+        ax.set_visible(False)
+    fig.suptitle(title or "latent traversal: (ladder, index), paths from the centre, one colour per value", fontsize=9)
+    fig.tight_layout()
+    _save(fig, path)

@@ -1,7 +1,12 @@
 import pytest
+import torch
 
 from famarl_cli.demos import record_demos
 from famarl_cli.experts import Script
+
+# Small networks run fastest on one thread; with two, torch competes with any other process for the 2 cores and
+# the suite slows down many times over.
+torch.set_num_threads(1)
 
 
 @pytest.fixture(scope="session")

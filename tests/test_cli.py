@@ -4,11 +4,13 @@ import re
 
 import numpy as np
 import pytest
+import torch
 from typer.testing import CliRunner
 
 from famarl_cli import __version__
 from famarl_cli.artifacts import read_demos, write_demos
 from famarl_cli.artifacts.segments import read_segments
+from famarl_cli.artifacts.traversal import read_traversal
 from famarl_cli.cli import app
 
 runner = CliRunner()
@@ -194,3 +196,82 @@ def test_segment_bad_inputs(demos_file, tmp_path):
     )
     one_line_error(refused, 2, "longer than L = 4")
     assert not (tmp_path / "x.h5").exists()
+
+
+@pytest.fixture(scope="module")
+def segments_file(demos_file, tmp_path_factory):
+    out = tmp_path_factory.mktemp("segments") / "seg.h5"
+    result = famarl("segment", "--demos", demos_file, "--out", out, "--epochs", 5, "--length", 48, "--no-plot")
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def test_favae_fit_with_its_own_pre_run_then_traverse(segments_file, tmp_path):
+    out = tmp_path / "favae.pt"
+    result = famarl("favae", "fit", "--segments", segments_file, "--beta", 1, "--epochs", 3, "--out", out)
+    assert result.exit_code == 0, result.output
+    assert "C_last per ladder" in result.stdout and "MIG" in result.stdout
+    calibration = json.loads(out.with_suffix(".calibration.json").read_text())
+    metrics = json.loads(out.with_suffix(".metrics.json").read_text())
+    assert metrics["c_last"] == calibration["c_last"] and len(metrics["c_last"]) == 3
+    assert {"reconstruction_mse", "length_accuracy", "mig"} <= set(metrics)
+    log = out.with_suffix(".log.csv").read_text().splitlines()
+    assert log[0].startswith("phase,epoch,loss") and len(log) == 1 + 3 + 3
+    assert {line.split(",")[0] for line in log[1:]} == {"calibrate", "fit"}
+
+    traversed = tmp_path / "trav.h5"
+    result = famarl("traverse", "--model", out, "--ladder", 3, "--values", "-3,-1,1,3", "--out", traversed)
+    assert result.exit_code == 0, result.output
+    assert "(3,1)" in result.stdout and "(3,2)" in result.stdout and "(1,1)" not in result.stdout
+    effects = json.loads(traversed.with_suffix(".json").read_text())["effects_m"]
+    assert set(effects) == {"(3,1)", "(3,2)"}
+    assert traversed.with_suffix(".png").read_bytes()[:4] == b"\x89PNG"
+    assert read_traversal(traversed).paths.shape[:2] == (2, 4)
+
+
+def test_favae_calibrate_then_fit_reuses_c_last_and_is_deterministic(segments_file, tmp_path):
+    calibration = tmp_path / "c.json"
+    assert famarl("favae", "calibrate", "--segments", segments_file, "--epochs", 2, "--out", calibration).exit_code == 0
+    c_last = json.loads(calibration.read_text())["c_last"]
+    outs = [tmp_path / "a.pt", tmp_path / "b.pt"]
+    for out in outs:
+        result = famarl(
+            "favae", "fit", "--segments", segments_file, "--calibration", calibration, "--epochs", 2, "--out", out
+        )
+        assert result.exit_code == 0, result.output
+        assert not out.with_suffix(".calibration.json").exists()
+    a, b = (torch.load(o, weights_only=True) for o in outs)
+    assert a["training"]["c_last"] == c_last
+    for key in a["state_dict"]:
+        assert torch.equal(a["state_dict"][key], b["state_dict"][key])
+
+    wrong = famarl(
+        "favae",
+        "fit",
+        "--segments",
+        segments_file,
+        "--calibration",
+        calibration,
+        "--ladders",
+        2,
+        "--epochs",
+        1,
+        "--out",
+        tmp_path / "c.pt",
+    )
+    one_line_error(wrong, 1, "c_last must hold 2 numbers (one per ladder)")
+
+
+def test_favae_and_traverse_bad_inputs(demos_file, segments_file, tmp_path):
+    one_line_error(famarl("favae", "fit", "--segments", demos_file, "--epochs", 1), 1, "expected 'famarl.segments'")
+    one_line_error(
+        famarl("favae", "fit", "--segments", segments_file, "--ladders", 5, "--epochs", 1), 2, "divisible by 32"
+    )
+    assert "greater than or equal to 0" in usage_error(famarl("favae", "fit", "--beta", -1))
+    one_line_error(famarl("traverse", "--model", segments_file), 1, "not a readable checkpoint")
+
+    model = tmp_path / "m.pt"
+    famarl("favae", "fit", "--segments", segments_file, "--epochs", 1, "--out", model)
+    one_line_error(famarl("traverse", "--model", model, "--ladder", 4), 2, "ladder 4 does not exist")
+    one_line_error(famarl("traverse", "--model", model, "--ladder", 1, "--index", 3), 2, "index 3 does not exist")
+    one_line_error(famarl("traverse", "--model", model, "--values", "1,x"), 2, "values must be numbers")

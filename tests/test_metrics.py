@@ -30,3 +30,20 @@ def test_nothing_predicted_and_nothing_true_is_perfect():
 def test_mismatched_episode_counts_are_refused():
     with pytest.raises(ValueError):
         boundary_scores([[1]], [[1], [2]])
+
+
+def test_mig_sanity_checks_of_disentanglement_lib():
+    import numpy as np
+
+    from famarl_cli.metrics import mig
+
+    rng = np.random.default_rng(0)
+    factors = rng.uniform(size=(2000, 3))
+    assert 0.9 <= mig(factors, factors)["mig"] <= 1.0
+    assert mig(np.zeros((2000, 3)), factors)["mig"] <= 0.2
+    assert mig(np.concatenate([factors, factors], axis=1), factors)["mig"] <= 0.1
+    assert mig(rng.normal(size=(2000, 4)), factors)["mig"] <= 0.1
+    # A factor that never varies has no entropy and no score.
+    constant = np.concatenate([factors[:, :2], np.zeros((2000, 1))], axis=1)
+    assert set(mig(factors, constant)["per_factor"]) == {0, 1}
+    assert mig(factors[:50], factors[:50])["bins"] == 5

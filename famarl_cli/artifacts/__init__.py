@@ -6,6 +6,7 @@ from famarl_cli.artifacts.base import (
     prepare_output,
     provenance,
     sha256,
+    write_csv,
     write_json,
 )
 from famarl_cli.artifacts.demos import Demos, Episode, read_demos, write_demos
@@ -19,6 +20,7 @@ __all__ = [
     "provenance",
     "read_demos",
     "sha256",
+    "write_csv",
     "write_demos",
     "write_json",
 ]

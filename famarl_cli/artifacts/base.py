@@ -7,6 +7,7 @@ on top of these helpers.
 from __future__ import annotations
 
 import contextlib
+import csv
 import hashlib
 import json
 import os
@@ -157,3 +158,12 @@ def write_json(path: str | os.PathLike, data: dict) -> None:
     """Write ``data`` as indented JSON, atomically (metrics files that DVC reads)."""
     with atomic_path(path) as temp:
         temp.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
+
+
+def write_csv(path: str | os.PathLike, rows: list[dict]) -> None:
+    """Write dict rows as CSV (training logs that ``dvc plots`` reads), atomically; columns in first-seen order."""
+    columns = list(dict.fromkeys(key for row in rows for key in row))
+    with atomic_path(path) as temp, open(temp, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=columns)
+        writer.writeheader()
+        writer.writerows(rows)

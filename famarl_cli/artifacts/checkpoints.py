@@ -20,9 +20,17 @@ from famarl_cli.errors import ArtifactError
 
 
 def save_checkpoint(
-    path: str | os.PathLike, schema: str, version: int, config: dict, state_dict: dict, provenance: dict
+    path: str | os.PathLike,
+    schema: str,
+    version: int,
+    config: dict,
+    state_dict: dict,
+    provenance: dict,
+    extra: dict | None = None,
 ) -> None:
+    """``extra`` holds what a kind of checkpoint adds (FAVAE: its training settings and C_last)."""
     payload = {
+        **(extra or {}),
         "schema": schema,
         "schema_version": version,
         "famarl_version": __version__,

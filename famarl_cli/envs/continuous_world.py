@@ -253,3 +253,30 @@ class ContinuousWorldEnv(gym.Env):
         if self.render_mode == "rgb_array" and self.layout is not None:
             return render_layout(self.layout, self._pos[0])
         return None
+
+
+def simulate_open_loop(
+    actions: np.ndarray, lengths: np.ndarray, start: tuple[float, float], map_size: float
+) -> np.ndarray:
+    """Positions of macro actions run open-loop from rest at ``start`` in an empty square map.
+
+    ``actions`` is (n, L, 2) and ``lengths`` (n,); returns (n, L + 1, 2) positions, each macro action's path
+    held at its last position after its own length, so paths of different lengths stack.
+    """
+    n, steps = actions.shape[:2]
+    layouts = Layouts(
+        size=np.full(n, float(map_size)),
+        start=np.tile(np.asarray(start, dtype=float), (n, 1)),
+        goal=np.tile(np.asarray(start, dtype=float), (n, 1)),
+        wall_y=np.zeros((n, 0)),
+        entrance_x=np.zeros((n, 0)),
+    )
+    pos, vel = layouts.start.copy(), np.zeros((n, 2))
+    path = np.empty((n, steps + 1, 2))
+    path[:, 0] = pos
+    for t in range(steps):
+        moved, moved_vel = physics_step(pos, vel, actions[:, t].astype(np.float64), layouts)
+        running = (t < lengths)[:, None]
+        pos, vel = np.where(running, moved, pos), np.where(running, moved_vel, vel)
+        path[:, t + 1] = pos
+    return path

@@ -1,0 +1,45 @@
+"""The traversal file: what each traversed FAVAE latent variable decodes to, and where it goes.
+
+Layout (HDF5)::
+
+    /              attrs: schema="famarl.traversal", schema_version, famarl_version, provenance (JSON, with the
+                          model's content hash), map_size
+    variables      (V, 2)            int64, (ladder, index) of each variable, counted from 1
+    values         (K,)              float64
+    actions        (V, K, L, D)      float32, decoded actions (steps past a macro's length are not executed)
+    lengths        (V, K)            int64, decoded lengths (cut where action_off wins)
+    paths          (V, K, L + 1, 2)  float64, positions when run open-loop from the map's centre
+    effects        (V,)              float64, mean distance (m) between the paths of neighbouring values
+"""
+
+from __future__ import annotations
+
+import os
+
+import h5py
+import numpy as np
+
+from famarl_cli.artifacts.base import atomic_path, check, open_artifact, write_header
+from famarl_cli.traversal import TRAVERSAL_MAP_SIZE, Traversal
+
+SCHEMA = "famarl.traversal"
+SCHEMA_VERSION = 1
+FIELDS = ("variables", "values", "actions", "lengths", "paths", "effects")
+
+
+def write_traversal(path: str | os.PathLike, traversal: Traversal, provenance: dict) -> None:
+    with atomic_path(path) as temp, h5py.File(temp, "w") as handle:
+        write_header(handle, SCHEMA, SCHEMA_VERSION, provenance, map_size=TRAVERSAL_MAP_SIZE)
+        for key in FIELDS:
+            handle.create_dataset(key, data=getattr(traversal, key))
+
+
+def read_traversal(path: str | os.PathLike) -> Traversal:
+    with open_artifact(path, SCHEMA, SCHEMA_VERSION) as handle:
+        for key in FIELDS:
+            check(key in handle, path, f"missing dataset {key!r}")
+        traversal = Traversal(**{key: handle[key][()] for key in FIELDS})
+    shape = traversal.lengths.shape
+    check(traversal.variables.shape == (shape[0], 2), path, "variables do not match lengths")
+    check(traversal.paths.shape[:2] == shape and np.isfinite(traversal.paths).all(), path, "paths are malformed")
+    return traversal

@@ -1,0 +1,73 @@
+"""FAVAE checkpoints and the calibration file of the C_last pre-run."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from famarl_cli.artifacts.base import check, write_json
+from famarl_cli.artifacts.checkpoints import load_checkpoint, save_checkpoint
+from famarl_cli.errors import ArtifactError
+from famarl_cli.favae.model import Favae, FavaeConfig
+
+SCHEMA = "famarl.favae"
+SCHEMA_VERSION = 1
+CALIBRATION_SCHEMA = "famarl.favae-calibration"
+CALIBRATION_SCHEMA_VERSION = 1
+
+
+def save_favae(path: str | os.PathLike, model: Favae, training: dict, provenance: dict) -> None:
+    """``training`` holds beta, C_last and the optimiser settings; the checkpoint loads without guessing."""
+    save_checkpoint(
+        path, SCHEMA, SCHEMA_VERSION, model.checkpoint_config(), model.state_dict(), provenance, {"training": training}
+    )
+
+
+def load_favae(path: str | os.PathLike) -> tuple[Favae, dict]:
+    """The model (in eval mode) and the checkpoint's other contents (training, provenance)."""
+    payload = load_checkpoint(path, SCHEMA, SCHEMA_VERSION)
+    try:
+        model = Favae(FavaeConfig.from_dict(payload["config"]))
+        model.load_state_dict(payload["state_dict"])
+    except (TypeError, ValueError, RuntimeError) as exc:
+        raise ArtifactError(f"{path}: weights do not fit the FAVAE config ({str(exc).splitlines()[0]})") from exc
+    return model.eval(), payload
+
+
+def write_calibration(path: str | os.PathLike, c_last: list[float], config: FavaeConfig, provenance: dict) -> None:
+    write_json(
+        path,
+        {
+            "schema": CALIBRATION_SCHEMA,
+            "schema_version": CALIBRATION_SCHEMA_VERSION,
+            "c_last": list(c_last),
+            "config": config.to_dict(),
+            "provenance": provenance,
+        },
+    )
+
+
+def read_calibration(path: str | os.PathLike, config: FavaeConfig) -> list[float]:
+    """C_last from a calibration file, checked against the model about to be fitted."""
+    path = Path(path)
+    if not path.is_file():
+        raise ArtifactError(f"{path}: no such file")
+    try:
+        data = json.loads(path.read_text())
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ArtifactError(f"{path}: not a JSON calibration file") from exc
+    check(isinstance(data, dict) and data.get("schema") == CALIBRATION_SCHEMA, path, "not a FAVAE calibration file")
+    check(data.get("schema_version", 0) <= CALIBRATION_SCHEMA_VERSION, path, "calibration file from a newer famarl")
+    c_last = data.get("c_last")
+    check(
+        isinstance(c_last, list) and len(c_last) == config.ladders and all(isinstance(c, int | float) for c in c_last),
+        path,
+        f"c_last must hold {config.ladders} numbers (one per ladder), got {c_last!r}",
+    )
+    check(
+        data.get("config") == config.to_dict(),
+        path,
+        f"was calibrated for another model ({data.get('config')}), not {config.to_dict()}",
+    )
+    return [float(c) for c in c_last]

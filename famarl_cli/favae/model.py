@@ -1,0 +1,156 @@
+"""FAVAE: a ladder VAE over padded macro actions (Yamada et al. 2019, in the variational-ladder layout of Zhao,
+Song & Ermon 2017), in 1-D.
+
+Input ``x``: (B, D + 2, L), the actions of a macro action zero-padded to L steps plus the ``action_on`` /
+``action_off`` channels (:mod:`famarl_cli.macro_actions`). ``L`` must be divisible by 2 ** ladders.
+
+::
+
+    x (D+2, L)
+      └ conv s2 ─ h1 (c1, L/2) ──► flatten ─ MLP ─► mu1, logvar1 ─► z1   ladder 1: local detail
+          └ conv s2 ─ h2 (c2, L/4) ──► flatten ─ MLP ─► mu2, logvar2 ─► z2   ladder 2
+              └ conv s2 ─ h3 (c3, L/8) ──► flatten ─ MLP ─► mu3, logvar3 ─► z3   ladder 3: most abstract
+
+    decoder, top-down:  t3 = MLP(z3)
+                        t2 = MLP([t3, z2])
+                        t1 = MLP([t2, z1]) ─► reshape (c3, L/8) ─► 3 x transposed conv s2 ─► (D+2, L)
+    output: D action channels (linear) and 2 on/off logits per step
+
+Deeper ladders read deeper convolution features, so they see longer stretches of the sequence and tend to take
+the factors that shape the whole macro action (direction, distance), leaving local detail to shallow ladders.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+import torch
+from torch import nn
+
+from famarl_cli.macro_actions import cut_lengths
+
+
+@dataclass(frozen=True)
+class FavaeConfig:
+    """Everything needed to rebuild a FAVAE; stored in its checkpoint."""
+
+    action_dim: int
+    length: int
+    latent_dims: tuple[int, ...] = (2, 2, 2)
+    """Size of each ladder's latent, shallowest first; its length is the number of ladders."""
+    channels: tuple[int, ...] = (32, 64, 64)
+    """Convolution channels at each depth (one per ladder)."""
+    hidden: int = 64
+
+    def __post_init__(self) -> None:
+        if len(self.latent_dims) != len(self.channels):
+            raise ValueError(f"{len(self.latent_dims)} ladders need as many channel sizes, got {self.channels}")
+        if self.length % 2 ** len(self.channels):
+            raise ValueError(f"length {self.length} must be divisible by 2 ** ladders = {2 ** len(self.channels)}")
+
+    @property
+    def ladders(self) -> int:
+        return len(self.latent_dims)
+
+    @property
+    def latent_size(self) -> int:
+        return sum(self.latent_dims)
+
+    def to_dict(self) -> dict:
+        return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
+
+    @staticmethod
+    def from_dict(values: dict) -> FavaeConfig:
+        return FavaeConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()})
+
+
+@dataclass
+class FavaeOutput:
+    reconstruction: torch.Tensor
+    """(B, D + 2, L): actions, then the on and off logits."""
+    mus: list[torch.Tensor] = field(default_factory=list)
+    logvars: list[torch.Tensor] = field(default_factory=list)
+
+
+def _mlp(inputs: int, hidden: int, outputs: int) -> nn.Sequential:
+    return nn.Sequential(nn.Linear(inputs, hidden), nn.ReLU(), nn.Linear(hidden, outputs))
+
+
+class Favae(nn.Module):
+    def __init__(self, config: FavaeConfig) -> None:
+        super().__init__()
+        self.config = config
+        channels_in = config.action_dim + 2
+        widths = [channels_in, *config.channels]
+        self.convs = nn.ModuleList(
+            nn.Sequential(nn.Conv1d(a, b, kernel_size=3, stride=2, padding=1), nn.ReLU())
+            for a, b in zip(widths[:-1], widths[1:], strict=True)
+        )
+        steps = [config.length // 2 ** (depth + 1) for depth in range(config.ladders)]
+        self.heads = nn.ModuleList(
+            _mlp(c * s, config.hidden, 2 * z)
+            for c, s, z in zip(config.channels, steps, config.latent_dims, strict=True)
+        )
+        # Top-down: the deepest ladder starts alone; each shallower one joins the path by concatenation.
+        top, *rest = reversed(config.latent_dims)
+        self.top_down = nn.ModuleList([_mlp(top, config.hidden, config.hidden)])
+        self.top_down.extend(_mlp(config.hidden + z, config.hidden, config.hidden) for z in rest)
+        self.deepest = (config.channels[-1], steps[-1])
+        self.to_features = nn.Linear(config.hidden, config.channels[-1] * steps[-1])
+        back = list(reversed(widths))
+        self.deconvs = nn.ModuleList(
+            nn.ConvTranspose1d(a, b, kernel_size=4, stride=2, padding=1)
+            for a, b in zip(back[:-1], back[1:], strict=True)
+        )
+
+    def encode(self, x: torch.Tensor) -> tuple[list[torch.Tensor], list[torch.Tensor]]:
+        """Per ladder (shallowest first), the posterior means and log-variances."""
+        mus, logvars = [], []
+        h = x
+        for conv, head in zip(self.convs, self.heads, strict=True):
+            h = conv(h)
+            mu, logvar = head(h.flatten(1)).chunk(2, dim=1)
+            mus.append(mu)
+            logvars.append(logvar.clamp(-10.0, 10.0))
+        return mus, logvars
+
+    def decode(self, z: torch.Tensor) -> torch.Tensor:
+        """(B, latent_size) -> (B, D + 2, L). ``z`` is the ladders' latents concatenated, shallowest first."""
+        parts = list(torch.split(z, list(self.config.latent_dims), dim=1))
+        t = self.top_down[0](parts[-1])
+        for layer, part in zip(self.top_down[1:], reversed(parts[:-1]), strict=True):
+            t = layer(torch.cat([torch.relu(t), part], dim=1))
+        h = self.to_features(torch.relu(t)).view(-1, *self.deepest)
+        for i, deconv in enumerate(self.deconvs):
+            h = deconv(h)
+            if i < len(self.deconvs) - 1:
+                h = torch.relu(h)
+        return h
+
+    def forward(self, x: torch.Tensor, sample: bool = True) -> FavaeOutput:
+        mus, logvars = self.encode(x)
+        if sample:
+            zs = [mu + torch.randn_like(mu) * (0.5 * lv).exp() for mu, lv in zip(mus, logvars, strict=True)]
+        else:
+            zs = mus
+        return FavaeOutput(self.decode(torch.cat(zs, dim=1)), mus, logvars)
+
+    @torch.no_grad()
+    def posterior_means(self, padded: np.ndarray) -> np.ndarray:
+        """(S, latent_size) posterior means of padded macro actions given as (S, L, D + 2)."""
+        mus, _ = self.encode(torch.as_tensor(np.ascontiguousarray(padded.transpose(0, 2, 1)), dtype=torch.float32))
+        return torch.cat(mus, dim=1).numpy()
+
+    @torch.no_grad()
+    def decode_macro_actions(self, z: np.ndarray | torch.Tensor) -> tuple[np.ndarray, np.ndarray]:
+        """Batch decoding for the RL stage: (B, latent_size) latents -> actions (B, L, D) and lengths (B,).
+
+        Each macro action is cut at the first step where ``action_off`` wins the softmax (at least one step);
+        actions past a macro's length are padding and must not be executed.
+        """
+        decoded = self.decode(torch.as_tensor(z, dtype=torch.float32)).numpy().transpose(0, 2, 1)
+        return decoded[..., :-2], cut_lengths(decoded[..., -2:])
+
+    def checkpoint_config(self) -> dict:
+        return self.config.to_dict()

@@ -1,0 +1,85 @@
+"""Latent traversal: move one FAVAE latent variable over a range of values, keep the others fixed, decode, and
+run each decoded macro action in ContinuousWorld to see what the variable controls (the paper's Figure 5).
+
+Variables are named (ladder, index), both counted from 1 as in the paper: (3, 1) is the first latent of the
+third, deepest ladder. The fixed latent vector is the prior's mean, 0. Each decoded macro action runs open-loop
+from rest at the centre of an empty TRAVERSAL_MAP_SIZE square, large enough that no edge stops a path.
+
+A variable's *effect* (metres) is how far apart the paths of neighbouring values are: the mean distance between
+the two paths over time (the shorter held at its end), averaged over neighbouring pairs of values. A variable that
+learned a factor moves the path; one that learned nothing has an effect near 0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from famarl_cli.envs.continuous_world import simulate_open_loop
+from famarl_cli.errors import UsageError
+from famarl_cli.favae.model import Favae
+
+TRAVERSAL_MAP_SIZE = 10.0
+"""Side (m) of the empty map traversals run in: twice Base's largest map, so paths never touch its edges."""
+
+
+@dataclass
+class Traversal:
+    variables: np.ndarray
+    """(V, 2) (ladder, index) of each traversed variable, counted from 1."""
+    values: np.ndarray
+    """(K,) the values each variable takes."""
+    actions: np.ndarray
+    """(V, K, L, D) decoded actions (padding past each length included, as decoded)."""
+    lengths: np.ndarray
+    """(V, K) decoded macro-action lengths."""
+    paths: np.ndarray
+    """(V, K, L + 1, 2) positions of each macro action run from the map's centre."""
+    effects: np.ndarray
+    """(V,) effect size of each variable (m)."""
+
+
+def variables_of(model: Favae, ladder: int | None, index: int | None) -> list[tuple[int, int]]:
+    """The (ladder, index) pairs to traverse: all of one ladder, one variable, or every variable of the model."""
+    dims = model.config.latent_dims
+    if ladder is not None and not 1 <= ladder <= len(dims):
+        raise UsageError(f"ladder {ladder} does not exist: the model has ladders 1..{len(dims)}")
+    if index is not None and ladder is None:
+        raise UsageError("--index needs --ladder")
+    if index is not None and not 1 <= index <= dims[ladder - 1]:
+        raise UsageError(f"index {index} does not exist: ladder {ladder} has variables 1..{dims[ladder - 1]}")
+    ladders = [ladder] if ladder else range(1, len(dims) + 1)
+    return [(lad, i) for lad in ladders for i in ([index] if index else range(1, dims[lad - 1] + 1))]
+
+
+def traverse(model: Favae, variables: list[tuple[int, int]], values: list[float]) -> Traversal:
+    if len(values) < 2:
+        raise UsageError(f"give at least two values to traverse, got {values}")
+    offsets = np.concatenate([[0], np.cumsum(model.config.latent_dims)])
+    z = np.zeros((len(variables), len(values), model.config.latent_size), dtype=np.float32)
+    for v, (ladder, index) in enumerate(variables):
+        z[v, :, offsets[ladder - 1] + index - 1] = values
+    flat = z.reshape(-1, z.shape[-1])
+    actions, lengths = model.decode_macro_actions(flat)
+    centre = (TRAVERSAL_MAP_SIZE / 2, TRAVERSAL_MAP_SIZE / 2)
+    paths = simulate_open_loop(actions, lengths, centre, TRAVERSAL_MAP_SIZE)
+    shape = (len(variables), len(values))
+    paths = paths.reshape(*shape, *paths.shape[1:])
+    gaps = np.linalg.norm(paths[:, 1:] - paths[:, :-1], axis=-1)  # (V, K - 1, L + 1)
+    return Traversal(
+        variables=np.array(variables, dtype=np.int64),
+        values=np.array(values, dtype=np.float64),
+        actions=actions.reshape(*shape, *actions.shape[1:]),
+        lengths=lengths.reshape(shape),
+        paths=paths,
+        effects=gaps.mean(axis=(1, 2)),
+    )
+
+
+def parse_values(text: str) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError as exc:
+        raise UsageError(f"values must be numbers separated by commas, like -3,-1,1,3; got {text!r}") from exc
+    return values
