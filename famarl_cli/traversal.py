@@ -3,7 +3,8 @@ run each decoded macro action in ContinuousWorld to see what the variable contro
 
 Variables are named (ladder, index), both counted from 1 as in the paper: (3, 1) is the first latent of the
 third, deepest ladder. The fixed latent vector is the prior's mean, 0. Each decoded macro action runs open-loop
-from rest at the centre of an empty TRAVERSAL_MAP_SIZE square, large enough that no edge stops a path.
+from rest at the centre of an empty TRAVERSAL_MAP_SIZE square, so a macro action as long as the demos' longest
+legs (about 5 m) never reaches an edge; values far outside the prior (|z| >= 3) can decode longer ones.
 
 A variable's *effect* (metres) is how far apart the paths of neighbouring values are: the mean distance between
 the two paths over time (the shorter held at its end), averaged over neighbouring pairs of values. A variable that
@@ -21,7 +22,7 @@ from famarl_cli.errors import UsageError
 from famarl_cli.favae.model import Favae
 
 TRAVERSAL_MAP_SIZE = 10.0
-"""Side (m) of the empty map traversals run in: twice Base's largest map, so paths never touch its edges."""
+"""Side (m) of the empty map traversals run in: twice Base's largest map."""
 
 
 @dataclass
