@@ -42,12 +42,6 @@ def cut_lengths(on_off_logits: np.ndarray) -> np.ndarray:
     return np.maximum(first_off, 1)
 
 
-def cut(decoded: np.ndarray) -> list[np.ndarray]:
-    """The macro actions in a decoded (S, L, D + 2) array, each cut by :func:`cut_lengths`."""
-    lengths = cut_lengths(decoded[..., [ON, OFF]])
-    return [decoded[i, :n, :-2] for i, n in enumerate(lengths)]
-
-
 def split_long(macro_action: np.ndarray, length: int) -> list[np.ndarray]:
     """Split a macro action longer than ``length`` into consecutive pieces of at most ``length`` steps."""
     return [macro_action[i : i + length] for i in range(0, len(macro_action), length)]

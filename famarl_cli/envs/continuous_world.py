@@ -75,10 +75,6 @@ class Layouts:
     def __len__(self) -> int:
         return len(self.size)
 
-    def take(self, index: np.ndarray | slice | int) -> Layouts:
-        index = np.atleast_1d(np.arange(len(self))[index])
-        return Layouts(*(getattr(self, f)[index] for f in self.__dataclass_fields__))
-
     @staticmethod
     def concatenate(parts: list[Layouts]) -> Layouts:
         return Layouts(*(np.concatenate([getattr(p, f) for p in parts]) for f in Layouts.__dataclass_fields__))
