@@ -31,11 +31,13 @@ class LossTerms:
     kl: list[torch.Tensor]
 
 
+def kl_per_dim(mu: torch.Tensor, logvar: torch.Tensor) -> torch.Tensor:
+    """(B, dims) KL divergence of each Gaussian posterior dimension from N(0, 1)."""
+    return -0.5 * (1 + logvar - mu.pow(2) - logvar.exp())
+
+
 def kl_per_ladder(output: FavaeOutput) -> list[torch.Tensor]:
-    return [
-        (-0.5 * (1 + lv - mu.pow(2) - lv.exp())).sum(dim=1).mean()
-        for mu, lv in zip(output.mus, output.logvars, strict=True)
-    ]
+    return [kl_per_dim(mu, lv).sum(dim=1).mean() for mu, lv in zip(output.mus, output.logvars, strict=True)]
 
 
 def favae_loss(output: FavaeOutput, x: torch.Tensor, beta: float, capacities: list[float]) -> LossTerms:

@@ -73,6 +73,11 @@ class FavaeOutput:
     logvars: list[torch.Tensor] = field(default_factory=list)
 
 
+def to_input(padded: np.ndarray) -> torch.Tensor:
+    """Padded macro actions as stored, (S, L, D + 2), to the (S, D + 2, L) float tensor FAVAE reads."""
+    return torch.as_tensor(np.ascontiguousarray(padded.transpose(0, 2, 1)), dtype=torch.float32)
+
+
 def _mlp(inputs: int, hidden: int, outputs: int) -> nn.Sequential:
     return nn.Sequential(nn.Linear(inputs, hidden), nn.ReLU(), nn.Linear(hidden, outputs))
 
@@ -135,12 +140,6 @@ class Favae(nn.Module):
         else:
             zs = mus
         return FavaeOutput(self.decode(torch.cat(zs, dim=1)), mus, logvars)
-
-    @torch.no_grad()
-    def posterior_means(self, padded: np.ndarray) -> np.ndarray:
-        """(S, latent_size) posterior means of padded macro actions given as (S, L, D + 2)."""
-        mus, _ = self.encode(torch.as_tensor(np.ascontiguousarray(padded.transpose(0, 2, 1)), dtype=torch.float32))
-        return torch.cat(mus, dim=1).numpy()
 
     @torch.no_grad()
     def decode_macro_actions(self, z: np.ndarray | torch.Tensor) -> tuple[np.ndarray, np.ndarray]:

@@ -9,8 +9,8 @@ import numpy as np
 import torch
 
 from famarl_cli.errors import UsageError
-from famarl_cli.favae.loss import capacity, favae_loss
-from famarl_cli.favae.model import Favae, FavaeConfig
+from famarl_cli.favae.loss import capacity, favae_loss, kl_per_dim
+from famarl_cli.favae.model import Favae, FavaeConfig, to_input
 from famarl_cli.macro_actions import cut_lengths
 from famarl_cli.metrics import mig
 
@@ -20,7 +20,7 @@ CALIBRATION_BETA = 0.1
 
 @dataclass(frozen=True)
 class TrainingParams:
-    epochs: int = 1000
+    epochs: int = 1500
     batch_size: int = 64
     learning_rate: float = 1e-3
     seed: int = 0
@@ -42,7 +42,7 @@ def train_favae(
         raise UsageError(f"beta must be >= 0, got {beta}")
     if len(c_last) != config.ladders:
         raise UsageError(f"C_last has {len(c_last)} values for {config.ladders} ladders")
-    data = torch.as_tensor(np.ascontiguousarray(padded.transpose(0, 2, 1)), dtype=torch.float32)
+    data = to_input(padded)
     torch.manual_seed(params.seed)
     model = Favae(config)
     optimiser = torch.optim.Adam(model.parameters(), lr=params.learning_rate)
@@ -79,7 +79,7 @@ def calibrate(
     padded: np.ndarray, config: FavaeConfig, params: TrainingParams, on_epoch=None
 ) -> tuple[list[float], list[dict]]:
     """The C_last pre-run: train with beta = 0.1 and C = 0; each ladder's KL in the last epoch is its C_last."""
-    model, log = train_favae(padded, config, CALIBRATION_BETA, [0.0] * config.ladders, params, on_epoch)
+    _, log = train_favae(padded, config, CALIBRATION_BETA, [0.0] * config.ladders, params, on_epoch)
     return [float(log[-1][f"kl_{i + 1}"]) for i in range(config.ladders)], log
 
 
@@ -92,15 +92,14 @@ def evaluate_fit(model: Favae, padded: np.ndarray, lengths: np.ndarray, factors:
     - KL per latent dimension (which latents carry information) and per ladder;
     - MIG of the posterior means against the experts' per-segment factors.
     """
-    x = torch.as_tensor(np.ascontiguousarray(padded.transpose(0, 2, 1)), dtype=torch.float32)
-    output = model(x, sample=False)
+    output = model(to_input(padded), sample=False)
     decoded = output.reconstruction.numpy().transpose(0, 2, 1)
     on = padded[..., -2]
     squared = ((decoded[..., :-2] - padded[..., :-2]) ** 2).sum(axis=2)
     decoded_lengths = cut_lengths(decoded[..., -2:])
     mu = torch.cat(output.mus, dim=1)
     logvar = torch.cat(output.logvars, dim=1)
-    kl_dims = (-0.5 * (1 + logvar - mu.pow(2) - logvar.exp())).mean(dim=0).numpy()
+    kl_dims = kl_per_dim(mu, logvar).mean(dim=0).numpy()
     splits = np.cumsum(model.config.latent_dims)[:-1]
     score = mig(mu.numpy(), factors)
     return {
