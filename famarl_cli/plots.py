@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import os
+import warnings
 
 import numpy as np
 from matplotlib import cm
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+from matplotlib.patches import Circle
 
 from famarl_cli.artifacts import Demos, atomic_path
 from famarl_cli.artifacts.segments import Segments
@@ -116,3 +118,67 @@ def plot_traversal(traversal: Traversal, path: str | os.PathLike, title: str = "
     fig.suptitle(title or "latent traversal: (ladder, index), paths from the centre, one colour per value", fontsize=9)
     fig.tight_layout()
     _save(fig, path)
+
+
+def plot_rollouts(traces: list, path: str | os.PathLike, title: str) -> None:
+    """Evaluation episodes on their maps, each decision's stretch of path in its own colour (paper Fig. 4b)."""
+    from famarl_cli.envs.continuous_world import ENTRANCE_WIDTH, GOAL_RADIUS
+
+    fig = Figure(figsize=(3.2 * len(traces), 3.6))
+    axes = fig.subplots(1, len(traces), squeeze=False)[0]
+    colours = cm.tab10.colors
+    for ax, trace in zip(axes, traces, strict=True):
+        layout = trace.layout
+        size = float(layout.size[0])
+        for y, x in zip(layout.wall_y[0], layout.entrance_x[0], strict=True):
+            ax.plot([0, x - ENTRANCE_WIDTH / 2], [y, y], color="0.3", lw=2.5)
+            ax.plot([x + ENTRANCE_WIDTH / 2, size], [y, y], color="0.3", lw=2.5)
+        ax.add_patch(Circle(layout.goal[0], GOAL_RADIUS, color="tab:red", alpha=0.4))
+        for decision in np.unique(trace.decision):
+            steps = np.flatnonzero(trace.decision == decision)
+            stretch = trace.positions[steps[0] : steps[-1] + 2]
+            ax.plot(stretch[:, 0], stretch[:, 1], color=colours[decision % len(colours)], lw=1.8)
+        ax.plot(*trace.positions[0], "o", color="tab:blue", ms=5)
+        ax.set(xlim=(0, size), ylim=(0, size), aspect="equal", xticks=[], yticks=[])
+        outcome = "reached" if trace.success else "missed"
+        ax.set_title(
+            f"{outcome} in {len(trace.decision)} steps, {len(np.unique(trace.decision))} decisions", fontsize=8
+        )
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def plot_learning_curves(curves: dict[str, list[dict[str, np.ndarray]]], path: str | os.PathLike) -> None:
+    """Success rate and return against environment steps: per label, the mean over seeds and its min-max band.
+
+    Seeds log at different step counts, so each is interpolated onto a common grid that stops where the
+    shortest seed stops.
+    """
+    fig = Figure(figsize=(10, 3.8))
+    axes = fig.subplots(1, 2)
+    for (label, runs), colour in zip(sorted(curves.items()), cm.tab10.colors, strict=False):
+        end = min(run["env_steps"][-1] for run in runs)
+        grid = np.linspace(0, end, 200)
+        for ax, key in zip(axes, ("episode_success", "episode_return"), strict=True):
+            values = np.array([_interpolate(grid, run["env_steps"], run[key]) for run in runs])
+            with warnings.catch_warnings():  # before the first episode ends there is nothing to average
+                warnings.simplefilter("ignore", RuntimeWarning)
+                mean, low, high = np.nanmean(values, axis=0), np.nanmin(values, axis=0), np.nanmax(values, axis=0)
+            ax.plot(grid, mean, color=colour, label=f"{label} ({len(runs)} seeds)")
+            ax.fill_between(grid, low, high, color=colour, alpha=0.2)
+    axes[0].set(xlabel="environment steps", ylabel="success rate (last 100 episodes)", ylim=(-0.02, 1.02))
+    axes[1].set(xlabel="environment steps", ylabel="episode return (last 100 episodes)")
+    axes[0].legend(fontsize=8)
+    fig.suptitle("training curves: mean over seeds, band = min to max", fontsize=9)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def _interpolate(grid: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    known = ~np.isnan(y)
+    if not known.any():
+        return np.full_like(grid, np.nan)
+    values = np.interp(grid, x[known], y[known])
+    values[grid < x[known][0]] = np.nan
+    return values

@@ -275,3 +275,69 @@ def test_favae_and_traverse_bad_inputs(demos_file, segments_file, tmp_path):
     one_line_error(famarl("traverse", "--model", model, "--ladder", 4), 2, "ladder 4 does not exist")
     one_line_error(famarl("traverse", "--model", model, "--ladder", 1, "--index", 3), 2, "index 3 does not exist")
     one_line_error(famarl("traverse", "--model", model, "--values", "1,x"), 2, "values must be numbers")
+
+
+@pytest.fixture(scope="module")
+def favae_file(segments_file, tmp_path_factory):
+    out = tmp_path_factory.mktemp("favae") / "favae.pt"
+    result = famarl("favae", "fit", "--segments", segments_file, "--epochs", 2, "--out", out)
+    assert result.exit_code == 0, result.output
+    return out
+
+
+TINY_TRAINING = ("--steps", 1500, "--n-envs", 4, "--n-steps", 8, "--epochs", 1, "--minibatches", 2)
+
+
+def test_train_and_evaluate_end_to_end(favae_file, tmp_path):
+    runs = []
+    for agent in ("famarl", "ppo", "figar"):
+        out = tmp_path / agent
+        result = famarl("train", "--agent", agent, "--favae", favae_file, *TINY_TRAINING, "--out", out)
+        assert result.exit_code == 0, result.output
+        assert {p.name for p in out.iterdir()} == {"run.json", "checkpoint.pt", "train.csv"}
+        run = json.loads((out / "run.json").read_text())
+        assert run["schema"] == "famarl.run" and run["complete"] and run["env_steps"] >= 1500
+        assert run["spec"]["agent"] == agent
+        runs += ["--run", out]
+    assert json.loads((tmp_path / "famarl/run.json").read_text())["provenance"]["inputs"] == {
+        str(favae_file): digest(favae_file)
+    }
+    header = (tmp_path / "famarl/train.csv").read_text().splitlines()[0].split(",")
+    for column in ("env_steps", "decisions", "episode_return", "episode_success", "macro_length", "policy_loss"):
+        assert column in header
+    result = famarl("evaluate", *runs, "--episodes", 3, "--curves", tmp_path / "curves.png")
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "curves.png").stat().st_size > 0
+    for agent in ("famarl", "ppo", "figar"):
+        metrics = json.loads((tmp_path / agent / "eval.json").read_text())
+        assert metrics["episodes"] == 3 and 0 <= metrics["success_rate"] <= 1
+        assert metrics["episode_length"] >= metrics["decisions"] >= 1
+        assert (tmp_path / agent / "rollouts.png").stat().st_size > 0
+    assert json.loads((tmp_path / "ppo/eval.json").read_text())["macro_length"] == 1
+
+
+def test_train_same_seed_same_log_and_resume_extends_a_finished_run(tmp_path):
+    a, b = tmp_path / "a", tmp_path / "b"
+    for out in (a, b):
+        assert famarl("train", "--agent", "ppo", *TINY_TRAINING, "--out", out).exit_code == 0
+    assert (a / "train.csv").read_text() == (b / "train.csv").read_text()
+    updates = len((a / "train.csv").read_text().splitlines())
+    assert famarl("train", "--out", a, "--resume", "--steps", 3000).exit_code == 0
+    assert len((a / "train.csv").read_text().splitlines()) > updates
+    assert json.loads((a / "run.json").read_text())["env_steps"] >= 3000
+
+
+def test_train_and_evaluate_bad_inputs(tmp_path, favae_file, segments_file):
+    out = tmp_path / "run"
+    assert famarl("train", "--agent", "ppo", *TINY_TRAINING, "--out", out).exit_code == 0
+    one_line_error(famarl("train", "--agent", "ppo", "--out", out), 2, "already holds a run")
+    assert famarl("train", "--agent", "ppo", *TINY_TRAINING, "--out", out, "--overwrite").exit_code == 0
+    one_line_error(famarl("train", "--out", tmp_path / "empty", "--resume"), 1, "nothing to resume")
+    one_line_error(famarl("train", "--favae", segments_file, "--out", tmp_path / "x"), 1, "not a readable checkpoint")
+    one_line_error(
+        famarl("train", "--env", "NoSuchEnv-v9", "--agent", "ppo", "--out", tmp_path / "y"), 2, "unknown environment"
+    )
+    assert "'famarl', 'ppo', 'figar'" in usage_error(famarl("train", "--agent", "dqn"))
+    one_line_error(famarl("evaluate", "--run", tmp_path), 1, "not a run folder")
+    (out / "checkpoint.pt").write_bytes(b"broken")
+    one_line_error(famarl("evaluate", "--run", out), 1, "not a readable checkpoint")

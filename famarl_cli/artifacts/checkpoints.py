@@ -8,15 +8,40 @@ It loads with ``weights_only=True``: no code in a checkpoint ever runs.
 from __future__ import annotations
 
 import os
-import pickle
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import torch
 
 from famarl_cli import __version__
 from famarl_cli.artifacts.base import atomic_path, check
 from famarl_cli.errors import ArtifactError
+
+
+def arrays_to_tensors(tree: Any) -> Any:
+    """numpy arrays anywhere in nested dicts and lists become tensors and numpy scalars Python numbers, which
+    ``weights_only`` loading accepts."""
+    if isinstance(tree, np.ndarray):
+        return torch.from_numpy(np.ascontiguousarray(tree))
+    if isinstance(tree, np.generic):
+        return tree.item()
+    if isinstance(tree, dict):
+        return {k: arrays_to_tensors(v) for k, v in tree.items()}
+    if isinstance(tree, list):
+        return [arrays_to_tensors(v) for v in tree]
+    return tree
+
+
+def tensors_to_arrays(tree: Any) -> Any:
+    """The inverse of :func:`arrays_to_tensors`."""
+    if isinstance(tree, torch.Tensor):
+        return tree.numpy()
+    if isinstance(tree, dict):
+        return {k: tensors_to_arrays(v) for k, v in tree.items()}
+    if isinstance(tree, list):
+        return [tensors_to_arrays(v) for v in tree]
+    return tree
 
 
 def save_checkpoint(
@@ -49,7 +74,7 @@ def load_checkpoint(path: str | os.PathLike, schema: str, version: int) -> dict[
         raise ArtifactError(f"{path}: no such file" if not path.exists() else f"{path}: is not a file")
     try:
         payload = torch.load(path, map_location="cpu", weights_only=True)
-    except (OSError, RuntimeError, EOFError, pickle.UnpicklingError, ValueError) as exc:
+    except Exception as exc:  # torch.load on foreign bytes raises almost any kind (IndexError on 6 bytes, ...)
         raise ArtifactError(f"{path}: not a readable checkpoint (truncated or not a torch file?)") from exc
     check(isinstance(payload, dict) and "schema" in payload, path, "has no 'schema'; not a famarl checkpoint")
     check(payload["schema"] == schema, path, f"is a {payload['schema']!r} checkpoint, expected {schema!r}")

@@ -5,13 +5,19 @@ are those of :class:`~famarl_cli.envs.continuous_world.ContinuousWorldEnv` (a te
 worlds reset in the same step (gymnasium's SAME_STEP autoreset): the returned observation is the new
 episode's first one and the last observation of the finished episode is in ``info["final_obs"]``, which is
 what a learner needs to bootstrap the value of a time-limit truncation.
+
+``step(actions, active)`` moves only the worlds selected by ``active`` (the others keep their state and get
+reward 0): that is how macro actions of different lengths run side by side (:mod:`famarl_cli.rl.executor`).
 """
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 
 from famarl_cli.envs.continuous_world import (
+    ACTION_SPACE,
     GOAL_RADIUS,
     ROWS,
     TASKS,
@@ -56,13 +62,27 @@ class ContinuousWorldBatch:
     def reset(self) -> np.ndarray:
         return self.load(sample_layouts(self.rng, self.n_envs, self.task, self.goal_rows))
 
-    def step(self, actions: np.ndarray):
+    @property
+    def observation_size(self) -> int:
+        return 8 + self.task.n_walls
+
+    @property
+    def action_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        return ACTION_SPACE.low.astype(np.float64), ACTION_SPACE.high.astype(np.float64)
+
+    def step(self, actions: np.ndarray, active: np.ndarray | None = None):
         """Returns observations, rewards, terminations, truncations and an info dict (see module doc)."""
-        self.pos, self.vel = physics_step(self.pos, self.vel, np.asarray(actions, np.float64), self.layouts)
-        self.elapsed += 1
+        pos, vel = physics_step(self.pos, self.vel, np.asarray(actions, np.float64), self.layouts)
+        if active is None:
+            active = np.ones(self.n_envs, dtype=bool)
+            self.pos, self.vel = pos, vel
+        else:
+            self.pos = np.where(active[:, None], pos, self.pos)
+            self.vel = np.where(active[:, None], vel, self.vel)
+        self.elapsed += active
         dist = distance_to_goal(self.pos, self.layouts)
-        terminated = dist < GOAL_RADIUS
-        truncated = ~terminated & (self.elapsed >= self.max_episode_steps)
+        terminated = active & (dist < GOAL_RADIUS)
+        truncated = active & ~terminated & (self.elapsed >= self.max_episode_steps)
         obs = observe(self.pos, self.vel, self.layouts)
         info = {}
         done = terminated | truncated
@@ -74,4 +94,22 @@ class ContinuousWorldBatch:
             self.vel[done] = 0.0
             self.elapsed[done] = 0
             obs[done] = observe(self.pos[done], self.vel[done], fresh)
-        return obs, -dist, terminated, truncated, info
+        return obs, np.where(active, -dist, 0.0), terminated, truncated, info
+
+    def state_dict(self) -> dict:
+        """Everything that decides what happens next (worlds, clocks, random generator), for exact resumes."""
+        return {
+            "rng": json.dumps(self.rng.bit_generator.state),
+            "pos": self.pos.copy(),
+            "vel": self.vel.copy(),
+            "elapsed": self.elapsed.copy(),
+            **{f"layouts.{f}": getattr(self.layouts, f).copy() for f in Layouts.__dataclass_fields__},
+        }
+
+    def load_state_dict(self, state: dict) -> np.ndarray:
+        """Restore a :meth:`state_dict`; returns the current observations."""
+        self.rng.bit_generator.state = json.loads(state["rng"])
+        self.layouts = Layouts(**{f: np.asarray(state[f"layouts.{f}"]) for f in Layouts.__dataclass_fields__})
+        self.pos, self.vel = np.asarray(state["pos"]), np.asarray(state["vel"])
+        self.elapsed = np.asarray(state["elapsed"])
+        return observe(self.pos, self.vel, self.layouts)

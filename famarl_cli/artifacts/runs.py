@@ -1,0 +1,108 @@
+"""A training run's folder: what ``famarl train`` writes and ``famarl evaluate`` reads.
+
+::
+
+    RUN_DIR/
+      run.json        schema famarl.run: the run's spec (env, agent, PPO settings, seed), provenance, status
+      checkpoint.pt   schema famarl.agent: policy, optimiser, normalisers, environment and random state,
+                      the frozen FAVAE decoder (FaMARL), and the log so far: everything to resume or evaluate
+      train.csv       one row per PPO update (env steps, return, success, macro length, losses), for plots
+      eval.json       from famarl evaluate: success rate, return, lengths, decisions, macro length
+      rollouts.png    from famarl evaluate: a few deterministic episodes, each macro action in its own colour
+
+The checkpoint carries the FAVAE weights it was trained with, so a run never depends on a FAVAE file that may
+since have changed. The three training files are rewritten together at every checkpoint, each atomically.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from famarl_cli.artifacts.base import check, write_csv, write_json
+from famarl_cli.artifacts.checkpoints import arrays_to_tensors, load_checkpoint, save_checkpoint, tensors_to_arrays
+from famarl_cli.errors import ArtifactError
+
+RUN_SCHEMA = "famarl.run"
+RUN_SCHEMA_VERSION = 1
+CHECKPOINT_SCHEMA = "famarl.agent"
+CHECKPOINT_SCHEMA_VERSION = 1
+RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE = (
+    "run.json",
+    "checkpoint.pt",
+    "train.csv",
+    "eval.json",
+    "rollouts.png",
+)
+
+
+def write_run(
+    run_dir: str | os.PathLike, spec: dict, trainer_state: dict, mode_state: dict, provenance: dict, status: dict
+) -> None:
+    """Checkpoint first, then the log and the run file: a run file never claims more than the checkpoint holds."""
+    run_dir = Path(run_dir)
+    save_checkpoint(
+        run_dir / CHECKPOINT_FILE,
+        CHECKPOINT_SCHEMA,
+        CHECKPOINT_SCHEMA_VERSION,
+        spec,
+        trainer_state["policy"],
+        provenance,
+        {"trainer": arrays_to_tensors(trainer_state), "mode": mode_state, "status": status},
+    )
+    if trainer_state["log"]:
+        write_csv(run_dir / LOG_FILE, trainer_state["log"])
+    write_json(
+        run_dir / RUN_FILE,
+        {"schema": RUN_SCHEMA, "schema_version": RUN_SCHEMA_VERSION, "spec": spec, "provenance": provenance, **status},
+    )
+
+
+def read_run_file(run_dir: str | os.PathLike) -> dict:
+    path = Path(run_dir) / RUN_FILE
+    if not Path(run_dir).is_dir():
+        raise ArtifactError(f"{run_dir}: no such run folder")
+    try:
+        values = json.loads(path.read_text())
+    except FileNotFoundError as exc:
+        raise ArtifactError(f"{run_dir}: not a run folder (no {RUN_FILE}; was it made by famarl train?)") from exc
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ArtifactError(f"{path}: not readable JSON ({exc})") from exc
+    check(isinstance(values, dict) and values.get("schema") == RUN_SCHEMA, path, f"is not a {RUN_SCHEMA!r} file")
+    found = int(values.get("schema_version", -1))
+    check(found <= RUN_SCHEMA_VERSION, path, f"schema version {found} is newer than this famarl reads")
+    return values
+
+
+def read_run_checkpoint(run_dir: str | os.PathLike) -> dict:
+    """The checkpoint's payload with the trainer state's arrays back in numpy."""
+    payload = load_checkpoint(Path(run_dir) / CHECKPOINT_FILE, CHECKPOINT_SCHEMA, CHECKPOINT_SCHEMA_VERSION)
+    path = Path(run_dir) / CHECKPOINT_FILE
+    for key in ("trainer", "mode", "status"):
+        check(isinstance(payload.get(key), dict), path, f"has no {key!r}")
+    trainer = payload["trainer"]
+    # Network, optimiser and RNG states stay tensors; the rest was numpy when saved.
+    payload["trainer"] = {
+        k: v if k in ("policy", "optimizer", "torch_rng") else tensors_to_arrays(v) for k, v in trainer.items()
+    }
+    return payload
+
+
+def read_training_log(run_dir: str | os.PathLike) -> dict[str, np.ndarray]:
+    """``train.csv`` as columns of floats."""
+    path = Path(run_dir) / LOG_FILE
+    if not path.is_file():
+        raise ArtifactError(f"{path}: no training log (has the run done an update yet?)")
+    try:
+        with open(path, newline="") as handle:
+            rows = list(csv.DictReader(handle))
+        columns = {key: np.array([float(row[key]) for row in rows]) for key in rows[0]}
+    except (OSError, ValueError, KeyError, IndexError, TypeError) as exc:
+        raise ArtifactError(f"{path}: not a readable training log ({exc})") from exc
+    for key in ("env_steps", "episode_success", "episode_return"):
+        check(key in columns, path, f"has no {key!r} column")
+    return columns

@@ -1,0 +1,166 @@
+"""``famarl train``: PPO over FAVAE latents (FaMARL), primitive actions or FiGAR's repeated actions."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from famarl_cli.cli import app, progress_bar, reports_errors, torch_on_one_thread
+from famarl_cli.errors import UsageError
+from famarl_cli.rl.action_modes import Agent
+from famarl_cli.rl.ppo import MacroDiscount
+
+DEFAULT_ENV = "famarl/ContinuousWorld-Maze-v0"
+DEFAULT_STEPS = 1_000_000
+DECISIONS_PER_ROLLOUT = {Agent.FAMARL: 16, Agent.FIGAR: 32, Agent.PPO: 128}
+"""Default decisions per environment per rollout: a FaMARL decision lasts ~25 steps and a FiGAR one ~15, so
+fewer decisions give them rollouts (and updates per environment step) of a similar size to PPO's."""
+
+
+def default_run_dir(env_id: str, agent: Agent, favae: Path, seed: int) -> Path:
+    env_name = env_id.split("/")[-1].rsplit("-v", 1)[0].lower()
+    suffix = f"-{favae.stem}" if agent == Agent.FAMARL else ""
+    return Path("data/runs") / f"{env_name}-{agent}{suffix}-seed{seed}"
+
+
+@app.command()
+@reports_errors
+def train(
+    env: Annotated[
+        str, typer.Option(help="Environment id (famarl's or any gymnasium id with Box spaces).")
+    ] = DEFAULT_ENV,
+    agent: Annotated[
+        Agent, typer.Option(help="famarl: search FAVAE latents; ppo: primitive actions; figar: action + repeat count.")
+    ] = Agent.FAMARL,
+    favae: Annotated[
+        Path, typer.Option(help="FAVAE checkpoint whose decoder makes the macro actions (famarl only).")
+    ] = Path("data/favae/pushed-down-only.pt"),
+    steps: Annotated[
+        int | None,
+        typer.Option(
+            min=1, help=f"Budget in environment steps.  [default: {DEFAULT_STEPS:,}; on --resume, the run's own]"
+        ),
+    ] = None,
+    seed: Annotated[int, typer.Option(help="Seed of the networks, sampling and environments.")] = 0,
+    out: Annotated[
+        Path | None,
+        typer.Option(help="Run folder.  [default: data/runs/<env>-<agent>[-<favae name>]-seed<S>]", file_okay=False),
+    ] = None,
+    resume: Annotated[
+        bool, typer.Option(help="Continue the run in --out from its last checkpoint (other options are the run's own).")
+    ] = False,
+    overwrite: Annotated[bool, typer.Option(help="Replace a run already in --out.")] = False,
+    n_envs: Annotated[int, typer.Option(min=1, help="Environments stepped together.")] = 16,
+    n_steps: Annotated[
+        int | None,
+        typer.Option(min=1, help="Decisions per environment per rollout.  [default: famarl 16, figar 32, ppo 128]"),
+    ] = None,
+    epochs: Annotated[int, typer.Option(min=1, help="PPO epochs per rollout.")] = 10,
+    minibatches: Annotated[int, typer.Option(min=1, help="Minibatches per epoch.")] = 8,
+    lr: Annotated[
+        float, typer.Option(min=0.0, help="Adam learning rate (annealed linearly to 0 over the budget).")
+    ] = 3e-4,
+    gamma: Annotated[
+        float, typer.Option(min=0.0, max=1.0, help="Discount per decision (or per step with --macro-discount steps).")
+    ] = 0.99,
+    gae_lambda: Annotated[float, typer.Option(min=0.0, max=1.0, help="GAE lambda.")] = 0.95,
+    clip: Annotated[float, typer.Option(min=0.0, help="PPO clip range (policy ratio and value).")] = 0.2,
+    ent_coef: Annotated[float, typer.Option(min=0.0, help="Entropy bonus weight.")] = 0.0,
+    macro_discount: Annotated[
+        MacroDiscount,
+        typer.Option(
+            help="decision: gamma per decision, rewards summed (the paper); steps: gamma ** length, rewards discounted."
+        ),
+    ] = MacroDiscount.DECISION,
+    latent_bound: Annotated[
+        float, typer.Option(min=0.0, help="famarl: clip latents to [-bound, bound] before decoding.")
+    ] = 3.0,
+    max_repeat: Annotated[int, typer.Option(min=1, help="figar: the largest repeat count J.")] = 32,
+    normalize: Annotated[
+        bool, typer.Option(help="Normalise observations and scale rewards by the return's std.")
+    ] = True,
+    checkpoint_every: Annotated[
+        int, typer.Option(min=1, help="Save the run every this many updates (and at the end).")
+    ] = 20,
+    label: Annotated[
+        str | None, typer.Option(help="Name of this kind of run in plots.  [default: agent (favae name)]")
+    ] = None,
+) -> None:
+    """Train an agent with PPO; writes run.json, checkpoint.pt and train.csv into the run folder."""
+    from famarl_cli.artifacts.base import prepare_output
+    from famarl_cli.artifacts.runs import CHECKPOINT_FILE, LOG_FILE, RUN_FILE
+    from famarl_cli.rl.ppo import PPOConfig
+    from famarl_cli.rl.training import Run, RunSpec, default_label
+
+    torch_on_one_thread()
+    out = out or default_run_dir(env, agent, favae, seed)
+    if resume:
+        run = Run.resume(out, steps)
+    else:
+        if (out / RUN_FILE).exists() and not overwrite:
+            raise UsageError(f"{out} already holds a run; add --resume to continue it or --overwrite to replace it")
+        if overwrite:
+            for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE):
+                (out / name).unlink(missing_ok=True)
+        prepare_output(out / RUN_FILE)
+        try:
+            ppo = PPOConfig(
+                total_steps=steps or DEFAULT_STEPS,
+                n_envs=n_envs,
+                n_steps=n_steps or DECISIONS_PER_ROLLOUT[agent],
+                epochs=epochs,
+                minibatches=minibatches,
+                learning_rate=lr,
+                gamma=gamma,
+                gae_lambda=gae_lambda,
+                clip=clip,
+                ent_coef=ent_coef,
+                macro_discount=str(macro_discount),
+                normalize_obs=normalize,
+                scale_rewards=normalize,
+            )
+        except ValueError as exc:
+            raise UsageError(str(exc)) from exc
+        spec = RunSpec(
+            env_id=env,
+            agent=agent,
+            seed=seed,
+            ppo=ppo,
+            latent_bound=latent_bound,
+            max_repeat=max_repeat,
+            favae=str(favae) if agent == Agent.FAMARL else None,
+            label=label or default_label(agent, favae),
+        )
+        run = Run.start(spec)
+
+    trainer = run.trainer
+    with progress_bar() as progress:
+        task = progress.add_task(run.spec.label, total=trainer.config.total_steps, completed=trainer.env_steps)
+
+        def show(row: dict) -> None:
+            progress.update(
+                task,
+                completed=min(row["env_steps"], trainer.config.total_steps),
+                description=f"{run.spec.label}: return {row['episode_return']:.1f} "
+                f"success {row['episode_success']:.0%}",
+            )
+
+        run.train(out, checkpoint_every, show)
+
+    summary = trainer.episodes.summary()
+    table = Table(title=f"{run.spec.label} on {run.spec.env_id}, seed {run.spec.seed}", show_header=False)
+    table.add_row(
+        "environment steps", f"{trainer.env_steps:,} in {trainer.decisions:,} decisions, {trainer.updates} updates"
+    )
+    table.add_row(
+        "last 100 episodes",
+        f"success {summary['episode_success']:.0%}, return {summary['episode_return']:.1f}, "
+        f"length {summary['episode_length']:.0f}",
+    )
+    table.add_row("wall time", f"{run.wall_s:.0f} s")
+    table.add_row("written", ", ".join(str(out / name) for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE)))
+    Console().print(table)

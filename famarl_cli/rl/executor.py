@@ -1,0 +1,70 @@
+"""Open-loop execution of action sequences over a batch of environments: the one path that FaMARL's macro
+actions, FiGAR's repeated actions and primitive actions (sequences of length 1) all take.
+
+Each environment runs its own sequence for its own length; the batch steps together and an environment whose
+sequence (or episode) has ended waits, inactive, for the others. A sequence stops where its episode ends: the
+rest of it is dropped, and the next decision starts on the new episode.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from famarl_cli.rl.vector import BatchedEnv
+
+
+@dataclass
+class OpenLoopResult:
+    obs: np.ndarray
+    """(N, obs) after the sequence; where an episode ended, the next episode's first observation."""
+    reward: np.ndarray
+    """(N,) sum of the rewards collected (the paper's r_tot)."""
+    discounted_reward: np.ndarray
+    """(N,) sum of ``discount ** k * r_k`` over the steps k of the sequence."""
+    steps: np.ndarray
+    """(N,) environment steps executed; less than the sequence's length where the episode ended first."""
+    terminated: np.ndarray
+    truncated: np.ndarray
+    final_obs: np.ndarray
+    """(N, obs) last observation of an episode that ended (meaningful where terminated | truncated)."""
+
+
+def run_open_loop(
+    env: BatchedEnv,
+    obs: np.ndarray,
+    actions: np.ndarray,
+    lengths: np.ndarray,
+    discount: float = 1.0,
+    on_step: Callable[[np.ndarray, np.ndarray], None] | None = None,
+) -> OpenLoopResult:
+    """Run ``actions[i, :lengths[i]]`` in environment ``i`` without feedback, from current observations ``obs``.
+
+    ``on_step(active, obs)`` is called after every batch step with the observations that step reached (an
+    ended episode's last one, not the next episode's first); evaluation uses it to trace paths.
+    """
+    n = env.n_envs
+    reward = np.zeros(n)
+    discounted = np.zeros(n)
+    steps = np.zeros(n, dtype=np.int64)
+    terminated = np.zeros(n, dtype=bool)
+    truncated = np.zeros(n, dtype=bool)
+    final_obs = obs.copy()
+    for k in range(int(lengths.max(initial=0))):
+        active = (k < lengths) & ~terminated & ~truncated
+        if not active.any():
+            break
+        obs, r, term, trunc, info = env.step(actions[:, k], active)
+        reward += r
+        discounted += discount**k * r
+        steps += active
+        ended = term | trunc
+        if ended.any():
+            final_obs[ended] = info["final_obs"][ended]
+        terminated |= term
+        truncated |= trunc
+        if on_step is not None:
+            on_step(active, np.where(ended[:, None], final_obs, obs))
+    return OpenLoopResult(obs, reward, discounted, steps, terminated, truncated, final_obs)

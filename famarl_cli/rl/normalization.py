@@ -1,0 +1,78 @@
+"""Running statistics for observation normalisation and reward scaling.
+
+Both are part of the trained agent: they are saved in its checkpoint and frozen at evaluation, so that the
+policy sees at test time the inputs it was trained on.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+CLIP = 10.0
+EPSILON = 1e-8
+
+
+class RunningMeanStd:
+    """Mean and variance over every row seen so far (Chan et al.'s parallel update)."""
+
+    def __init__(self, shape: tuple[int, ...] = ()) -> None:
+        self.mean = np.zeros(shape)
+        self.var = np.ones(shape)
+        self.count = EPSILON
+
+    def update(self, batch: np.ndarray) -> None:
+        batch_mean, batch_var, n = batch.mean(axis=0), batch.var(axis=0), batch.shape[0]
+        total = self.count + n
+        delta = batch_mean - self.mean
+        self.mean = self.mean + delta * n / total
+        self.var = (self.var * self.count + batch_var * n + delta**2 * self.count * n / total) / total
+        self.count = total
+
+    def state_dict(self) -> dict:
+        return {"mean": self.mean.copy(), "var": self.var.copy(), "count": float(self.count)}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.mean, self.var, self.count = np.asarray(state["mean"]), np.asarray(state["var"]), float(state["count"])
+
+
+class ObservationNormalizer(RunningMeanStd):
+    """``enabled=False`` passes observations through unchanged (for ablations)."""
+
+    def __init__(self, shape: tuple[int, ...], enabled: bool = True) -> None:
+        super().__init__(shape)
+        self.enabled = enabled
+
+    def __call__(self, obs: np.ndarray, update: bool) -> np.ndarray:
+        if not self.enabled:
+            return obs.astype(np.float32)
+        if update:
+            self.update(obs)
+        return np.clip((obs - self.mean) / np.sqrt(self.var + EPSILON), -CLIP, CLIP).astype(np.float32)
+
+
+class RewardScaler:
+    """Divides rewards by the running standard deviation of the discounted return, so that the value targets
+    stay near unit scale whatever the task's reward units (ContinuousWorld's macro rewards reach -100s).
+
+    ``discount`` is per environment and per step because a macro step's discount may depend on its length.
+    """
+
+    def __init__(self, n_envs: int, enabled: bool = True) -> None:
+        self.returns = np.zeros(n_envs)
+        self.stats = RunningMeanStd()
+        self.enabled = enabled
+
+    def __call__(self, reward: np.ndarray, discount: np.ndarray, done: np.ndarray) -> np.ndarray:
+        if not self.enabled:
+            return reward
+        self.returns = self.returns * discount + reward
+        self.stats.update(self.returns)
+        self.returns[done] = 0.0
+        return np.clip(reward / np.sqrt(self.stats.var + EPSILON), -CLIP, CLIP)
+
+    def state_dict(self) -> dict:
+        return {"returns": self.returns.copy(), **self.stats.state_dict()}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.returns = np.asarray(state["returns"])
+        self.stats.load_state_dict(state)

@@ -1,0 +1,336 @@
+"""PPO (Schulman et al. 2017) over decisions that may each last many environment steps.
+
+Every detail is here, in the order it runs (CleanRL's ``ppo_continuous_action`` is the model):
+observation normalisation, reward scaling by the running return std, GAE, per-minibatch advantage
+normalisation, the clipped objective, a clipped value loss, gradient clipping and a learning rate annealed
+linearly over the budget of environment steps.
+
+Two things differ from a primitive-action PPO because a decision here is an open-loop sequence (a macro
+action, a repeated action, or a single step):
+
+- the reward of a decision is the sum of the rewards its steps collected (the paper's r_tot), and its discount
+  is ``gamma`` per decision (``macro_discount="decision"``, the paper's t') or ``gamma ** steps`` with the
+  rewards inside discounted step by step (``"steps"``, the semi-MDP reading);
+- a decision cut by the time limit is bootstrapped: ``V(final_obs)``, discounted, is added to its reward and
+  the episode boundary stops GAE there, so a truncation is not mistaken for a terminal state.
+
+The budget is counted in environment steps, so agents whose decisions last differently compare fairly.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, fields
+from enum import StrEnum
+
+import numpy as np
+import torch
+from torch import nn
+
+from famarl_cli.rl.executor import run_open_loop
+from famarl_cli.rl.normalization import ObservationNormalizer, RewardScaler
+from famarl_cli.rl.policy import ActorCritic
+from famarl_cli.rl.vector import BatchedEnv
+
+
+class MacroDiscount(StrEnum):
+    DECISION = "decision"
+    STEPS = "steps"
+
+
+RECENT_EPISODES = 100
+"""Training statistics (return, success) are means over this many most recent episodes."""
+
+
+@dataclass(frozen=True)
+class PPOConfig:
+    total_steps: int = 2_000_000
+    """Budget in environment steps (not decisions)."""
+    n_envs: int = 16
+    n_steps: int = 64
+    """Decisions per environment per rollout."""
+    epochs: int = 10
+    minibatches: int = 8
+    learning_rate: float = 3e-4
+    anneal_lr: bool = True
+    gamma: float = 0.99
+    gae_lambda: float = 0.95
+    clip: float = 0.2
+    clip_value: bool = True
+    ent_coef: float = 0.0
+    vf_coef: float = 0.5
+    max_grad_norm: float = 0.5
+    macro_discount: str = "decision"
+    hidden: int = 64
+    normalize_obs: bool = True
+    scale_rewards: bool = True
+
+    def __post_init__(self) -> None:
+        if self.macro_discount not in tuple(MacroDiscount):
+            raise ValueError(
+                f"macro_discount must be one of {tuple(map(str, MacroDiscount))}, got {self.macro_discount!r}"
+            )
+        if self.n_envs * self.n_steps < self.minibatches:
+            raise ValueError("a rollout must hold at least one decision per minibatch")
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @staticmethod
+    def from_dict(values: dict) -> PPOConfig:
+        known = {f.name for f in fields(PPOConfig)}
+        return PPOConfig(**{k: v for k, v in values.items() if k in known})
+
+
+def compute_gae(
+    rewards: np.ndarray,
+    values: np.ndarray,
+    dones: np.ndarray,
+    discounts: np.ndarray,
+    next_value: np.ndarray,
+    lam: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Generalised advantage estimates and returns; all arrays (T, N) but ``next_value`` (N,).
+
+    ``dones[t]``: the episode ended during decision t, so nothing after it is bootstrapped into it (a
+    truncation's bootstrap is already inside ``rewards[t]``). ``discounts[t]`` is decision t's own discount.
+    """
+    advantages = np.zeros_like(rewards)
+    running = np.zeros_like(next_value)
+    for t in reversed(range(len(rewards))):
+        following = next_value if t == len(rewards) - 1 else values[t + 1]
+        carry = discounts[t] * (1.0 - dones[t])
+        delta = rewards[t] + carry * following - values[t]
+        running = delta + carry * lam * running
+        advantages[t] = running
+    return advantages, advantages + values
+
+
+@dataclass
+class Rollout:
+    obs: np.ndarray
+    u: np.ndarray
+    index: np.ndarray
+    logp: np.ndarray
+    values: np.ndarray
+    rewards: np.ndarray
+    """(T, N) the rewards PPO learns from: scaled, with truncations' bootstrap added."""
+    dones: np.ndarray
+    advantages: np.ndarray
+    returns: np.ndarray
+    macro_lengths: np.ndarray
+    """(T, N) lengths of the sequences chosen (before an episode end cut them)."""
+    env_steps: int
+
+
+class EpisodeTracker:
+    """Per-environment running sums of the episode in progress, and the most recent finished episodes."""
+
+    FIELDS = ("return", "length", "decisions", "success")
+
+    def __init__(self, n_envs: int) -> None:
+        self.current = {name: np.zeros(n_envs) for name in self.FIELDS[:-1]}
+        self.recent: deque[tuple[float, ...]] = deque(maxlen=RECENT_EPISODES)
+        self.finished = 0
+
+    def record(self, reward: np.ndarray, steps: np.ndarray, terminated: np.ndarray, truncated: np.ndarray) -> None:
+        self.current["return"] += reward
+        self.current["length"] += steps
+        self.current["decisions"] += 1
+        for i in np.flatnonzero(terminated | truncated):
+            self.recent.append(tuple(float(self.current[k][i]) for k in self.FIELDS[:-1]) + (float(terminated[i]),))
+            self.finished += 1
+            for values in self.current.values():
+                values[i] = 0.0
+
+    def summary(self) -> dict[str, float]:
+        if not self.recent:
+            return {f"episode_{k}": float("nan") for k in self.FIELDS}
+        means = np.mean(np.array(self.recent), axis=0)
+        return {f"episode_{k}": float(v) for k, v in zip(self.FIELDS, means, strict=True)}
+
+    def state_dict(self) -> dict:
+        return {
+            **{k: v.copy() for k, v in self.current.items()},
+            "recent": np.array(self.recent).reshape(-1, 4),
+            "finished": self.finished,
+        }
+
+    def load_state_dict(self, state: dict) -> None:
+        self.current = {k: np.asarray(state[k]) for k in self.FIELDS[:-1]}
+        self.recent = deque((tuple(row) for row in np.asarray(state["recent"]).tolist()), maxlen=RECENT_EPISODES)
+        self.finished = int(state["finished"])
+
+
+class PPOTrainer:
+    """Owns everything that changes while training; :meth:`state_dict` captures all of it for exact resumes."""
+
+    def __init__(self, env: BatchedEnv, mode, config: PPOConfig, seed: int) -> None:
+        self.env, self.mode, self.config = env, mode, config
+        torch.manual_seed(seed)
+        self.policy = ActorCritic(env.observation_size, mode.policy_action_size, mode.repeat_choices, config.hidden)
+        self.optimizer = torch.optim.Adam(self.policy.parameters(), lr=config.learning_rate, eps=1e-5)
+        self.obs_norm = ObservationNormalizer((env.observation_size,), config.normalize_obs)
+        self.reward_scaler = RewardScaler(config.n_envs, config.scale_rewards)
+        self.episodes = EpisodeTracker(config.n_envs)
+        self.obs = env.reset()
+        self.env_steps = 0
+        self.decisions = 0
+        self.updates = 0
+        self.log: list[dict[str, float]] = []
+
+    @property
+    def done(self) -> bool:
+        return self.env_steps >= self.config.total_steps
+
+    def collect_rollout(self) -> Rollout:
+        cfg, n = self.config, self.config.n_envs
+        obs = np.zeros((cfg.n_steps, n, self.env.observation_size), np.float32)
+        u = np.zeros((cfg.n_steps, n, self.mode.policy_action_size), np.float32)
+        index = np.zeros((cfg.n_steps, n), np.int64)
+        logp, values, rewards, dones, discounts, lengths = (np.zeros((cfg.n_steps, n)) for _ in range(6))
+        steps_before = self.env_steps
+        within = cfg.gamma if cfg.macro_discount == "steps" else 1.0
+        for t in range(cfg.n_steps):
+            obs[t] = self.obs_norm(self.obs, update=True)
+            with torch.no_grad():
+                state = torch.from_numpy(obs[t])
+                dist = self.policy.distribution(state)
+                sample, choice = dist.sample()
+                logp[t] = dist.log_prob(sample, choice).numpy()
+                values[t] = self.policy.value(state).numpy()
+            u[t], index[t] = sample.numpy(), choice.numpy()
+            actions, lengths[t] = self.mode.to_open_loop(u[t].astype(np.float64), index[t])
+            result = run_open_loop(self.env, self.obs, actions, lengths[t].astype(np.int64), discount=within)
+            if cfg.macro_discount == "steps":
+                discounts[t], reward = cfg.gamma**result.steps, result.discounted_reward
+            else:
+                discounts[t], reward = np.full(n, cfg.gamma), result.reward
+            dones[t] = result.terminated | result.truncated
+            rewards[t] = self.reward_scaler(reward, discounts[t], dones[t].astype(bool))
+            if result.truncated.any():
+                cut = result.truncated
+                with torch.no_grad():
+                    final = torch.from_numpy(self.obs_norm(result.final_obs[cut], update=False))
+                    rewards[t, cut] += discounts[t, cut] * self.policy.value(final).numpy()
+            self.episodes.record(result.reward, result.steps, result.terminated, result.truncated)
+            self.env_steps += int(result.steps.sum())
+            self.decisions += n
+            self.obs = result.obs
+        with torch.no_grad():
+            next_value = self.policy.value(torch.from_numpy(self.obs_norm(self.obs, update=False))).numpy()
+        advantages, returns = compute_gae(rewards, values, dones, discounts, next_value, cfg.gae_lambda)
+        return Rollout(
+            obs, u, index, logp, values, rewards, dones, advantages, returns, lengths, self.env_steps - steps_before
+        )
+
+    def update(self, rollout: Rollout) -> dict[str, float]:
+        cfg = self.config
+        flat = {
+            name: torch.as_tensor(
+                getattr(rollout, name).reshape(cfg.n_steps * cfg.n_envs, *getattr(rollout, name).shape[2:])
+            )
+            for name in ("obs", "u", "index", "logp", "values", "advantages", "returns")
+        }
+        flat = {k: v.float() if v.is_floating_point() else v for k, v in flat.items()}
+        size = len(flat["obs"])
+        minibatch = size // cfg.minibatches
+        totals: dict[str, list[float]] = {
+            k: [] for k in ("policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction")
+        }
+        for _ in range(cfg.epochs):
+            order = torch.randperm(size)
+            for start in range(0, minibatch * cfg.minibatches, minibatch):
+                batch = {k: v[order[start : start + minibatch]] for k, v in flat.items()}
+                dist = self.policy.distribution(batch["obs"])
+                log_ratio = dist.log_prob(batch["u"], batch["index"]) - batch["logp"]
+                ratio = log_ratio.exp()
+                advantages = batch["advantages"]
+                advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
+                policy_loss = torch.max(
+                    -advantages * ratio, -advantages * ratio.clamp(1 - cfg.clip, 1 + cfg.clip)
+                ).mean()
+                value = self.policy.value(batch["obs"])
+                value_error = (value - batch["returns"]) ** 2
+                if cfg.clip_value:
+                    clipped = batch["values"] + (value - batch["values"]).clamp(-cfg.clip, cfg.clip)
+                    value_error = torch.max(value_error, (clipped - batch["returns"]) ** 2)
+                value_loss = 0.5 * value_error.mean()
+                entropy = dist.entropy().mean()
+                loss = policy_loss - cfg.ent_coef * entropy + cfg.vf_coef * value_loss
+                self.optimizer.zero_grad()
+                loss.backward()
+                nn.utils.clip_grad_norm_(self.policy.parameters(), cfg.max_grad_norm)
+                self.optimizer.step()
+                with torch.no_grad():
+                    totals["policy_loss"].append(policy_loss.item())
+                    totals["value_loss"].append(value_loss.item())
+                    totals["entropy"].append(entropy.item())
+                    totals["approx_kl"].append(((ratio - 1) - log_ratio).mean().item())
+                    totals["clip_fraction"].append(((ratio - 1).abs() > cfg.clip).float().mean().item())
+        stats = {k: float(np.mean(v)) for k, v in totals.items()}
+        variance = np.var(rollout.returns)
+        stats["explained_variance"] = (
+            float(1 - np.var(rollout.returns - rollout.values) / variance) if variance else float("nan")
+        )
+        return stats
+
+    def train(self, on_update: Callable[[PPOTrainer, dict[str, float]], None] | None = None) -> None:
+        """Rollout and update until the budget of environment steps is spent; ``on_update`` sees every log row."""
+        cfg = self.config
+        while not self.done:
+            learning_rate = cfg.learning_rate * (1.0 - self.env_steps / cfg.total_steps if cfg.anneal_lr else 1.0)
+            for group in self.optimizer.param_groups:
+                group["lr"] = learning_rate
+            rollout = self.collect_rollout()
+            stats = self.update(rollout)
+            self.updates += 1
+            row = {
+                "update": self.updates,
+                "env_steps": self.env_steps,
+                "decisions": self.decisions,
+                "episodes": self.episodes.finished,
+                **self.episodes.summary(),
+                "macro_length": float(rollout.macro_lengths.mean()),
+                "steps_per_decision": rollout.env_steps / rollout.macro_lengths.size,
+                "learning_rate": learning_rate,
+                **stats,
+            }
+            self.log.append(row)
+            if on_update is not None:
+                on_update(self, row)
+
+    def state_dict(self) -> dict:
+        return {
+            "policy": self.policy.state_dict(),
+            "optimizer": self.optimizer.state_dict(),
+            "torch_rng": torch.get_rng_state(),
+            "obs_norm": self.obs_norm.state_dict(),
+            "reward_scaler": self.reward_scaler.state_dict(),
+            "episodes": self.episodes.state_dict(),
+            "env": self.env.state_dict(),
+            "obs": self.obs.copy(),
+            "counters": {"env_steps": self.env_steps, "decisions": self.decisions, "updates": self.updates},
+            "log": list(self.log),
+        }
+
+    def load_state_dict(self, state: dict) -> None:
+        self.policy.load_state_dict(state["policy"])
+        self.optimizer.load_state_dict(state["optimizer"])
+        torch.set_rng_state(state["torch_rng"])
+        self.obs_norm.load_state_dict(state["obs_norm"])
+        self.reward_scaler.load_state_dict(state["reward_scaler"])
+        self.log = list(state["log"])
+        counters = state["counters"]
+        self.env_steps, self.decisions, self.updates = counters["env_steps"], counters["decisions"], counters["updates"]
+        if state["env"] is not None:
+            self.env.load_state_dict(state["env"])
+            self.obs = np.asarray(state["obs"], dtype=np.float32)
+            self.episodes.load_state_dict(state["episodes"])
+        else:
+            # An environment without a snapshot restarts its episodes; the ones in progress are not counted.
+            self.obs = self.env.reset()
+            self.episodes.load_state_dict(
+                {**state["episodes"], **{k: np.zeros(self.config.n_envs) for k in EpisodeTracker.FIELDS[:-1]}}
+            )

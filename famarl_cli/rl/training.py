@@ -1,0 +1,160 @@
+"""A training run from start to finish: its spec, the agent it builds, checkpoints and exact resumes.
+
+A run is fully described by its :class:`RunSpec` plus the FAVAE it decodes with (FaMARL only). Checkpoints
+hold the whole trainer state (:meth:`PPOTrainer.state_dict`), so ``resume`` continues the very same run: with
+the same seed, a run stopped and resumed ends with the same weights and log as one that never stopped.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+
+from famarl_cli.artifacts import provenance
+from famarl_cli.artifacts.runs import CHECKPOINT_FILE, read_run_checkpoint, write_run
+from famarl_cli.errors import ArtifactError, UsageError
+from famarl_cli.favae.checkpoint import load_favae
+from famarl_cli.favae.model import Favae, FavaeConfig
+from famarl_cli.rl.action_modes import Agent, LatentMacroActions, PrimitiveActions, RepeatedActions
+from famarl_cli.rl.policy import ActorCritic
+from famarl_cli.rl.ppo import PPOConfig, PPOTrainer
+from famarl_cli.rl.vector import BatchedEnv, make_batch
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    env_id: str
+    agent: Agent
+    seed: int
+    ppo: PPOConfig
+    latent_bound: float = 3.0
+    """FaMARL: latents are clipped to [-bound, bound] before decoding."""
+    max_repeat: int = 32
+    """FiGAR: the largest repeat count J."""
+    favae: str | None = None
+    """FaMARL: the FAVAE checkpoint it was started from (its weights are copied into the run)."""
+    label: str = ""
+    """How plots and reports name this kind of run; seeds of one experiment share it."""
+
+    def to_dict(self) -> dict:
+        return {**asdict(self), "agent": str(self.agent), "ppo": self.ppo.to_dict()}
+
+    @staticmethod
+    def from_dict(values: dict) -> RunSpec:
+        return RunSpec(**{**values, "agent": Agent(values["agent"]), "ppo": PPOConfig.from_dict(values["ppo"])})
+
+
+def default_label(agent: Agent, favae: str | os.PathLike | None) -> str:
+    return f"famarl ({Path(favae).stem})" if agent == Agent.FAMARL and favae else str(agent)
+
+
+def build_mode(spec: RunSpec, env: BatchedEnv, favae: Favae | None):
+    low, high = env.action_bounds
+    if spec.agent == Agent.PPO:
+        return PrimitiveActions(low, high)
+    if spec.agent == Agent.FIGAR:
+        return RepeatedActions(low, high, spec.max_repeat)
+    try:
+        return LatentMacroActions(favae, low, high, spec.latent_bound)
+    except ValueError as exc:
+        raise UsageError(f"{spec.favae}: {exc}") from exc
+
+
+def _favae_state(favae: Favae | None) -> dict:
+    return {} if favae is None else {"favae_config": favae.config.to_dict(), "favae_state_dict": favae.state_dict()}
+
+
+def _favae_from_state(state: dict) -> Favae | None:
+    if "favae_config" not in state:
+        return None
+    favae = Favae(FavaeConfig.from_dict(state["favae_config"]))
+    favae.load_state_dict(state["favae_state_dict"])
+    return favae.eval()
+
+
+class Run:
+    """A trainer with the spec and provenance that make it a run folder."""
+
+    def __init__(self, spec: RunSpec, favae: Favae | None, prov: dict, state: dict | None = None) -> None:
+        self.spec, self.favae, self.provenance = spec, favae, prov
+        env = make_batch(spec.env_id, spec.ppo.n_envs, spec.seed)
+        self.trainer = PPOTrainer(env, build_mode(spec, env, favae), spec.ppo, spec.seed)
+        if state is not None:
+            self.trainer.load_state_dict(state)
+        self.wall_s = 0.0
+
+    @staticmethod
+    def start(spec: RunSpec) -> Run:
+        if spec.agent == Agent.FAMARL and spec.favae is None:
+            raise UsageError("--agent famarl needs --favae (a checkpoint from famarl favae fit)")
+        favae = load_favae(spec.favae)[0] if spec.agent == Agent.FAMARL else None
+        inputs = [Path(spec.favae)] if favae is not None else []
+        prov = provenance("famarl train", spec.to_dict(), spec.seed, inputs)
+        return Run(spec, favae, prov)
+
+    @staticmethod
+    def resume(run_dir: str | os.PathLike, total_steps: int | None = None) -> Run:
+        """Continue a run from its checkpoint; ``total_steps`` may extend (not shrink below done) its budget."""
+        if not (Path(run_dir) / CHECKPOINT_FILE).exists():
+            raise ArtifactError(f"{run_dir}: nothing to resume (no {CHECKPOINT_FILE})")
+        payload = read_run_checkpoint(run_dir)
+        spec = RunSpec.from_dict(payload["config"])
+        if total_steps is not None:
+            spec = replace(spec, ppo=replace(spec.ppo, total_steps=total_steps))
+        run = Run(spec, _favae_from_state(payload["mode"]), payload["provenance"], payload["trainer"])
+        run.wall_s = float(payload["status"]["wall_s"])
+        return run
+
+    def save(self, run_dir: str | os.PathLike) -> None:
+        trainer = self.trainer
+        status = {
+            "complete": trainer.done,
+            "env_steps": trainer.env_steps,
+            "decisions": trainer.decisions,
+            "updates": trainer.updates,
+            "wall_s": round(self.wall_s, 2),
+        }
+        write_run(run_dir, self.spec.to_dict(), trainer.state_dict(), _favae_state(self.favae), self.provenance, status)
+
+    def train(
+        self, run_dir: str | os.PathLike, checkpoint_every: int, on_update: Callable[[dict], None] | None = None
+    ) -> None:
+        """Train to the budget, saving every ``checkpoint_every`` updates and at the end."""
+        started = time.perf_counter() - self.wall_s
+
+        def after_update(trainer: PPOTrainer, row: dict) -> None:
+            self.wall_s = time.perf_counter() - started
+            if trainer.updates % checkpoint_every == 0 and not trainer.done:
+                self.save(run_dir)
+            if on_update is not None:
+                on_update(row)
+
+        self.trainer.train(after_update)
+        self.save(run_dir)
+
+
+@dataclass
+class TrainedAgent:
+    """What evaluation needs: the policy, its frozen observation statistics and its action mode."""
+
+    spec: RunSpec
+    policy: ActorCritic
+    obs_norm_state: dict
+    favae: Favae | None
+    env_steps: int
+
+
+def load_agent(run_dir: str | os.PathLike) -> TrainedAgent:
+    payload = read_run_checkpoint(run_dir)
+    spec = RunSpec.from_dict(payload["config"])
+    favae = _favae_from_state(payload["mode"])
+    trainer = payload["trainer"]
+    env = make_batch(spec.env_id, 1, spec.seed)
+    mode = build_mode(spec, env, favae)
+    policy = ActorCritic(env.observation_size, mode.policy_action_size, mode.repeat_choices, spec.ppo.hidden)
+    policy.load_state_dict(trainer["policy"])
+    policy.eval()
+    return TrainedAgent(spec, policy, trainer["obs_norm"], favae, int(trainer["counters"]["env_steps"]))

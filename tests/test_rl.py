@@ -1,0 +1,219 @@
+import numpy as np
+import pytest
+import torch
+from torch.distributions import Categorical, Normal
+
+from famarl_cli.envs.batched import ContinuousWorldBatch
+from famarl_cli.favae.model import Favae, FavaeConfig
+from famarl_cli.rl.action_modes import Agent, LatentMacroActions, PrimitiveActions, RepeatedActions
+from famarl_cli.rl.evaluation import evaluate
+from famarl_cli.rl.executor import run_open_loop
+from famarl_cli.rl.normalization import RewardScaler, RunningMeanStd
+from famarl_cli.rl.policy import ActorCritic
+from famarl_cli.rl.ppo import PPOConfig, PPOTrainer, compute_gae
+from famarl_cli.rl.training import Run, RunSpec, load_agent
+
+MAZE = "famarl/ContinuousWorld-Maze-v0"
+
+
+class CountingEnv:
+    """Reward = 10 * env index + step within the episode; episodes end after ``horizon`` steps (a truncation),
+    or env 2 terminates at its 2nd step when ``terminate_env2``."""
+
+    def __init__(self, n_envs=3, horizon=100, terminate_env2=False):
+        self.n_envs, self.horizon, self.terminate_env2 = n_envs, horizon, terminate_env2
+        self.observation_size = 2
+        self.action_bounds = (np.full(1, -1.0), np.full(1, 1.0))
+        self.t = np.zeros(n_envs, dtype=np.int64)
+        self.calls = []
+
+    def obs(self):
+        return np.stack([self.t, np.arange(self.n_envs)], axis=1).astype(np.float32)
+
+    def reset(self):
+        self.t[:] = 0
+        return self.obs()
+
+    def step(self, actions, active=None):
+        active = np.ones(self.n_envs, bool) if active is None else active
+        self.calls.append(active.copy())
+        reward = np.where(active, 10.0 * np.arange(self.n_envs) + self.t, 0.0)
+        self.t += active
+        terminated = active & self.terminate_env2 & (np.arange(self.n_envs) == 2) & (self.t == 2)
+        truncated = active & ~terminated & (self.t >= self.horizon)
+        info = {}
+        if (terminated | truncated).any():
+            info["final_obs"] = self.obs()
+            self.t[terminated | truncated] = 0
+        return self.obs(), reward, terminated, truncated, info
+
+    def state_dict(self):
+        return None
+
+
+def test_gae_matches_a_hand_computation_with_an_episode_end_and_decision_discounts():
+    rewards = np.array([[1.0], [2.0], [3.0]])
+    values = np.array([[0.5], [1.0], [1.5]])
+    dones = np.array([[0.0], [1.0], [0.0]])
+    discounts = np.array([[0.9], [0.8], [0.5]])
+    advantages, returns = compute_gae(rewards, values, dones, discounts, np.array([2.0]), lam=0.5)
+    # t=2: delta = 3 + 0.5*2 - 1.5 = 2.5; t=1 ends the episode: delta = 2 - 1 = 1;
+    # t=0: delta = 1 + 0.9*1.0 - 0.5 = 1.4, A = 1.4 + 0.9*0.5*1 = 1.85
+    np.testing.assert_allclose(advantages[:, 0], [1.85, 1.0, 2.5])
+    np.testing.assert_allclose(returns, advantages + values)
+
+
+def test_open_loop_sums_rewards_counts_steps_and_stops_at_an_episode_end():
+    env = CountingEnv(terminate_env2=True)
+    obs = env.reset()
+    actions = np.zeros((3, 5, 1))
+    result = run_open_loop(env, obs, actions, np.array([3, 1, 5]), discount=0.5)
+    np.testing.assert_array_equal(result.steps, [3, 1, 2])
+    np.testing.assert_allclose(result.reward, [0 + 1 + 2, 10, 20 + 21])
+    np.testing.assert_allclose(result.discounted_reward, [0 + 0.5 + 0.5, 10, 20 + 0.5 * 21])
+    np.testing.assert_array_equal(result.terminated, [False, False, True])
+    assert result.final_obs[2, 0] == 2 and result.obs[2, 0] == 0  # last obs of the ended episode; the new one's first
+    assert len(env.calls) == 3  # stops once every sequence is done
+    np.testing.assert_array_equal(env.calls[2], [True, False, False])
+
+
+def test_batched_world_only_moves_active_worlds_and_restores_its_state():
+    env = ContinuousWorldBatch("maze", n_envs=3, seed=0)
+    env.reset()
+    before = env.state_dict()
+    obs, reward, *_ = env.step(np.ones((3, 2)), np.array([True, False, True]))
+    assert reward[1] == 0 and reward[0] < 0
+    np.testing.assert_array_equal(env.pos[1], before["pos"][1])
+    assert env.elapsed.tolist() == [1, 0, 1]
+    replay = ContinuousWorldBatch("maze", n_envs=3, seed=5)
+    replay.load_state_dict(before)
+    np.testing.assert_array_equal(replay.step(np.ones((3, 2)), np.array([True, False, True]))[0], obs)
+
+
+def test_open_loop_of_one_world_equals_stepping_it_by_hand():
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, (4, 30, 2))
+    lengths = np.array([30, 7, 1, 19])
+    batch = ContinuousWorldBatch("maze", n_envs=4, seed=1)
+    result = run_open_loop(batch, batch.reset(), actions, lengths)
+    for i in range(4):
+        single = ContinuousWorldBatch("maze", n_envs=4, seed=1)
+        single.reset()
+        total = 0.0
+        for k in range(lengths[i]):
+            total += single.step(actions[:, k], np.arange(4) == i)[1][i]
+        assert result.reward[i] == pytest.approx(total)
+        np.testing.assert_allclose(single.pos[i], batch.pos[i])
+
+
+def test_truncation_bootstraps_the_value_of_the_final_observation():
+    env = CountingEnv(n_envs=2, horizon=3)
+    config = PPOConfig(n_envs=2, n_steps=7, minibatches=1, gamma=0.9, normalize_obs=False, scale_rewards=False)
+    trainer = PPOTrainer(env, PrimitiveActions(*env.action_bounds), config, seed=0)
+    with torch.no_grad():  # a critic that says 5 everywhere
+        for p in trainer.policy.critic.parameters():
+            p.zero_()
+        trainer.policy.critic[-1].bias.fill_(5.0)
+    rollout = trainer.collect_rollout()
+    raw = np.array([0, 1, 2, 0, 1, 2, 0], float)[:, None] + np.array([0.0, 10.0])
+    cut = np.array([2, 5])
+    expected = raw.copy()
+    expected[cut] += 0.9 * 5.0
+    np.testing.assert_allclose(rollout.rewards, expected)
+    np.testing.assert_array_equal(np.flatnonzero(rollout.dones[:, 0]), cut)
+    # Across the cut nothing is bootstrapped: the return at the last step of an episode is its reward alone.
+    np.testing.assert_allclose(rollout.returns[cut], expected[cut])
+
+
+def test_figar_log_probability_is_the_joint_of_action_and_repeat():
+    policy = ActorCritic(obs_size=3, action_size=2, repeat_choices=4)
+    obs = torch.randn(5, 3)
+    dist = policy.distribution(obs)
+    u, index = dist.sample()
+    features = policy.actor(obs)
+    normal = Normal(policy.mean(features), policy.log_std.exp())
+    categorical = Categorical(logits=policy.repeat_logits(features))
+    expected = normal.log_prob(u).sum(1) + categorical.log_prob(index)
+    torch.testing.assert_close(dist.log_prob(u, index), expected)
+    torch.testing.assert_close(dist.entropy(), normal.entropy().sum(1) + categorical.entropy())
+    mode = RepeatedActions(np.full(2, -1.0), np.full(2, 1.0), max_repeat=4)
+    actions, lengths = mode.to_open_loop(np.array([[2.0, -0.5]]), np.array([2]))
+    assert lengths.tolist() == [3]
+    np.testing.assert_array_equal(actions[0, :3], [[1.0, -0.5]] * 3)
+
+
+def test_latent_mode_clips_latents_and_refuses_another_action_dimension():
+    favae = Favae(FavaeConfig(action_dim=2, length=16)).eval()
+    mode = LatentMacroActions(favae, np.full(2, -1.0), np.full(2, 1.0), bound=1.0)
+    far, edge = mode.to_open_loop(np.full((1, 6), 50.0), None), mode.to_open_loop(np.ones((1, 6)), None)
+    np.testing.assert_array_equal(far[0], edge[0])
+    assert np.abs(far[0]).max() <= 1.0 and 1 <= far[1][0] <= 16
+    with pytest.raises(ValueError, match="3-D"):
+        LatentMacroActions(favae, np.full(3, -1.0), np.full(3, 1.0), bound=3.0)
+
+
+def test_running_statistics_match_numpy_and_reward_scaling_resets_at_episode_ends():
+    data = np.random.default_rng(0).normal(3.0, 2.0, (300, 4))
+    stats = RunningMeanStd((4,))
+    for chunk in np.split(data, 6):
+        stats.update(chunk)
+    np.testing.assert_allclose(stats.mean, data.mean(0), rtol=1e-6)
+    np.testing.assert_allclose(stats.var, data.var(0), rtol=1e-6)
+    scaler = RewardScaler(2)
+    scaler(np.array([1.0, 1.0]), np.full(2, 0.9), np.array([True, False]))
+    np.testing.assert_allclose(scaler.returns, [0.0, 1.0])
+
+
+def _spec(agent, favae_path=None, steps=3000, **ppo):
+    config = PPOConfig(total_steps=steps, n_envs=4, n_steps=ppo.pop("n_steps", 8), minibatches=2, epochs=2, **ppo)
+    return RunSpec(MAZE, agent, seed=3, ppo=config, favae=favae_path, label=str(agent))
+
+
+@pytest.fixture(scope="module")
+def favae_file(tmp_path_factory):
+    from famarl_cli.favae.checkpoint import save_favae
+
+    torch.manual_seed(0)
+    path = tmp_path_factory.mktemp("favae") / "untrained.pt"
+    save_favae(path, Favae(FavaeConfig(action_dim=2, length=16)), {"beta": 1.0}, {"command": "test"})
+    return str(path)
+
+
+class Killed(Exception):
+    pass
+
+
+@pytest.mark.parametrize("agent", list(Agent))
+def test_resume_after_a_kill_ends_exactly_where_an_uninterrupted_run_ends(agent, favae_file, tmp_path):
+    spec = _spec(agent, favae_file if agent == Agent.FAMARL else None)
+    straight = Run.start(spec)
+    straight.train(tmp_path / "straight", checkpoint_every=100)
+
+    def kill_after_second(row):
+        if row["update"] == 2:
+            raise Killed
+
+    with pytest.raises(Killed):
+        Run.start(spec).train(tmp_path / "resumed", checkpoint_every=1, on_update=kill_after_second)
+    resumed = Run.resume(tmp_path / "resumed")
+    assert resumed.trainer.updates == 2
+    resumed.train(tmp_path / "resumed", checkpoint_every=100)
+    assert straight.trainer.updates > 2
+    for key, value in straight.trainer.policy.state_dict().items():
+        torch.testing.assert_close(resumed.trainer.policy.state_dict()[key], value, rtol=0, atol=0)
+    assert (tmp_path / "straight/train.csv").read_text() == (tmp_path / "resumed/train.csv").read_text()
+
+
+def test_ppo_learns_on_maze_and_evaluation_is_deterministic(tmp_path):
+    """Primitive PPO's first updates on Maze: the return of recent episodes rises (a smoke test of learning)."""
+    spec = _spec(Agent.PPO, steps=60_000, n_steps=128, learning_rate=1e-3)
+    run = Run.start(spec)
+    run.train(tmp_path, checkpoint_every=1000)
+    returns = [row["episode_return"] for row in run.trainer.log if not np.isnan(row["episode_return"])]
+    assert returns[-1] > returns[0] + 100
+    agent = load_agent(tmp_path)
+    first, second = evaluate(agent, episodes=6, seed=1), evaluate(agent, episodes=6, seed=1)
+    assert first.metrics == second.metrics
+    assert first.metrics["decisions"] == first.metrics["episode_length"]  # primitive actions: one step each
+    trace = first.traces[0]
+    assert len(trace.positions) == len(trace.decision) + 1
