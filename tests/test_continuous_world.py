@@ -31,7 +31,7 @@ def run(layout, pos, action, steps):
     return np.array(path), vel[0]
 
 
-@pytest.mark.parametrize("task", ["base", "maze"])
+@pytest.mark.parametrize("task", ["base", "maze", "maze-blind"])
 def test_passes_gymnasium_env_checker(task):
     env = gym.make(ENV_IDS[task])
     check_env(env.unwrapped, skip_render_check=False)
@@ -162,7 +162,7 @@ def test_invalid_actions_and_arguments_are_refused():
         gym.make(ENV_IDS["base"], goal_rows=("left",))
 
 
-@pytest.mark.parametrize("task", ["base", "maze"])
+@pytest.mark.parametrize("task", ["base", "maze", "maze-blind"])
 def test_batched_env_gives_the_single_env_transitions(task):
     """Step 8 single envs and one batch of 8 with the same layouts and actions: identical transitions."""
     n, limit = 8, 25
@@ -206,3 +206,12 @@ def test_batched_env_autoresets_finished_worlds_in_the_same_step():
     np.testing.assert_array_equal(obs[:, 0:2], batch.layouts.start.astype(np.float32))
     assert (obs[:, 2:4] == 0).all() and (batch.elapsed == 0).all()
     assert not np.array_equal(info["final_obs"], obs)
+
+
+def test_blind_maze_hides_the_entrances_and_nothing_else():
+    seen, blind = gym.make(ENV_IDS["maze"]), gym.make(ENV_IDS["maze-blind"])
+    obs_seen, _ = seen.reset(seed=4)
+    obs_blind, _ = blind.reset(seed=4)
+    np.testing.assert_array_equal(obs_blind, obs_seen[:8])
+    assert blind.observation_space.shape == (8,)
+    np.testing.assert_array_equal(seen.unwrapped.layout.entrance_x, blind.unwrapped.layout.entrance_x)

@@ -10,14 +10,23 @@ from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.cli import app, reports_errors, torch_on_one_thread
+from famarl_cli.cli.train import DEFAULT_ENV, DEFAULT_FAVAE, default_run_dir
+from famarl_cli.rl.action_modes import Agent
+
+DEFAULT_RUN = default_run_dir(DEFAULT_ENV, Agent.FAMARL, DEFAULT_FAVAE, 0)
 
 
 @app.command()
 @reports_errors
 def evaluate(
     run: Annotated[
-        list[Path], typer.Option("--run", help="Run folder (from famarl train); repeat for several.", file_okay=False)
-    ],
+        list[Path],
+        typer.Option(
+            "--run",
+            help="Run folder (from famarl train); repeat for several.  [default: famarl train's]",
+            file_okay=False,
+        ),
+    ] = None,
     episodes: Annotated[int, typer.Option(min=1, help="Evaluation episodes per run.")] = 100,
     seed: Annotated[
         int, typer.Option(help="Seed of the evaluation episodes (differs from training seeds by default).")
@@ -44,13 +53,15 @@ def evaluate(
     from famarl_cli.rl.training import load_agent
 
     torch_on_one_thread()
+    run = run or [DEFAULT_RUN]
+    for folder in run:
+        read_run_file(folder)
     curves = prepare_output(curves or (run[0] / "curves.png" if len(run) == 1 else run[0].parent / "curves.png"))
     table = Table(title=f"deterministic evaluation, {episodes} episodes, seed {seed}")
     for column in ("run", "label", "env steps", "success", "return", "length", "decisions", "macro length"):
         table.add_column(column, justify="left" if column in ("run", "label") else "right")
     grouped: dict[str, list[dict[str, np.ndarray]]] = {}
     for folder in run:
-        read_run_file(folder)
         agent = load_agent(folder)
         result = evaluate_agent(agent, episodes, seed, rollouts)
         prov = provenance("famarl evaluate", {"episodes": episodes, "seed": seed}, seed, [folder / CHECKPOINT_FILE])

@@ -16,6 +16,7 @@ from famarl_cli.rl.ppo import MacroDiscount
 
 DEFAULT_ENV = "famarl/ContinuousWorld-Maze-v0"
 DEFAULT_STEPS = 1_000_000
+DEFAULT_FAVAE = Path("data/favae/pushed-down-only.pt")
 DECISIONS_PER_ROLLOUT = {Agent.FAMARL: 16, Agent.FIGAR: 32, Agent.PPO: 128}
 """Default decisions per environment per rollout: a FaMARL decision lasts ~25 steps and a FiGAR one ~15, so
 fewer decisions give them rollouts (and updates per environment step) of a similar size to PPO's."""
@@ -38,7 +39,7 @@ def train(
     ] = Agent.FAMARL,
     favae: Annotated[
         Path, typer.Option(help="FAVAE checkpoint whose decoder makes the macro actions (famarl only).")
-    ] = Path("data/favae/pushed-down-only.pt"),
+    ] = DEFAULT_FAVAE,
     steps: Annotated[
         int | None,
         typer.Option(

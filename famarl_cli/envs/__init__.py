@@ -7,7 +7,11 @@ import gymnasium
 
 from famarl_cli.envs.continuous_world import TASKS, ContinuousWorldEnv
 
-ENV_IDS = {name: f"famarl/ContinuousWorld-{name.capitalize()}-v0" for name in TASKS}
+ENV_IDS = {
+    "base": "famarl/ContinuousWorld-Base-v0",
+    "maze": "famarl/ContinuousWorld-Maze-v0",
+    "maze-blind": "famarl/ContinuousWorld-MazeBlind-v0",
+}
 
 for _name, _env_id in ENV_IDS.items():
     if _env_id not in gymnasium.registry:

@@ -57,14 +57,14 @@ class ContinuousWorldBatch:
         self.pos = layouts.start.copy()
         self.vel = np.zeros_like(self.pos)
         self.elapsed = np.zeros(self.n_envs, dtype=np.int64)
-        return observe(self.pos, self.vel, self.layouts)
+        return observe(self.pos, self.vel, self.layouts, self.task.entrances_observed)
 
     def reset(self) -> np.ndarray:
         return self.load(sample_layouts(self.rng, self.n_envs, self.task, self.goal_rows))
 
     @property
     def observation_size(self) -> int:
-        return 8 + self.task.n_walls
+        return 8 + (self.task.n_walls if self.task.entrances_observed else 0)
 
     @property
     def action_bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -83,7 +83,7 @@ class ContinuousWorldBatch:
         dist = distance_to_goal(self.pos, self.layouts)
         terminated = active & (dist < GOAL_RADIUS)
         truncated = active & ~terminated & (self.elapsed >= self.max_episode_steps)
-        obs = observe(self.pos, self.vel, self.layouts)
+        obs = observe(self.pos, self.vel, self.layouts, self.task.entrances_observed)
         info = {}
         done = terminated | truncated
         if done.any():
@@ -93,7 +93,7 @@ class ContinuousWorldBatch:
             self.pos[done] = fresh.start
             self.vel[done] = 0.0
             self.elapsed[done] = 0
-            obs[done] = observe(self.pos[done], self.vel[done], fresh)
+            obs[done] = observe(self.pos[done], self.vel[done], fresh, self.task.entrances_observed)
         return obs, np.where(active, -dist, 0.0), terminated, truncated, info
 
     def state_dict(self) -> dict:
@@ -112,4 +112,4 @@ class ContinuousWorldBatch:
         self.layouts = Layouts(**{f: np.asarray(state[f"layouts.{f}"]) for f in Layouts.__dataclass_fields__})
         self.pos, self.vel = np.asarray(state["pos"]), np.asarray(state["vel"])
         self.elapsed = np.asarray(state["elapsed"])
-        return observe(self.pos, self.vel, self.layouts)
+        return observe(self.pos, self.vel, self.layouts, self.task.entrances_observed)

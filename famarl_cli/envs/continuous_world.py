@@ -48,11 +48,14 @@ class TaskSpec:
     """Side of the square map (m), drawn uniformly per episode."""
     n_walls: int
     max_episode_steps: int
+    entrances_observed: bool = True
+    """Whether the observation holds each wall's entrance centre; without it the agent must search for them."""
 
 
 BASE = TaskSpec(name="base", size_range=(2.5, 5.0), n_walls=0, max_episode_steps=200)
 MAZE = TaskSpec(name="maze", size_range=(5.0, 5.0), n_walls=4, max_episode_steps=400)
-TASKS = {spec.name: spec for spec in (BASE, MAZE)}
+MAZE_BLIND = replace(MAZE, name="maze-blind", entrances_observed=False)
+TASKS = {spec.name: spec for spec in (BASE, MAZE, MAZE_BLIND)}
 
 ROWS = ("top", "bottom")
 
@@ -101,12 +104,12 @@ def sample_layouts(
     restricts the goal's row, which is how the ``down-only`` script keeps its demos free of upward moves. The
     paper leaves the columns open; we put the agent at a random side and the goal at the other, so that demos
     hold both leftward and rightward moves, which the Maze needs.
-    Maze: agent at the top centre, goal at the bottom centre, walls evenly spaced between them.
+    Maze (and Maze-blind): agent at the top centre, goal at the bottom centre, walls evenly spaced between them.
     """
     lo, hi = task.size_range
     size = rng.uniform(lo, hi, n)
     far = size - CORNER_MARGIN
-    if task.name == "maze":
+    if task.n_walls:
         start = np.stack([size / 2, far], axis=1)
         goal = np.stack([size / 2, np.full(n, CORNER_MARGIN)], axis=1)
     else:
@@ -167,16 +170,19 @@ def distance_to_goal(pos: np.ndarray, layouts: Layouts) -> np.ndarray:
     return np.sqrt(np.einsum("ij,ij->i", delta, delta))
 
 
-def observe(pos: np.ndarray, vel: np.ndarray, layouts: Layouts) -> np.ndarray:
-    """Observation rows: position, velocity, goal, map width and height, then each wall's entrance centre."""
+def observe(pos: np.ndarray, vel: np.ndarray, layouts: Layouts, entrances: bool = True) -> np.ndarray:
+    """Observation rows: position, velocity, goal, map width and height, then (if ``entrances``) each wall's
+    entrance centre."""
     size = layouts.size[:, None]
-    return np.concatenate([pos, vel, layouts.goal, size, size, layouts.entrance_x], axis=1).astype(np.float32)
+    parts = [pos, vel, layouts.goal, size, size] + ([layouts.entrance_x] if entrances else [])
+    return np.concatenate(parts, axis=1).astype(np.float32)
 
 
 def observation_space(task: TaskSpec) -> gym.spaces.Box:
     top = task.size_range[1]
-    low = [0, 0, -MAX_SPEED, -MAX_SPEED, 0, 0, 0, 0] + [0] * task.n_walls
-    high = [top, top, MAX_SPEED, MAX_SPEED, top, top, top, top] + [top] * task.n_walls
+    shown = task.n_walls if task.entrances_observed else 0
+    low = [0, 0, -MAX_SPEED, -MAX_SPEED, 0, 0, 0, 0] + [0] * shown
+    high = [top, top, MAX_SPEED, MAX_SPEED, top, top, top, top] + [top] * shown
     return gym.spaces.Box(np.array(low, np.float32), np.array(high, np.float32), dtype=np.float32)
 
 
@@ -229,7 +235,7 @@ class ContinuousWorldEnv(gym.Env):
         self.layout = sample_layouts(self.np_random, 1, self.task, self.goal_rows)
         self._pos = self.layout.start.copy()
         self._vel = np.zeros((1, 2))
-        return observe(self._pos, self._vel, self.layout)[0], self._info()
+        return observe(self._pos, self._vel, self.layout, self.task.entrances_observed)[0], self._info()
 
     def step(self, action):
         if self.layout is None:
@@ -239,7 +245,7 @@ class ContinuousWorldEnv(gym.Env):
             raise ValueError(f"action must be finite, got {action[0]}")
         self._pos, self._vel = physics_step(self._pos, self._vel, action, self.layout)
         dist = distance_to_goal(self._pos, self.layout)[0]
-        obs = observe(self._pos, self._vel, self.layout)[0]
+        obs = observe(self._pos, self._vel, self.layout, self.task.entrances_observed)[0]
         return obs, -float(dist), bool(dist < GOAL_RADIUS), False, self._info()
 
     def _info(self) -> dict:
