@@ -308,6 +308,9 @@ def test_train_and_evaluate_end_to_end(favae_file, tmp_path):
     result = famarl("evaluate", *runs, "--episodes", 3, "--curves", tmp_path / "curves.png")
     assert result.exit_code == 0, result.output
     assert (tmp_path / "curves.png").stat().st_size > 0
+    summary = json.loads((tmp_path / "curves.json").read_text())["labels"]
+    assert set(summary) == {"famarl (favae)", "ppo", "figar"}
+    assert summary["ppo"]["runs"] == 1 and summary["ppo"]["macro_length"]["mean"] == 1
     for agent in ("famarl", "ppo", "figar"):
         metrics = json.loads((tmp_path / agent / "eval.json").read_text())
         assert metrics["episodes"] == 3 and 0 <= metrics["success_rate"] <= 1

@@ -217,3 +217,14 @@ def test_ppo_learns_on_maze_and_evaluation_is_deterministic(tmp_path):
     assert first.metrics["decisions"] == first.metrics["episode_length"]  # primitive actions: one step each
     trace = first.traces[0]
     assert len(trace.positions) == len(trace.decision) + 1
+
+
+def test_summary_over_seeds_groups_by_label():
+    from famarl_cli.rl.evaluation import SUMMARISED, summarise
+
+    runs = [{"label": "a", **dict.fromkeys(SUMMARISED, v)} for v in (1.0, 3.0)] + [
+        {"label": "b", **dict.fromkeys(SUMMARISED, 5.0)}
+    ]
+    summary = summarise(runs)
+    assert summary["a"]["runs"] == 2 and summary["a"]["success_rate"] == {"mean": 2.0, "min": 1.0, "max": 3.0}
+    assert summary["b"]["decisions"]["mean"] == 5.0

@@ -50,6 +50,7 @@ def evaluate(
     from famarl_cli.artifacts.runs import CHECKPOINT_FILE, EVAL_FILE, ROLLOUTS_FILE, read_run_file, read_training_log
     from famarl_cli.plots import plot_learning_curves, plot_rollouts
     from famarl_cli.rl.evaluation import evaluate as evaluate_agent
+    from famarl_cli.rl.evaluation import summarise
     from famarl_cli.rl.training import load_agent
 
     torch_on_one_thread()
@@ -57,36 +58,70 @@ def evaluate(
     for folder in run:
         read_run_file(folder)
     curves = prepare_output(curves or (run[0] / "curves.png" if len(run) == 1 else run[0].parent / "curves.png"))
-    table = Table(title=f"deterministic evaluation, {episodes} episodes, seed {seed}")
-    for column in ("run", "label", "env steps", "success", "return", "length", "decisions", "macro length"):
-        table.add_column(column, justify="left" if column in ("run", "label") else "right")
-    grouped: dict[str, list[dict[str, np.ndarray]]] = {}
+    table = Table(title=f"deterministic evaluation: {episodes} episodes per run, seed {seed}")
+    for column in ("run", "env steps", "success", "return", "length", "decisions", "macro length"):
+        table.add_column(column, justify="left" if column == "run" else "right")
+    curves_by_label: dict[str, list[dict[str, np.ndarray]]] = {}
+    evaluations = []
     for folder in run:
         agent = load_agent(folder)
         result = evaluate_agent(agent, episodes, seed, rollouts)
         prov = provenance("famarl evaluate", {"episodes": episodes, "seed": seed}, seed, [folder / CHECKPOINT_FILE])
-        write_json(
-            folder / EVAL_FILE,
-            {**result.metrics, "label": agent.spec.label, "env_steps": agent.env_steps, "provenance": prov},
-        )
+        evaluation = {
+            **result.metrics,
+            "label": agent.spec.label,
+            "env_steps": agent.env_steps,
+            "train_wall_s": read_run_file(folder)["wall_s"],
+        }
+        write_json(folder / EVAL_FILE, {**evaluation, "provenance": prov})
+        evaluations.append(evaluation)
         if result.traces:
             plot_rollouts(
                 result.traces,
                 folder / ROLLOUTS_FILE,
                 f"{agent.spec.label}, seed {agent.spec.seed}: deterministic episodes, one colour per decision",
             )
-        grouped.setdefault(agent.spec.label, []).append(read_training_log(folder))
+        curves_by_label.setdefault(agent.spec.label, []).append(read_training_log(folder))
         m = result.metrics
         table.add_row(
-            str(folder),
-            agent.spec.label,
+            folder.name,
             f"{agent.env_steps:,}",
             f"{m['success_rate']:.0%}",
-            f"{m['return_mean']:.1f} ± {m['return_std']:.1f}",
+            f"{m['return_mean']:.1f}",
             f"{m['episode_length']:.0f}",
             f"{m['decisions']:.1f}",
             f"{m['macro_length']:.1f}",
         )
-    plot_learning_curves(grouped, curves)
-    Console().print(table)
-    Console().print(f"written {EVAL_FILE} and {ROLLOUTS_FILE} in each run folder, {curves}")
+    plot_learning_curves(curves_by_label, curves)
+    summary = summarise(evaluations)
+    write_json(curves.with_suffix(".json"), {"episodes": episodes, "seed": seed, "labels": summary})
+    console = Console()
+    console.print(table)
+    by_label = Table(title="per label: mean (min to max) over runs")
+    for column in ("label", "runs", "success", "return", "decisions", "macro length", "train wall s"):
+        by_label.add_column(column, justify="left" if column == "label" else "right")
+    for label, values in summary.items():
+        cells = [
+            _spread(values[key], fmt)
+            for key, fmt in (
+                ("success_rate", "{:.0%}"),
+                ("return_mean", "{:.0f}"),
+                ("decisions", "{:.1f}"),
+                ("macro_length", "{:.1f}"),
+                ("train_wall_s", "{:.0f}"),
+            )
+        ]
+        by_label.add_row(label, str(values["runs"]), *cells)
+    console.print(by_label)
+    console.print(
+        f"written {EVAL_FILE} and {ROLLOUTS_FILE} in each run folder, {curves}, {curves.with_suffix('.json')}"
+    )
+
+
+def _spread(values: dict, fmt: str) -> str:
+    text = fmt.format(values["mean"])
+    return (
+        text
+        if values["min"] == values["max"]
+        else f"{text} ({fmt.format(values['min'])} to {fmt.format(values['max'])})"
+    )

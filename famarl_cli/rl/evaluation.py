@@ -86,3 +86,20 @@ def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4) -
     }
     traces = [Trace(layouts[i], np.array(paths[i]), np.array(labels[i]), bool(success[i])) for i in range(traced)]
     return Evaluation(metrics, traces)
+
+
+SUMMARISED = ("success_rate", "return_mean", "episode_length", "decisions", "macro_length", "train_wall_s")
+
+
+def summarise(evaluations: list[dict]) -> dict[str, dict]:
+    """Per label, each metric's mean, min and max over the label's runs (its seeds)."""
+    grouped: dict[str, list[dict]] = {}
+    for evaluation in evaluations:
+        grouped.setdefault(evaluation["label"], []).append(evaluation)
+    summary = {}
+    for label, runs in grouped.items():
+        summary[label] = {"runs": len(runs)}
+        for key in SUMMARISED:
+            values = np.array([run[key] for run in runs], dtype=float)
+            summary[label][key] = {"mean": float(values.mean()), "min": float(values.min()), "max": float(values.max())}
+    return summary
