@@ -335,6 +335,9 @@ def test_train_and_evaluate_bad_inputs(tmp_path, favae_file, segments_file):
     assert famarl("train", "--agent", "ppo", *TINY_TRAINING, "--out", out).exit_code == 0
     one_line_error(famarl("train", "--agent", "ppo", "--out", out), 2, "already holds a run")
     assert famarl("train", "--agent", "ppo", *TINY_TRAINING, "--out", out, "--overwrite").exit_code == 0
+    kept = (out / "checkpoint.pt").read_bytes()
+    one_line_error(famarl("train", "--favae", segments_file, "--out", out, "--overwrite"), 1, "not a readable")
+    assert (out / "checkpoint.pt").read_bytes() == kept, "a failed --overwrite must leave the old run"
     one_line_error(famarl("train", "--out", tmp_path / "empty", "--resume"), 1, "nothing to resume")
     one_line_error(famarl("train", "--favae", segments_file, "--out", tmp_path / "x"), 1, "not a readable checkpoint")
     one_line_error(

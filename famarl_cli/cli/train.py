@@ -93,7 +93,7 @@ def train(
 ) -> None:
     """Train an agent with PPO; writes run.json, checkpoint.pt and train.csv into the run folder."""
     from famarl_cli.artifacts.base import prepare_output
-    from famarl_cli.artifacts.runs import CHECKPOINT_FILE, LOG_FILE, RUN_FILE
+    from famarl_cli.artifacts.runs import CHECKPOINT_FILE, EVAL_FILE, LOG_FILE, ROLLOUTS_FILE, RUN_FILE
     from famarl_cli.rl.ppo import PPOConfig
     from famarl_cli.rl.training import Run, RunSpec, default_label
 
@@ -104,9 +104,6 @@ def train(
     else:
         if (out / RUN_FILE).exists() and not overwrite:
             raise UsageError(f"{out} already holds a run; add --resume to continue it or --overwrite to replace it")
-        if overwrite:
-            for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE):
-                (out / name).unlink(missing_ok=True)
         prepare_output(out / RUN_FILE)
         try:
             ppo = PPOConfig(
@@ -137,6 +134,9 @@ def train(
             label=label or default_label(agent, favae),
         )
         run = Run.start(spec)
+        # Only once the new run has started: a bad option must not cost the user the old run.
+        for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE):
+            (out / name).unlink(missing_ok=True)
 
     trainer = run.trainer
     with progress_bar() as progress:
