@@ -153,7 +153,7 @@ class EpisodeTracker:
     def state_dict(self) -> dict:
         return {
             **{k: v.copy() for k, v in self.current.items()},
-            "recent": np.array(self.recent).reshape(-1, 4),
+            "recent": np.array(self.recent).reshape(-1, len(self.FIELDS)),
             "finished": self.finished,
         }
 
