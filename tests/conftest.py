@@ -1,5 +1,6 @@
 import pytest
 import torch
+from cli_helpers import famarl
 
 from famarl_cli.demos import record_demos
 from famarl_cli.experts import Script
@@ -13,3 +14,26 @@ torch.set_num_threads(1)
 def tiny_demos():
     """A few pushed-down-only episodes, shared by tests that only read them."""
     return record_demos(Script.PUSHED_DOWN_ONLY, n_episodes=6, seed=3)
+
+
+@pytest.fixture(scope="session")
+def demos_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("demos") / "demos.h5"
+    assert famarl("demos", "--episodes", 8, "--seed", 2, "--out", path, "--no-plot").exit_code == 0
+    return path
+
+
+@pytest.fixture(scope="session")
+def segments_file(demos_file, tmp_path_factory):
+    out = tmp_path_factory.mktemp("segments") / "seg.h5"
+    result = famarl("segment", "--demos", demos_file, "--out", out, "--epochs", 5, "--length", 48, "--no-plot")
+    assert result.exit_code == 0, result.output
+    return out
+
+
+@pytest.fixture(scope="session")
+def favae_file(segments_file, tmp_path_factory):
+    out = tmp_path_factory.mktemp("favae") / "favae.pt"
+    result = famarl("favae", "fit", "--segments", segments_file, "--epochs", 2, "--out", out)
+    assert result.exit_code == 0, result.output
+    return out

@@ -1,33 +1,14 @@
-import hashlib
 import json
-import re
 
 import numpy as np
 import pytest
 import torch
-from typer.testing import CliRunner
+from cli_helpers import digest, famarl, one_line_error, usage_error
 
 from famarl_cli import __version__
 from famarl_cli.artifacts import read_demos, write_demos
 from famarl_cli.artifacts.segments import read_segments
 from famarl_cli.artifacts.traversal import read_traversal
-from famarl_cli.cli import app
-
-runner = CliRunner()
-
-
-def famarl(*args):
-    return runner.invoke(app, [str(a) for a in args])
-
-
-def usage_error(result) -> str:
-    """typer's boxed usage error, unwrapped to one line of words."""
-    assert result.exit_code == 2, result.output
-    return " ".join(re.sub("[│╭╮╰╯─]", " ", result.stderr).split())
-
-
-def digest(path):
-    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def test_version_and_help():
@@ -73,13 +54,6 @@ def test_bad_options_are_usage_errors(args, needle):
     assert needle in usage_error(famarl(*args))
 
 
-def one_line_error(result, code, needle):
-    assert result.exit_code == code
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], result.stderr
-    assert "Traceback" not in result.output
-
-
 def test_unwritable_output_is_a_one_line_error(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("x")
@@ -107,13 +81,6 @@ def test_reading_a_broken_file_is_a_one_line_error(tmp_path):
 def test_debug_flag_shows_the_traceback(tmp_path):
     result = famarl("--debug", "inspect", tmp_path / "missing.h5")
     assert result.exit_code != 0 and result.exception is not None
-
-
-@pytest.fixture(scope="module")
-def demos_file(tmp_path_factory):
-    path = tmp_path_factory.mktemp("demos") / "demos.h5"
-    assert famarl("demos", "--episodes", 8, "--seed", 2, "--out", path, "--no-plot").exit_code == 0
-    return path
 
 
 def test_segment_end_to_end_and_reuse_of_the_segmenter(demos_file, tmp_path):
@@ -198,14 +165,6 @@ def test_segment_bad_inputs(demos_file, tmp_path):
     assert not (tmp_path / "x.h5").exists()
 
 
-@pytest.fixture(scope="module")
-def segments_file(demos_file, tmp_path_factory):
-    out = tmp_path_factory.mktemp("segments") / "seg.h5"
-    result = famarl("segment", "--demos", demos_file, "--out", out, "--epochs", 5, "--length", 48, "--no-plot")
-    assert result.exit_code == 0, result.output
-    return out
-
-
 def test_favae_fit_with_its_own_pre_run_then_traverse(segments_file, tmp_path):
     out = tmp_path / "favae.pt"
     result = famarl("favae", "fit", "--segments", segments_file, "--beta", 1, "--epochs", 3, "--out", out)
@@ -275,14 +234,6 @@ def test_favae_and_traverse_bad_inputs(demos_file, segments_file, tmp_path):
     one_line_error(famarl("traverse", "--model", model, "--ladder", 4), 2, "ladder 4 does not exist")
     one_line_error(famarl("traverse", "--model", model, "--ladder", 1, "--index", 3), 2, "index 3 does not exist")
     one_line_error(famarl("traverse", "--model", model, "--values", "1,x"), 2, "values must be numbers")
-
-
-@pytest.fixture(scope="module")
-def favae_file(segments_file, tmp_path_factory):
-    out = tmp_path_factory.mktemp("favae") / "favae.pt"
-    result = famarl("favae", "fit", "--segments", segments_file, "--epochs", 2, "--out", out)
-    assert result.exit_code == 0, result.output
-    return out
 
 
 TINY_TRAINING = ("--steps", 1500, "--n-envs", 4, "--n-steps", 8, "--epochs", 1, "--minibatches", 2)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import glob
 import hashlib
 import json
 import os
@@ -34,10 +35,13 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success it is renamed over ``path``, on failure removed.
 
     A reader (or DVC) therefore sees the previous complete file or the new complete one, never a partial one.
+    The temporary name carries the writer's process id, so that temporaries left by a killed writer (kill -9
+    gives no chance to clean up) are removed by the next write of the same file.
     """
     path = prepare_output(path)
+    remove_stale_temporaries(path)
     try:
-        fd, temp = tempfile.mkstemp(prefix=f".{path.name}{TEMP_MARKER}", dir=path.parent)
+        fd, temp = tempfile.mkstemp(prefix=f".{path.name}{TEMP_MARKER}{os.getpid()}-", dir=path.parent)
         os.close(fd)
         # mkstemp creates files readable by the owner only; artifacts get the usual permissions.
         os.chmod(temp, 0o666 & ~_UMASK)
@@ -50,9 +54,30 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
             os.fsync(handle.fileno())
         os.replace(temp, path)
     except OSError as exc:
-        raise ArtifactError(f"cannot write {path}: {exc.strerror or exc}") from exc
+        raise ArtifactError(f"cannot write {path}: {exc.strerror or exc}; {path.name} was left as it was") from exc
     finally:
         temp.unlink(missing_ok=True)
+
+
+def remove_stale_temporaries(path: Path) -> list[Path]:
+    """Delete the temporaries of ``path`` whose writing process no longer exists; returns what was deleted."""
+    removed = []
+    for temp in path.parent.glob(f".{glob.escape(path.name)}{TEMP_MARKER}*-*"):
+        pid = temp.name[len(f".{path.name}{TEMP_MARKER}") :].split("-", 1)[0]
+        if pid.isdigit() and not _process_exists(int(pid)):
+            temp.unlink(missing_ok=True)
+            removed.append(temp)
+    return removed
+
+
+def _process_exists(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True  # another user's process
+    return True
 
 
 def prepare_output(path: str | os.PathLike) -> Path:

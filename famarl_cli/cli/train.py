@@ -104,7 +104,6 @@ def train(
     else:
         if (out / RUN_FILE).exists() and not overwrite:
             raise UsageError(f"{out} already holds a run; add --resume to continue it or --overwrite to replace it")
-        prepare_output(out / RUN_FILE)
         try:
             ppo = PPOConfig(
                 total_steps=steps or DEFAULT_STEPS,
@@ -134,6 +133,7 @@ def train(
             label=label or default_label(agent, favae),
         )
         run = Run.start(spec)
+        prepare_output(out / RUN_FILE)
         # Only once the new run has started: a bad option must not cost the user the old run.
         for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE):
             (out / name).unlink(missing_ok=True)
