@@ -297,7 +297,7 @@ def test_kill_9_during_demos_leaves_the_old_file_or_a_complete_new_one(tmp_path)
     kills = 0
     for attempt in range(6):
         process = famarl_process("demos", "--episodes", 400, "--seed", attempt + 1, "--out", out, "--no-plot")
-        kills += kill_after(process, float(rng.uniform(0.5, 4.0)))
+        kills += kill_after(process, float(rng.uniform(1.0, 3.5)))
         if digest(out) != old:  # the new file landed complete
             assert len(read_demos(out).episodes) == 400
             old = digest(out)

@@ -84,6 +84,9 @@ def train(
     normalize: Annotated[
         bool, typer.Option(help="Normalise observations and scale rewards by the return's std.")
     ] = True,
+    clip_value: Annotated[
+        bool, typer.Option(help="Clip the value loss like the policy ratio (CleanRL's default).")
+    ] = True,
     checkpoint_every: Annotated[
         int, typer.Option(min=1, help="Save the run every this many updates (and at the end).")
     ] = 20,
@@ -115,6 +118,7 @@ def train(
                 gamma=gamma,
                 gae_lambda=gae_lambda,
                 clip=clip,
+                clip_value=clip_value,
                 ent_coef=ent_coef,
                 macro_discount=str(macro_discount),
                 normalize_obs=normalize,
