@@ -97,7 +97,11 @@ class Run:
 
     @staticmethod
     def resume(run_dir: str | os.PathLike, total_steps: int | None = None) -> Run:
-        """Continue a run from its checkpoint; ``total_steps`` may extend (not shrink below done) its budget."""
+        """Continue a run from its checkpoint.
+
+        ``total_steps`` replaces the budget; extending it stretches the rest of the learning-rate schedule, so an
+        extended run is not the same as one started with the larger budget.
+        """
         if not (Path(run_dir) / CHECKPOINT_FILE).exists():
             raise ArtifactError(f"{run_dir}: nothing to resume (no {CHECKPOINT_FILE})")
         payload = read_run_checkpoint(run_dir)
