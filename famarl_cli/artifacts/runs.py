@@ -80,8 +80,8 @@ def read_run_file(run_dir: str | os.PathLike) -> dict:
 
 def read_run_checkpoint(run_dir: str | os.PathLike) -> dict:
     """The checkpoint's payload with the trainer state's arrays back in numpy."""
-    payload = load_checkpoint(Path(run_dir) / CHECKPOINT_FILE, CHECKPOINT_SCHEMA, CHECKPOINT_SCHEMA_VERSION)
     path = Path(run_dir) / CHECKPOINT_FILE
+    payload = load_checkpoint(path, CHECKPOINT_SCHEMA, CHECKPOINT_SCHEMA_VERSION)
     for key in ("trainer", "mode", "status"):
         check(isinstance(payload.get(key), dict), path, f"has no {key!r}")
     trainer = payload["trainer"]

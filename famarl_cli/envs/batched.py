@@ -23,6 +23,7 @@ from famarl_cli.envs.continuous_world import (
     TASKS,
     Layouts,
     distance_to_goal,
+    observation_space,
     observe,
     physics_step,
     sample_layouts,
@@ -64,7 +65,7 @@ class ContinuousWorldBatch:
 
     @property
     def observation_size(self) -> int:
-        return 8 + (self.task.n_walls if self.task.entrances_observed else 0)
+        return observation_space(self.task).shape[0]
 
     @property
     def action_bounds(self) -> tuple[np.ndarray, np.ndarray]:

@@ -227,13 +227,11 @@ class PPOTrainer:
 
     def update(self, rollout: Rollout) -> dict[str, float]:
         cfg = self.config
-        flat = {
-            name: torch.as_tensor(
-                getattr(rollout, name).reshape(cfg.n_steps * cfg.n_envs, *getattr(rollout, name).shape[2:])
-            )
-            for name in ("obs", "u", "index", "logp", "values", "advantages", "returns")
-        }
-        flat = {k: v.float() if v.is_floating_point() else v for k, v in flat.items()}
+        flat = {}
+        for name in ("obs", "u", "index", "logp", "values", "advantages", "returns"):
+            array = getattr(rollout, name)
+            tensor = torch.as_tensor(array.reshape(-1, *array.shape[2:]))
+            flat[name] = tensor.float() if tensor.is_floating_point() else tensor
         size = len(flat["obs"])
         minibatch = size // cfg.minibatches
         totals: dict[str, list[float]] = {
