@@ -1,4 +1,5 @@
-"""Environment throughput: ContinuousWorld single env and batched env, in env steps per second.
+"""Environment throughput: ContinuousWorld single env and batched env, RobotHand single env, in env steps per
+second.
 
     python benchmarks/env_throughput.py [--seconds 2] [--out benchmarks/results/env_throughput.json]
 
@@ -40,7 +41,7 @@ def single_env(task: str, seconds: float, unwrapped: bool) -> float:
     if unwrapped:
         env = env.unwrapped
     env.reset(seed=0)
-    actions = np.random.default_rng(0).uniform(-1, 1, (1024, 2)).astype(np.float32)
+    actions = np.random.default_rng(0).uniform(-1, 1, (1024, *env.action_space.shape)).astype(np.float32)
     counter = iter(range(1 << 62))
     limit = gym.spec(ENV_IDS[task]).max_episode_steps
     elapsed = [0]
@@ -74,10 +75,12 @@ def main() -> None:
         rows.append((task, "single (unwrapped)", 1, single_env(task, args.seconds, unwrapped=True)))
         for n_envs in (1, 64, 1024):
             rows.append((task, "batched", n_envs, batched_env(task, n_envs, args.seconds)))
+    for task in ("robot-hand-base", "robot-hand-reaching", "robot-hand-ball-placing"):
+        rows.append((task, "single (gym.make)", 1, single_env(task, args.seconds, unwrapped=False)))
 
-    print(f"{'task':<6} {'env':<20} {'worlds':>7} {'env steps/s':>14}")
+    print(f"{'task':<24} {'env':<20} {'worlds':>7} {'env steps/s':>14}")
     for task, kind, n_envs, rate in rows:
-        print(f"{task:<6} {kind:<20} {n_envs:>7} {rate:>14,.0f}")
+        print(f"{task:<24} {kind:<20} {n_envs:>7} {rate:>14,.0f}")
     peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"peak RSS {peak_mib:.0f} MiB")
 

@@ -18,8 +18,10 @@ import numpy as np
 import torch
 
 from famarl_cli.artifacts import read_demos
-from famarl_cli.experts import Script
+from famarl_cli.experts.scripts import Environment, Script
 from famarl_cli.segmentation import AutoencoderConfig, SegmentParams, TrainingConfig, segment_demos, train_autoencoder
+
+SCRIPTS = [s for s in Script if s.environment == Environment.CONTINUOUS_WORLD]
 
 MARGINS = (0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
 
@@ -35,7 +37,7 @@ def main() -> None:
     torch.set_num_threads(1)
 
     rows = []
-    for script in Script:
+    for script in SCRIPTS:
         demos = read_demos(args.demos_dir / f"{script.value}.h5")
         actions = [e.actions for e in demos.episodes]
         for seed in args.seeds:
@@ -61,7 +63,7 @@ def main() -> None:
 
     print(f"\nboundary F1 within +-2 steps, mean (min-max) over seeds {args.seeds}; distance {args.distance}")
     print(f"{'script':<20}" + "".join(f"{'margin ' + str(m):>20}" for m in MARGINS))
-    for script in Script:
+    for script in SCRIPTS:
         cells = []
         for margin in MARGINS:
             f1 = [r["f1_within_2"] for r in rows if r["script"] == script.value and r["margin"] == margin]

@@ -1,4 +1,5 @@
-"""The demos stage: run a scripted expert in ContinuousWorld Base and collect its episodes."""
+"""The demos stage: run a scripted expert in its Base task (ContinuousWorld or RobotHand) and collect its
+episodes."""
 
 from __future__ import annotations
 
@@ -8,11 +9,8 @@ import gymnasium as gym
 import numpy as np
 
 from famarl_cli.artifacts import Demos, Episode, provenance
-from famarl_cli.envs import ENV_IDS
 from famarl_cli.errors import UsageError
-from famarl_cli.experts import FACTOR_NAMES, Script, ScriptedExpert
-
-ENV_ID = ENV_IDS["base"]
+from famarl_cli.experts import Script, demonstration, make_expert
 
 
 def episode_seeds(seed: int, n_episodes: int) -> np.ndarray:
@@ -20,7 +18,7 @@ def episode_seeds(seed: int, n_episodes: int) -> np.ndarray:
     return np.random.default_rng(seed).integers(0, 2**31 - 1, n_episodes)
 
 
-def record_episode(env: gym.Env, expert: ScriptedExpert, seed: int) -> Episode:
+def record_episode(env: gym.Env, expert, seed: int) -> Episode:
     observation, _ = env.reset(seed=int(seed))
     expert.reset(observation)
     observations, actions, rewards, terminations, truncations = [observation], [], [], [], []
@@ -57,9 +55,9 @@ def record_demos(
     if n_episodes < 1:
         raise UsageError(f"episodes must be >= 1, got {n_episodes}")
     script = Script(script)
-    env_kwargs = {"goal_rows": list(script.goal_rows)}
-    env = gym.make(ENV_ID, **env_kwargs)
-    expert = ScriptedExpert(script)
+    spec = demonstration(script)
+    env = gym.make(spec.env_id, **spec.env_kwargs)
+    expert = make_expert(script)
     episodes = []
     for episode_seed in episode_seeds(seed, n_episodes):
         episodes.append(record_episode(env, expert, episode_seed))
@@ -69,10 +67,10 @@ def record_demos(
     params = {"script": script.value, "episodes": n_episodes, "seed": seed}
     return Demos(
         episodes=episodes,
-        env_id=ENV_ID,
+        env_id=spec.env_id,
         script=script.value,
         seed=seed,
-        factor_names=FACTOR_NAMES,
-        env_kwargs=env_kwargs,
+        factor_names=spec.factor_names,
+        env_kwargs=spec.env_kwargs,
         provenance=provenance("famarl demos", params, seed),
     )

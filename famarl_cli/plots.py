@@ -13,21 +13,26 @@ from matplotlib.patches import Circle
 
 from famarl_cli.artifacts import Demos, atomic_path
 from famarl_cli.artifacts.segments import Segments
+from famarl_cli.envs import ROBOT_HAND_IDS
 from famarl_cli.traversal import Traversal
 
-PHASE_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")
+PHASE_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown", "tab:olive")
 
 
 def plot_demos(demos: Demos, path: str | os.PathLike, max_episodes: int = 100) -> None:
-    """Expert trajectories on the unit square (each map scaled to side 1), each phase in its own colour.
+    """Expert trajectories, each phase in its own colour: ContinuousWorld's on the unit square (each map scaled to
+    side 1), RobotHand's grip point in the world's metres.
 
     Like the paper's Figure 3: the script's family of trajectories at a glance, with the true phase boundaries
     marked, so a user sees what macro actions the demos can teach.
     """
-    fig = Figure(figsize=(5, 5.3))
+    from famarl_cli.envs import robot_hand
+
+    robot = demos.env_id in ROBOT_HAND_IDS.values()
+    fig = Figure(figsize=(8, 5.3) if robot else (5, 5.3))
     ax = fig.subplots()
     for episode in demos.episodes[:max_episodes]:
-        xy = episode.observations[:, 0:2] / episode.observations[0, 6]
+        xy = episode.observations[:, 0:2] / (1.0 if robot else episode.observations[0, 6])
         bounds = [*episode.segment_starts.tolist(), episode.length]
         for phase, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
             color = PHASE_COLORS[phase % len(PHASE_COLORS)]
@@ -35,13 +40,16 @@ def plot_demos(demos: Demos, path: str | os.PathLike, max_episodes: int = 100) -
         ax.plot(*xy[episode.segment_starts[1:]].T, "k.", ms=3)
         ax.plot(*xy[0], "o", color="tab:blue", ms=4, mec="none")
         ax.plot(*xy[-1], "x", color="tab:red", ms=4)
-    for phase in range(2):
+    for phase in range(min(len(PHASE_COLORS), max(len(e.segment_starts) for e in demos.episodes))):
         ax.plot([], [], color=PHASE_COLORS[phase], label=f"phase {phase + 1}")
     ax.plot([], [], "k.", label="true boundary")
-    ax.set(xlim=(0, 1), ylim=(0, 1), aspect="equal", xlabel="x / map size", ylabel="y / map size")
+    if robot:
+        ax.set(xlim=(0, robot_hand.WIDTH), ylim=(0, robot_hand.HEIGHT), aspect="equal", xlabel="x (m)", ylabel="y (m)")
+    else:
+        ax.set(xlim=(0, 1), ylim=(0, 1), aspect="equal", xlabel="x / map size", ylabel="y / map size")
     shown = min(max_episodes, len(demos.episodes))
     ax.set_title(f"{demos.script}: {shown} episodes, success {demos.success_rate:.0%}")
-    ax.legend(loc="center", fontsize=8)
+    ax.legend(loc="upper right" if robot else "center", fontsize=8)
     fig.tight_layout()
     _save(fig, path)
 
@@ -150,17 +158,18 @@ def plot_rollouts(traces: list, path: str | os.PathLike, title: str) -> None:
 
 
 def plot_learning_curves(curves: dict[str, list[dict[str, np.ndarray]]], path: str | os.PathLike) -> None:
-    """Success rate and return against environment steps: per label, the mean over seeds and its min-max band.
+    """Success rate, return and mean macro length against environment steps: per label, the mean over seeds and
+    its min-max band. The macro-length panel is the paper's Figure 8 (does training shorten macro actions?).
 
     Seeds log at different step counts, so each is interpolated onto a common grid that stops where the
     shortest seed stops.
     """
-    fig = Figure(figsize=(10, 3.8))
-    axes = fig.subplots(1, 2)
+    fig = Figure(figsize=(14, 3.8))
+    axes = fig.subplots(1, 3)
     for (label, runs), colour in zip(sorted(curves.items()), cm.tab10.colors, strict=False):
         end = min(run["env_steps"][-1] for run in runs)
         grid = np.linspace(0, end, 200)
-        for ax, key in zip(axes, ("episode_success", "episode_return"), strict=True):
+        for ax, key in zip(axes, ("episode_success", "episode_return", "macro_length"), strict=True):
             values = np.array([_interpolate(grid, run["env_steps"], run[key]) for run in runs])
             with warnings.catch_warnings():  # before the first episode ends there is nothing to average
                 warnings.simplefilter("ignore", RuntimeWarning)
@@ -169,6 +178,7 @@ def plot_learning_curves(curves: dict[str, list[dict[str, np.ndarray]]], path: s
             ax.fill_between(grid, low, high, color=colour, alpha=0.2)
     axes[0].set(xlabel="environment steps", ylabel="success rate (last 100 episodes)", ylim=(-0.02, 1.02))
     axes[1].set(xlabel="environment steps", ylabel="episode return (last 100 episodes)")
+    axes[2].set(xlabel="environment steps", ylabel="mean macro length chosen (steps, per rollout)")
     axes[0].legend(fontsize=8)
     fig.suptitle("training curves: mean over seeds, band = min to max", fontsize=9)
     fig.tight_layout()
@@ -182,3 +192,30 @@ def _interpolate(grid: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     values = np.interp(grid, x[known], y[known])
     values[grid < x[known][0]] = np.nan
     return values
+
+
+DECISION_COLOURS = (np.array(cm.tab10.colors) * 255).astype(np.uint8)
+
+
+def save_film(film, gif_path: str | os.PathLike, strip_path: str | os.PathLike, stills: int = 6) -> None:
+    """A rendered episode as a GIF and as a strip of ``stills`` frames.
+
+    A band along each frame's top has the colour of the decision that made it, so macro actions show as
+    stretches of one colour (the GIF's counterpart of the paper's Fig. 4b).
+    """
+    from PIL import Image
+
+    band = max(4, film.frames[0].shape[0] // 40)
+    marked = [film.frames[0].copy()]
+    for frame, decision in zip(film.frames[1:], film.decision, strict=True):
+        frame = frame.copy()
+        frame[:band] = DECISION_COLOURS[decision % len(DECISION_COLOURS)]
+        marked.append(frame)
+    images = [Image.fromarray(frame) for frame in marked]
+    with atomic_path(gif_path) as temp:
+        images[0].save(temp, format="GIF", save_all=True, append_images=images[1:], duration=50, loop=0)
+    picks = np.linspace(0, len(marked) - 1, min(stills, len(marked))).round().astype(int)
+    gap = np.full((marked[0].shape[0], 4, 3), 255, dtype=np.uint8)
+    strip = np.concatenate([part for i in picks for part in (marked[i], gap)][:-1], axis=1)
+    with atomic_path(strip_path) as temp:
+        Image.fromarray(strip).save(temp, format="PNG")

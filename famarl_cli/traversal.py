@@ -1,9 +1,11 @@
 """Latent traversal: move one FAVAE latent variable over a range of values, keep the others fixed, decode, and
-run each decoded macro action in ContinuousWorld to see what the variable controls (the paper's Figure 5).
+run each decoded macro action to see what the variable controls (the paper's Figure 5). Macro actions of two
+dimensions run in ContinuousWorld, of four in RobotHand (the grip point's path is drawn).
 
 Variables are named (ladder, index), both counted from 1 as in the paper: (3, 1) is the first latent of the
 third, deepest ladder. The fixed latent vector is the prior's mean, 0. Each decoded macro action runs open-loop
-from rest at the centre of an empty TRAVERSAL_MAP_SIZE square, so a macro action as long as the demos' longest
+from rest at the centre of an empty world (ContinuousWorld: a TRAVERSAL_MAP_SIZE square; RobotHand: the hand
+alone, no objects), so a macro action as long as the demos' longest
 legs (about 5 m) never reaches an edge; values far outside the prior (|z| >= 3) can decode longer ones.
 
 A variable's *effect* (metres) is how far apart the paths of neighbouring values are: the mean distance between
@@ -17,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from famarl_cli.envs.continuous_world import simulate_open_loop
+from famarl_cli.envs import continuous_world, robot_hand
 from famarl_cli.errors import UsageError
 from famarl_cli.favae.model import Favae
 
@@ -63,8 +65,7 @@ def traverse(model: Favae, variables: list[tuple[int, int]], values: list[float]
         z[v, :, offsets[ladder - 1] + index - 1] = values
     flat = z.reshape(-1, z.shape[-1])
     actions, lengths = model.decode_macro_actions(flat)
-    centre = (TRAVERSAL_MAP_SIZE / 2, TRAVERSAL_MAP_SIZE / 2)
-    paths = simulate_open_loop(actions, lengths, centre, TRAVERSAL_MAP_SIZE)
+    paths = run_macro_actions(actions, lengths)
     shape = (len(variables), len(values))
     paths = paths.reshape(*shape, *paths.shape[1:])
     gaps = np.linalg.norm(paths[:, 1:] - paths[:, :-1], axis=-1)  # (V, K - 1, L + 1)
@@ -76,6 +77,16 @@ def traverse(model: Favae, variables: list[tuple[int, int]], values: list[float]
         paths=paths,
         effects=gaps.mean(axis=(1, 2)),
     )
+
+
+def run_macro_actions(actions: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """(n, L + 1, 2) paths of (n, L, D) macro actions, in the environment whose action size is D."""
+    if actions.shape[-1] == continuous_world.ACTION_SPACE.shape[0]:
+        centre = (TRAVERSAL_MAP_SIZE / 2, TRAVERSAL_MAP_SIZE / 2)
+        return continuous_world.simulate_open_loop(actions, lengths, centre, TRAVERSAL_MAP_SIZE)
+    if actions.shape[-1] == robot_hand.ACTION_SPACE.shape[0]:
+        return robot_hand.simulate_open_loop(actions, lengths, (robot_hand.WIDTH / 2, robot_hand.HEIGHT / 2))
+    raise UsageError(f"no environment takes {actions.shape[-1]}-dimensional actions; traversal cannot run them")
 
 
 def parse_values(text: str) -> list[float]:

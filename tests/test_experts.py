@@ -2,10 +2,13 @@ import numpy as np
 import pytest
 
 from famarl_cli.demos import record_demos
-from famarl_cli.experts import FACTOR_NAMES, PUSH, Script
+from famarl_cli.experts.continuous_world import FACTOR_NAMES, PUSH
+from famarl_cli.experts.scripts import Environment, Script
 
 
-@pytest.fixture(scope="module", params=list(Script), ids=lambda s: s.value)
+@pytest.fixture(
+    scope="module", params=[s for s in Script if s.environment == Environment.CONTINUOUS_WORLD], ids=lambda s: s.value
+)
 def demos(request):
     return record_demos(request.param, n_episodes=40, seed=11)
 

@@ -31,12 +31,14 @@ RUN_SCHEMA = "famarl.run"
 RUN_SCHEMA_VERSION = 1
 CHECKPOINT_SCHEMA = "famarl.agent"
 CHECKPOINT_SCHEMA_VERSION = 1
-RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE = (
+RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE, FILM_FILE, STILLS_FILE = (
     "run.json",
     "checkpoint.pt",
     "train.csv",
     "eval.json",
     "rollouts.png",
+    "episode.gif",
+    "episode.png",
 )
 
 

@@ -12,15 +12,23 @@ from rich.table import Table
 
 from famarl_cli.artifacts import Demos
 from famarl_cli.cli import app, progress_bar, reports_errors
-from famarl_cli.experts import Script
+from famarl_cli.errors import UsageError
+from famarl_cli.experts.scripts import Environment, Script
 
 
 @app.command()
 @reports_errors
 def demos(
     script: Annotated[
-        Script, typer.Option("--script", "-s", help="Expert script that acts in ContinuousWorld Base.")
+        Script,
+        typer.Option(
+            "--script", "-s", help="Expert script: the paper's four act in ContinuousWorld Base, pegging in RobotHand."
+        ),
     ] = Script.PUSHED_DOWN_ONLY,
+    env: Annotated[
+        Environment | None,
+        typer.Option(help="Environment family; optional, the script implies it.  [default: the script's]"),
+    ] = None,
     episodes: Annotated[int, typer.Option(min=1, help="Number of episodes to record.")] = 100,
     seed: Annotated[int, typer.Option(help="Seed of the episodes' layouts; same seed, same file.")] = 0,
     out: Annotated[
@@ -29,6 +37,8 @@ def demos(
     plot: Annotated[bool, typer.Option(help="Also draw the trajectories to <out>.png.")] = True,
 ) -> None:
     """Record scripted-expert demos (with their true phase boundaries and factors) to an HDF5 file."""
+    if env is not None and env != script.environment:
+        raise UsageError(f"script {script.value} acts in {script.environment}, not in {env.value}")
     from famarl_cli.artifacts import prepare_output, write_demos
     from famarl_cli.demos import record_demos
     from famarl_cli.plots import plot_demos

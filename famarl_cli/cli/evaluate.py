@@ -34,6 +34,9 @@ def evaluate(
     rollouts: Annotated[
         int, typer.Option(min=0, help="Episodes drawn in each run's rollouts.png (ContinuousWorld).")
     ] = 4,
+    film: Annotated[
+        bool, typer.Option(help="Also render one episode of each run: episode.gif and a strip of stills, episode.png.")
+    ] = True,
     curves: Annotated[
         Path | None,
         typer.Option(
@@ -42,14 +45,24 @@ def evaluate(
         ),
     ] = None,
 ) -> None:
-    """Success rate, return, episode length, decisions and macro length of each run; pictures of rollouts."""
+    """Success rate, return, episode length, decisions and macro length of each run; pictures and a GIF of
+    rollouts."""
     import numpy as np
 
     from famarl_cli.artifacts import write_json
     from famarl_cli.artifacts.base import prepare_output, provenance
-    from famarl_cli.artifacts.runs import CHECKPOINT_FILE, EVAL_FILE, ROLLOUTS_FILE, read_run_file, read_training_log
-    from famarl_cli.plots import plot_learning_curves, plot_rollouts
+    from famarl_cli.artifacts.runs import (
+        CHECKPOINT_FILE,
+        EVAL_FILE,
+        FILM_FILE,
+        ROLLOUTS_FILE,
+        STILLS_FILE,
+        read_run_file,
+        read_training_log,
+    )
+    from famarl_cli.plots import plot_learning_curves, plot_rollouts, save_film
     from famarl_cli.rl.evaluation import evaluate as evaluate_agent
+    from famarl_cli.rl.evaluation import film as film_episode
     from famarl_cli.rl.evaluation import summarise
     from famarl_cli.rl.training import load_agent
 
@@ -81,6 +94,8 @@ def evaluate(
                 folder / ROLLOUTS_FILE,
                 f"{agent.spec.label}, seed {agent.spec.seed}: deterministic episodes, one colour per decision",
             )
+        if film:
+            save_film(film_episode(agent, seed), folder / FILM_FILE, folder / STILLS_FILE)
         curves_by_label.setdefault(agent.spec.label, []).append(read_training_log(folder))
         m = result.metrics
         table.add_row(
@@ -114,7 +129,8 @@ def evaluate(
         by_label.add_row(label, str(values["runs"]), *cells)
     console.print(by_label)
     console.print(
-        f"written {EVAL_FILE} and {ROLLOUTS_FILE} in each run folder, {curves}, {curves.with_suffix('.json')}"
+        f"written {EVAL_FILE}, {ROLLOUTS_FILE} (ContinuousWorld)"
+        f"{f', {FILM_FILE}, {STILLS_FILE}' if film else ''} in each run folder, {curves}, {curves.with_suffix('.json')}"
     )
 
 

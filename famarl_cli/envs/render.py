@@ -1,4 +1,5 @@
-"""A tiny rasteriser for environment frames: filled rectangles and discs in world coordinates.
+"""A tiny rasteriser for environment frames: rectangles, discs, convex polygons and thick segments in world
+coordinates.
 
 Frames need no plotting library; numpy masks over a pixel grid are fast enough for GIFs and tests.
 """
@@ -29,3 +30,26 @@ class Canvas:
         radius = max(radius, 0.5 / self.scale)
         inside = (self._y[:, None] - y) ** 2 + (self._x[None, :] - x) ** 2 <= radius**2
         self.image[inside] = color
+
+    def polygon(self, vertices, color) -> None:
+        """A convex polygon, vertices in either winding order."""
+        points = np.asarray(vertices, dtype=float)
+        inside = np.ones(self.image.shape[:2], dtype=bool)
+        orientation = np.sign(_cross(points[1] - points[0], points[2] - points[1]))
+        for a, b in zip(points, np.roll(points, -1, axis=0), strict=True):
+            side = (b[0] - a[0]) * (self._y[:, None] - a[1]) - (b[1] - a[1]) * (self._x[None, :] - a[0])
+            inside &= orientation * side >= 0
+        self.image[inside] = color
+
+    def segment(self, a, b, radius: float, color) -> None:
+        """A thick line: every pixel within ``radius`` of the segment from ``a`` to ``b``."""
+        a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+        along = b - a
+        px, py = self._x[None, :] - a[0], self._y[:, None] - a[1]
+        t = np.clip((px * along[0] + py * along[1]) / max(float(along @ along), 1e-12), 0.0, 1.0)
+        radius = max(radius, 0.5 / self.scale)
+        self.image[(px - t * along[0]) ** 2 + (py - t * along[1]) ** 2 <= radius**2] = color
+
+
+def _cross(u: np.ndarray, v: np.ndarray) -> float:
+    return float(u[0] * v[1] - u[1] * v[0])

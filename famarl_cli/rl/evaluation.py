@@ -17,7 +17,7 @@ from famarl_cli.envs.continuous_world import Layouts
 from famarl_cli.rl.executor import run_open_loop
 from famarl_cli.rl.normalization import ObservationNormalizer
 from famarl_cli.rl.training import TrainedAgent, build_mode
-from famarl_cli.rl.vector import make_batch
+from famarl_cli.rl.vector import GymBatch, make_batch
 
 
 @dataclass
@@ -69,7 +69,7 @@ def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4) -
         lengths += result.steps
         decisions += alive
         chosen += length
-        success |= alive & result.terminated
+        success |= alive & result.success
         alive &= ~(result.terminated | result.truncated)
         obs = result.obs
         decision += 1
@@ -86,6 +86,41 @@ def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4) -
     }
     traces = [Trace(layouts[i], np.array(paths[i]), np.array(labels[i]), bool(success[i])) for i in range(traced)]
     return Evaluation(metrics, traces)
+
+
+@dataclass
+class Film:
+    """One deterministic episode rendered frame by frame; ``decision[t]`` is the decision that made frame t + 1."""
+
+    frames: list[np.ndarray]
+    decision: list[int]
+    success: bool
+
+
+def film(agent: TrainedAgent, seed: int) -> Film:
+    """Render one deterministic episode of ``agent`` (its first frame is the reset state)."""
+    batch = GymBatch(agent.spec.env_id, 1, seed, render_mode="rgb_array")
+    env = batch.envs[0]
+    mode = build_mode(agent.spec, batch, agent.favae)
+    normalize = ObservationNormalizer((batch.observation_size,), agent.spec.ppo.normalize_obs)
+    normalize.load_state_dict(agent.obs_norm_state)
+    obs, _ = env.reset(seed=seed)
+    frames, decisions, success, done, decision = [env.render()], [], False, False, 0
+    while not done:
+        with torch.no_grad():
+            state = torch.from_numpy(normalize(np.ravel(obs)[None].astype(np.float32), update=False))
+            u, index = agent.policy.distribution(state).mode()
+        actions, length = mode.to_open_loop(u.numpy().astype(np.float64), index.numpy())
+        for k in range(int(length[0])):
+            obs, _, terminated, truncated, info = env.step(actions[0, k])
+            frames.append(env.render())
+            decisions.append(decision)
+            done = terminated or truncated
+            success = bool(info.get("success", terminated))
+            if done:
+                break
+        decision += 1
+    return Film(frames, decisions, success)
 
 
 SUMMARISED = ("success_rate", "return_mean", "episode_length", "decisions", "macro_length", "train_wall_s")

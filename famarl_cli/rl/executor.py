@@ -28,6 +28,8 @@ class OpenLoopResult:
     """(N,) environment steps executed; less than the sequence's length where the episode ended first."""
     terminated: np.ndarray
     truncated: np.ndarray
+    success: np.ndarray
+    """(N,) the episode ended in success: ``info["success"]`` where the environment reports it, else terminated."""
     final_obs: np.ndarray
     """(N, obs) last observation of an episode that ended (meaningful where terminated | truncated)."""
 
@@ -51,6 +53,7 @@ def run_open_loop(
     steps = np.zeros(n, dtype=np.int64)
     terminated = np.zeros(n, dtype=bool)
     truncated = np.zeros(n, dtype=bool)
+    success = np.zeros(n, dtype=bool)
     final_obs = obs.copy()
     for k in range(int(lengths.max(initial=0))):
         active = (k < lengths) & ~terminated & ~truncated
@@ -65,6 +68,7 @@ def run_open_loop(
             final_obs[ended] = info["final_obs"][ended]
         terminated |= term
         truncated |= trunc
+        success |= info.get("success", term) & ended
         if on_step is not None:
             on_step(active, np.where(ended[:, None], final_obs, obs))
-    return OpenLoopResult(obs, reward, discounted, steps, terminated, truncated, final_obs)
+    return OpenLoopResult(obs, reward, discounted, steps, terminated, truncated, success, final_obs)

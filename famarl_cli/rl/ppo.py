@@ -28,7 +28,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from famarl_cli.rl.executor import run_open_loop
+from famarl_cli.rl.executor import OpenLoopResult, run_open_loop
 from famarl_cli.rl.normalization import ObservationNormalizer, RewardScaler
 from famarl_cli.rl.policy import ActorCritic
 from famarl_cli.rl.vector import BatchedEnv
@@ -134,12 +134,12 @@ class EpisodeTracker:
         self.recent: deque[tuple[float, ...]] = deque(maxlen=RECENT_EPISODES)
         self.finished = 0
 
-    def record(self, reward: np.ndarray, steps: np.ndarray, terminated: np.ndarray, truncated: np.ndarray) -> None:
-        self.current["return"] += reward
-        self.current["length"] += steps
+    def record(self, result: OpenLoopResult) -> None:
+        self.current["return"] += result.reward
+        self.current["length"] += result.steps
         self.current["decisions"] += 1
-        for i in np.flatnonzero(terminated | truncated):
-            self.recent.append(tuple(float(self.current[k][i]) for k in self.FIELDS[:-1]) + (float(terminated[i]),))
+        for i in np.flatnonzero(result.terminated | result.truncated):
+            self.recent.append(tuple(float(self.current[k][i]) for k in self.FIELDS[:-1]) + (float(result.success[i]),))
             self.finished += 1
             for values in self.current.values():
                 values[i] = 0.0
@@ -214,7 +214,7 @@ class PPOTrainer:
                 with torch.no_grad():
                     final = torch.from_numpy(self.obs_norm(result.final_obs[cut], update=False))
                     rewards[t, cut] += discounts[t, cut] * self.policy.value(final).numpy()
-            self.episodes.record(result.reward, result.steps, result.terminated, result.truncated)
+            self.episodes.record(result)
             self.env_steps += int(result.steps.sum())
             self.decisions += n
             self.obs = result.obs

@@ -3,8 +3,11 @@ of different lengths can run side by side.
 
 Every batch follows gymnasium's SAME_STEP autoreset: an episode that ends is restarted in the same step, the
 returned observation is the new episode's first one and the finished episode's last observation is in
-``info["final_obs"]``. ContinuousWorld has a numpy batch that steps all worlds in one call; any other
-gymnasium id with Box spaces runs as a Python loop over ``gymnasium.make`` copies.
+``info["final_obs"]``. Where an environment can end an episode without success (RobotHand BallPlacing), the
+batch reports ``info["success"]``; elsewhere success is termination.
+
+ContinuousWorld has a numpy batch that steps all worlds in one call; any other gymnasium id with Box spaces
+(RobotHand included) runs as a Python loop over ``gymnasium.make`` copies.
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ from typing import Protocol
 import gymnasium as gym
 import numpy as np
 
-from famarl_cli.envs import ENV_IDS
+from famarl_cli.envs import CONTINUOUS_WORLD_IDS
 from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.errors import UsageError
 
@@ -41,8 +44,8 @@ class BatchedEnv(Protocol):
 class GymBatch:
     """``n_envs`` copies of a gymnasium environment stepped in a loop; only active ones move."""
 
-    def __init__(self, env_id: str, n_envs: int, seed: int) -> None:
-        self.envs = [gym.make(env_id) for _ in range(n_envs)]
+    def __init__(self, env_id: str, n_envs: int, seed: int, **make_kwargs) -> None:
+        self.envs = [gym.make(env_id, **make_kwargs) for _ in range(n_envs)]
         space = self.envs[0].action_space
         obs_space = self.envs[0].observation_space
         if not isinstance(space, gym.spaces.Box) or not isinstance(obs_space, gym.spaces.Box):
@@ -63,14 +66,16 @@ class GymBatch:
         rewards = np.zeros(self.n_envs)
         terminated = np.zeros(self.n_envs, dtype=bool)
         truncated = np.zeros(self.n_envs, dtype=bool)
+        success = np.zeros(self.n_envs, dtype=bool)
         final_obs = self.obs.copy()
         for i in np.flatnonzero(active):
-            obs, rewards[i], terminated[i], truncated[i], _ = self.envs[i].step(actions[i])
+            obs, rewards[i], terminated[i], truncated[i], step_info = self.envs[i].step(actions[i])
+            success[i] = step_info.get("success", terminated[i])
             if terminated[i] or truncated[i]:
                 final_obs[i] = np.ravel(obs)
                 obs, _ = self.envs[i].reset()
             self.obs[i] = np.ravel(obs)
-        info = {"final_obs": final_obs} if (terminated | truncated).any() else {}
+        info = {"final_obs": final_obs, "success": success} if (terminated | truncated).any() else {}
         return self.obs.copy(), rewards, terminated, truncated, info
 
     def state_dict(self) -> None:
@@ -80,7 +85,7 @@ class GymBatch:
         raise NotImplementedError
 
 
-CONTINUOUS_WORLD_TASKS = {env_id: task for task, env_id in ENV_IDS.items()}
+CONTINUOUS_WORLD_TASKS = {env_id: task for task, env_id in CONTINUOUS_WORLD_IDS.items()}
 
 
 def make_batch(env_id: str, n_envs: int, seed: int) -> BatchedEnv:

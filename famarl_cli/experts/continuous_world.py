@@ -1,4 +1,5 @@
-"""Scripted experts for ContinuousWorld Base, and the ground truth each one knows about its own demos.
+"""Scripted experts for ContinuousWorld Base (the paper's four scripts), and the ground truth each one knows
+about its own demos.
 
 An expert moves in *legs*: a horizontal leg to the goal's column, then, if the goal's row is still far, a
 vertical leg to it. Each leg is one phase: its first step is a
@@ -15,11 +16,11 @@ position"), so their horizontal legs bend towards the goal's row and end pressed
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import StrEnum
 
 import numpy as np
 
 from famarl_cli.envs.continuous_world import DRAG, MAX_ACCEL
+from famarl_cli.experts.scripts import Script
 
 CRUISE_SPEED = 1.5
 """Cruising speed along a leg (m/s), below the 2 m/s terminal speed so the controller has authority left."""
@@ -43,24 +44,6 @@ before the goal radius is reached; see :func:`vertical_leg`."""
 FACTOR_NAMES = ("direction_x", "direction_y", "distance", "push", "map_size")
 """Per-phase ground-truth factors: unit direction of the leg (-1/0/+1 on each axis), its length (m), the
 cross-axis push (-1 down, 0 none, +1 up) and the side of the map (m)."""
-
-
-class Script(StrEnum):
-    """The four expert scripts of the paper (its Figure 3)."""
-
-    DOWN_ONLY = "down-only"
-    DOWN_AND_UP = "down-and-up"
-    PUSHED_DOWN_ONLY = "pushed-down-only"
-    PUSHED_DOWN_AND_UP = "pushed-down-and-up"
-
-    @property
-    def goal_rows(self) -> tuple[str, ...]:
-        """The goal rows this script's demos are drawn from: "only" scripts never see a goal on top."""
-        return ("bottom",) if self.value.endswith("down-only") else ("top", "bottom")
-
-    @property
-    def pushed(self) -> bool:
-        return self.value.startswith("pushed")
 
 
 @dataclass(frozen=True)
@@ -98,7 +81,7 @@ def _track_speed(desired: np.ndarray | float, speed: np.ndarray | float) -> np.n
     return np.clip((GAIN * (desired - speed) + DRAG * speed) / MAX_ACCEL, -1.0, 1.0)
 
 
-class ScriptedExpert:
+class ContinuousWorldExpert:
     """Acts in ContinuousWorld Base from observations alone and records where its phases begin.
 
     Call :meth:`reset` with the episode's first observation, then :meth:`act` once per step.

@@ -1,0 +1,446 @@
+"""RobotHand: a two-fingered hand in a 2-D physics world (pymunk), seen from the side with gravity.
+
+The paper built RobotHand with Box2D; this is our own pymunk version. Every constant lives here and is
+explained in ``docs/environments.md``. Coordinates are metres, ``x`` to the right and ``y`` up; the world is the
+box ``[0, WIDTH] x [0, HEIGHT]`` with the floor at ``y = 0``.
+
+The hand has four degrees of freedom, all velocity-controlled: a kinematic *control body* moves with the
+commanded velocity and drags the dynamic palm along through a pivot joint and a gear joint with force limits,
+so the palm is stopped by anything solid (it cannot pass through a basket wall) while staying responsive.
+Two fingers hang from the palm's ends on pivot joints; a motor turns them inward or outward (the grasp action)
+within a rotary limit. Objects are held only by the fingers' contact forces and friction: nothing teleports
+or welds an object to the hand.
+
+Tasks:
+
+- **Base** (pegging): carry a rod from a blue basket to a red basket; success when the rod stands in the red
+  basket and the fingers have let go. The scripted expert (:mod:`famarl_cli.experts.pegging`) acts here.
+- **Reaching**: bring the grip point within GOAL_RADIUS of a random goal; +100 there, -1 every other step
+  (``time_penalty=False`` removes the -1).
+- **BallPlacing**: carry a ball from a cup (at a random place) to a fixed goal; reward ``-|b - g|`` each step,
+  +200 on arrival within GOAL_RADIUS. The episode also ends, unsuccessfully, when the ball touches an edge of
+  the world (floor, side walls or ceiling).
+
+Steps report ``info["success"]``: in BallPlacing an episode can terminate without success.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import gymnasium as gym
+import numpy as np
+import pymunk
+
+from famarl_cli.envs.render import Canvas
+
+WIDTH, HEIGHT = 10.0, 6.0
+"""Size of the world (m)."""
+DT = 0.05
+"""Seconds per environment step."""
+SUBSTEPS = 4
+"""Physics steps per environment step; contacts of a tight grasp stay stable at DT / SUBSTEPS = 12.5 ms."""
+SOLVER_ITERATIONS = 20
+COLLISION_SLOP = 0.005
+"""Overlap (m) pymunk allows between touching shapes; its default, 0.1, is for worlds measured in pixels."""
+GRAVITY = 9.81
+
+HAND_SPEED = 2.0
+"""Palm speed (m/s) at |action| = 1 on the x or y axis: 0.1 m per step."""
+TURN_SPEED = 2.0
+"""Palm angular speed (rad/s) at |action| = 1 on the rotation axis."""
+FINGER_SPEED = 4.0
+"""Finger angular speed (rad/s) at grasp action 1: fully open to fully closed in about 3 steps."""
+HAND_FORCE = 3000.0
+"""Force (N) with which the control body drags the palm; it bounds how hard the hand pushes on things."""
+HAND_TORQUE = 3000.0
+GRIP_TORQUE = 30.0
+"""Finger motor torque (N m): about 60 N of squeeze at the fingertips, enough for friction to hold the rod."""
+LEASH = 0.3
+"""The control body is kept within this distance (m) of the palm, so a blocked hand does not wind up an
+ever larger pull that would fling it when freed."""
+
+PALM_SIZE = (0.7, 0.15)
+FINGER_SIZE = (0.08, 0.5)
+FINGER_X = 0.3
+"""Horizontal offset of each finger's pivot from the palm's centre (m)."""
+ROD_CONTACT_ANGLE = 0.3
+"""Inward finger angle (rad) at which the pads meet a rod's faces."""
+FINGER_OPEN, FINGER_CLOSED = -0.1, 0.65
+"""Limits of each finger's inward angle relative to the palm (rad): slightly splayed to crossed tips."""
+PAD_HEIGHT = 0.12
+"""Length of the flat pad at each fingertip (m). The pad's inner face is vertical when the fingers close on the
+rod, so the rod is held along two faces and cannot turn in the grip; bare rotating fingers would touch it at
+one corner each, a pivot about which it tilts."""
+GRIP_DEPTH = PALM_SIZE[1] / 2 + FINGER_SIZE[1]
+"""Distance from the palm's centre to the grip point, between the fingertips of an open hand (m)."""
+HAND_MASS, FINGER_MASS = 1.0, 0.2
+FRICTION = 1.0
+
+ROD_SIZE = (0.12, 1.0)
+ROD_MASS = 0.5
+BALL_RADIUS = 0.15
+BALL_MASS = 0.3
+
+BASKET_INNER = 0.36
+"""Inner width of a basket (m); the rod has 0.12 m of play on each side."""
+BASKET_HEIGHT = 0.35
+BASKET_WALL = 0.025
+"""Radius of a basket wall's segment (m)."""
+CUP_HEIGHT = 1.0
+"""Height of the floor of BallPlacing's cup above the world's floor (m)."""
+CUP_DEPTH = 0.08
+"""Height of the cup's walls (m): below the ball's centre, so the fingertips close on the ball above the rim."""
+
+GOAL_RADIUS = 0.5
+"""Reaching and BallPlacing succeed within this distance of the goal (m), as in the paper."""
+EDGE_MARGIN = 0.01
+"""The ball "hits an edge" when its surface comes this close to the floor, a side wall or the ceiling (m)."""
+
+HAND_START_X, HAND_START_Y = (1.0, 9.0), (2.5, 5.0)
+"""Ranges of the grip point's start position (m), drawn per episode in every task."""
+BLUE_BASKET_X, RED_BASKET_X = (1.5, 3.5), (6.5, 8.5)
+"""Base: ranges of the baskets' centres; which side each is on is drawn per episode too."""
+REACH_GOAL_X, REACH_GOAL_Y = (0.5, 9.5), (0.5, 5.5)
+CUP_X = (1.5, 4.0)
+"""BallPlacing: range of the cup's centre (the ball starts resting in it)."""
+BALL_GOAL = (7.5, 2.5)
+"""BallPlacing's fixed goal (m)."""
+REACH_REWARD, BALL_REWARD = 100.0, 200.0
+
+OBSERVATION_NAMES = (
+    "grip_x", "grip_y", "hand_vx", "hand_vy", "hand_sin", "hand_cos", "hand_omega", "closure",
+    "object_x", "object_y", "object_vx", "object_vy", "object_sin", "object_cos",
+    "target_x", "target_y", "source_x", "source_y",
+)  # fmt: skip
+"""Observation layout, the same in every task. ``closure`` is the fingers' mean inward angle scaled to 0 (open)
+.. 1 (closed). The object is the rod or the ball (zeros in Reaching); the target is the red basket or the
+goal; the source is the blue basket or the cup (zeros in Reaching)."""
+
+ACTION_SPACE = gym.spaces.Box(-1.0, 1.0, shape=(4,), dtype=np.float32)
+"""(move x, move y, rotate, grasp); grasp > 0 closes the fingers, < 0 opens them, 0 holds them where they are."""
+
+
+@dataclass(frozen=True)
+class TaskSpec:
+    name: str
+    max_episode_steps: int
+    time_penalty: bool = True
+
+
+TASKS = {
+    "base": TaskSpec("base", 400),
+    "reaching": TaskSpec("reaching", 200),
+    "reaching-no-penalty": TaskSpec("reaching", 200, time_penalty=False),
+    "ball-placing": TaskSpec("ball-placing", 300),
+}
+
+
+def _rotate(vector: tuple[float, float], angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([c * vector[0] - s * vector[1], s * vector[0] + c * vector[1]])
+
+
+class Hand:
+    """Palm, two fingers and the kinematic control body that drags them, added to ``space``."""
+
+    def __init__(self, space: pymunk.Space, grip: tuple[float, float]) -> None:
+        palm_xy = (grip[0], grip[1] + GRIP_DEPTH)
+        self.control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        self.control.position = palm_xy
+        self.palm = pymunk.Body(HAND_MASS, pymunk.moment_for_box(HAND_MASS, PALM_SIZE))
+        self.palm.position = palm_xy
+        hand_only = pymunk.ShapeFilter(group=1)
+        palm_shape = pymunk.Poly.create_box(self.palm, PALM_SIZE)
+        shapes = [palm_shape]
+        pull = pymunk.PivotJoint(self.control, self.palm, (0, 0), (0, 0))
+        pull.max_force, pull.max_bias = HAND_FORCE, 4 * HAND_SPEED
+        turn = pymunk.GearJoint(self.control, self.palm, 0.0, 1.0)
+        turn.max_force, turn.max_bias = HAND_TORQUE, 4 * TURN_SPEED
+        constraints = [pull, turn]
+        self.fingers, self.motors = [], []
+        for side in (-1.0, 1.0):
+            finger = pymunk.Body(FINGER_MASS, pymunk.moment_for_box(FINGER_MASS, FINGER_SIZE))
+            pivot = (side * FINGER_X, -PALM_SIZE[1] / 2)
+            finger.position = (palm_xy[0] + pivot[0], palm_xy[1] + pivot[1] - FINGER_SIZE[1] / 2)
+            shapes += [pymunk.Poly.create_box(finger, FINGER_SIZE), pymunk.Poly(finger, _pad_vertices(side))]
+            hinge = pymunk.PivotJoint(self.palm, finger, pivot, (0, FINGER_SIZE[1] / 2))
+            # The left finger (side -1) closes by turning counter-clockwise, the right one clockwise.
+            low, high = (FINGER_OPEN, FINGER_CLOSED) if side < 0 else (-FINGER_CLOSED, -FINGER_OPEN)
+            limit = pymunk.RotaryLimitJoint(self.palm, finger, low, high)
+            motor = pymunk.SimpleMotor(self.palm, finger, 0.0)
+            motor.max_force = GRIP_TORQUE
+            constraints += [hinge, limit, motor]
+            self.fingers.append(finger)
+            self.motors.append(motor)
+        for shape in shapes:
+            shape.filter, shape.friction = hand_only, FRICTION
+        space.add(self.control, self.palm, *self.fingers, *shapes, *constraints)
+
+    def command(self, action: np.ndarray) -> None:
+        self.control.velocity = (float(action[0]) * HAND_SPEED, float(action[1]) * HAND_SPEED)
+        self.control.angular_velocity = float(action[2]) * TURN_SPEED
+        # SimpleMotor drives (finger - palm) angular velocity to minus its rate.
+        for side, motor in zip((-1.0, 1.0), self.motors, strict=True):
+            motor.rate = side * float(action[3]) * FINGER_SPEED
+
+    def keep_on_leash(self) -> None:
+        offset = np.subtract(self.control.position, self.palm.position)
+        distance = float(np.hypot(*offset))
+        if distance > LEASH:
+            self.control.position = tuple(np.asarray(self.palm.position) + offset * (LEASH / distance))
+        turn = self.control.angle - self.palm.angle
+        if abs(turn) > LEASH:
+            self.control.angle = self.palm.angle + np.sign(turn) * LEASH
+
+    @property
+    def grip(self) -> np.ndarray:
+        return np.asarray(self.palm.position) + _rotate((0.0, -GRIP_DEPTH), self.palm.angle)
+
+    @property
+    def closure(self) -> float:
+        inward = (self.fingers[0].angle - self.palm.angle) - (self.fingers[1].angle - self.palm.angle)
+        return float((inward / 2 - FINGER_OPEN) / (FINGER_CLOSED - FINGER_OPEN))
+
+
+def _pad_vertices(side: float) -> list[tuple[float, float]]:
+    """The fingertip pad of the finger on ``side`` (-1 left, +1 right), in the finger's own frame.
+
+    It is laid out in the palm's frame with the finger turned to the angle at which its tip meets the rod's
+    face, and then carried into the finger's frame, so that at that angle it fills the gap to the rod exactly.
+    """
+    pivot = np.array([side * FINGER_X, -PALM_SIZE[1] / 2])
+    reach = FINGER_X - FINGER_SIZE[1] * np.sin(ROD_CONTACT_ANGLE)  # |x| of the finger's axis at the tip
+    inward = -side * ROD_CONTACT_ANGLE
+    tip_y = pivot[1] - FINGER_SIZE[1] * np.cos(ROD_CONTACT_ANGLE)
+    outer, inner = side * reach, side * ROD_SIZE[0] / 2
+    corners = [(outer, tip_y), (inner, tip_y), (inner, tip_y + PAD_HEIGHT), (outer, tip_y + PAD_HEIGHT)]
+    centre = pivot + _rotate((0.0, -FINGER_SIZE[1] / 2), inward)
+    return [tuple(_rotate(np.subtract(c, centre), -inward)) for c in corners]
+
+
+def _add_basket(space: pymunk.Space, x: float, floor_y: float, depth: float = BASKET_HEIGHT) -> list[pymunk.Segment]:
+    half = BASKET_INNER / 2 + BASKET_WALL
+    body = space.static_body
+    segments = [
+        pymunk.Segment(body, (x - half, floor_y), (x + half, floor_y), BASKET_WALL),
+        pymunk.Segment(body, (x - half, floor_y), (x - half, floor_y + depth), BASKET_WALL),
+        pymunk.Segment(body, (x + half, floor_y), (x + half, floor_y + depth), BASKET_WALL),
+    ]
+    for segment in segments:
+        segment.friction = FRICTION
+    space.add(*segments)
+    return segments
+
+
+def empty_world() -> pymunk.Space:
+    """A space with gravity and the world's four edges, nothing else."""
+    space = pymunk.Space()
+    space.gravity = (0.0, -GRAVITY)
+    space.iterations = SOLVER_ITERATIONS
+    space.collision_slop = COLLISION_SLOP
+    corners = [(0, 0), (WIDTH, 0), (WIDTH, HEIGHT), (0, HEIGHT)]
+    ends = zip(corners, corners[1:] + corners[:1], strict=True)
+    edges = [pymunk.Segment(space.static_body, a, b, 0.0) for a, b in ends]
+    for edge in edges:
+        edge.friction = FRICTION
+    space.add(*edges)
+    return space
+
+
+@dataclass
+class Layout:
+    """What is drawn at reset: where the hand starts and where the task's things are."""
+
+    grip: np.ndarray
+    target: np.ndarray
+    source: np.ndarray
+
+
+class RobotHandEnv(gym.Env):
+    """One RobotHand episode (pymunk world rebuilt at every reset, which is cheaper than copying a space)."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": int(round(1 / DT))}
+
+    def __init__(self, task: str = "base", time_penalty: bool = True, render_mode: str | None = None) -> None:
+        if task not in TASKS:
+            raise ValueError(f"unknown RobotHand task {task!r}; expected one of {sorted(TASKS)}")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"unsupported render_mode {render_mode!r}")
+        self.task = TASKS[task]
+        self.time_penalty = time_penalty and self.task.time_penalty
+        self.render_mode = render_mode
+        self.observation_space = gym.spaces.Box(-np.inf, np.inf, shape=(len(OBSERVATION_NAMES),), dtype=np.float32)
+        self.action_space = ACTION_SPACE
+        self.space: pymunk.Space | None = None
+        self.hand: Hand | None = None
+        self.object: pymunk.Body | None = None
+        self.layout: Layout | None = None
+
+    # -- building ---------------------------------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        rng = self.np_random
+        self.space = empty_world()
+        grip = np.array([rng.uniform(*HAND_START_X), rng.uniform(*HAND_START_Y)])
+        self.object = None
+        self.colours: dict[pymunk.Shape, tuple[int, int, int]] = {}
+        if self.task.name == "base":
+            blue, red = rng.uniform(*BLUE_BASKET_X), rng.uniform(*RED_BASKET_X)
+            if rng.random() < 0.5:  # mirror the layout so that rods are carried both ways
+                blue, red = WIDTH - blue, WIDTH - red
+            source, target = np.array([blue, 0.0]), np.array([red, 0.0])
+            self.colours.update(dict.fromkeys(_add_basket(self.space, blue, 0.0), COLOURS["blue"]))
+            self.colours.update(dict.fromkeys(_add_basket(self.space, red, 0.0), COLOURS["red"]))
+            self.object = self._add_rod(blue)
+        elif self.task.name == "reaching":
+            source = np.zeros(2)
+            target = np.array([rng.uniform(*REACH_GOAL_X), rng.uniform(*REACH_GOAL_Y)])
+        else:
+            cup = rng.uniform(*CUP_X)
+            source, target = np.array([cup, CUP_HEIGHT]), np.array(BALL_GOAL)
+            self._add_cup(cup)
+            self.object = self._add_ball(cup)
+        self.layout = Layout(grip=grip, target=target, source=source)
+        self.hand = Hand(self.space, tuple(grip))
+        return self._observe(), self._info(False)
+
+    def _add_rod(self, x: float) -> pymunk.Body:
+        rod = pymunk.Body(ROD_MASS, pymunk.moment_for_box(ROD_MASS, ROD_SIZE))
+        rod.position = (x, BASKET_WALL + ROD_SIZE[1] / 2)
+        shape = pymunk.Poly.create_box(rod, ROD_SIZE)
+        shape.friction = FRICTION
+        self.space.add(rod, shape)
+        return rod
+
+    def _add_cup(self, x: float) -> None:
+        self.colours.update(dict.fromkeys(_add_basket(self.space, x, CUP_HEIGHT, CUP_DEPTH), COLOURS["blue"]))
+        post = pymunk.Segment(self.space.static_body, (x, 0.0), (x, CUP_HEIGHT), BASKET_WALL)
+        self.space.add(post)
+
+    def _add_ball(self, x: float) -> pymunk.Body:
+        ball = pymunk.Body(BALL_MASS, pymunk.moment_for_circle(BALL_MASS, 0, BALL_RADIUS))
+        ball.position = (x, CUP_HEIGHT + BASKET_WALL + BALL_RADIUS)
+        shape = pymunk.Circle(ball, BALL_RADIUS)
+        shape.friction = FRICTION
+        self.space.add(ball, shape)
+        return ball
+
+    # -- stepping ---------------------------------------------------------------------------------------------
+    def step(self, action):
+        if self.space is None:
+            raise RuntimeError("call reset() before step()")
+        action = np.clip(np.asarray(action, dtype=np.float64).reshape(4), -1.0, 1.0)
+        if not np.isfinite(action).all():
+            raise ValueError(f"action must be finite, got {action}")
+        self.hand.command(action)
+        for _ in range(SUBSTEPS):
+            self.space.step(DT / SUBSTEPS)
+        self.hand.keep_on_leash()
+        reward, terminated, success = self._outcome()
+        return self._observe(), reward, terminated, False, self._info(success)
+
+    def _outcome(self) -> tuple[float, bool, bool]:
+        """(reward, terminated, success) of the state just reached."""
+        if self.task.name == "base":
+            success = rod_in_basket(self.object, self.layout.target[0]) and self.hand.closure < 0.5
+            return -float(np.linalg.norm(self._object_position() - self.layout.target)), success, success
+        if self.task.name == "reaching":
+            success = bool(np.linalg.norm(self.hand.grip - self.layout.target) < GOAL_RADIUS)
+            return (REACH_REWARD if success else -1.0 if self.time_penalty else 0.0), success, success
+        distance = float(np.linalg.norm(self._object_position() - self.layout.target))
+        success = distance < GOAL_RADIUS
+        reward = -distance + (BALL_REWARD if success else 0.0)
+        return reward, success or ball_hits_edge(self._object_position()), success
+
+    def _object_position(self) -> np.ndarray:
+        return np.asarray(self.object.position, dtype=np.float64)
+
+    def _observe(self) -> np.ndarray:
+        hand, palm = self.hand, self.hand.palm
+        obs = np.zeros(len(OBSERVATION_NAMES), dtype=np.float32)
+        obs[0:2] = hand.grip
+        obs[2:4] = palm.velocity
+        obs[4:8] = np.sin(palm.angle), np.cos(palm.angle), palm.angular_velocity, hand.closure
+        if self.object is not None:
+            obs[8:10] = self.object.position
+            obs[10:12] = self.object.velocity
+            obs[12:14] = np.sin(self.object.angle), np.cos(self.object.angle)
+        obs[14:16] = self.layout.target
+        obs[16:18] = self.layout.source
+        return obs
+
+    def _info(self, success: bool) -> dict:
+        return {"success": bool(success)}
+
+    # -- drawing ----------------------------------------------------------------------------------------------
+    def render(self):
+        if self.render_mode != "rgb_array" or self.space is None:
+            return None
+        return render_scene(self)
+
+
+def rod_in_basket(rod: pymunk.Body, basket_x: float) -> bool:
+    """Whether the rod stands upright inside the basket centred at ``basket_x`` (resting on its floor, slowly)."""
+    bottom = rod.position.y - ROD_SIZE[1] / 2 * np.cos(rod.angle)
+    inside = abs(rod.position.x - basket_x) < BASKET_INNER / 2
+    return bool(inside and bottom < BASKET_HEIGHT / 2 and abs(rod.angle) < 0.3 and abs(rod.velocity.y) < 0.5)
+
+
+def ball_hits_edge(position: np.ndarray) -> bool:
+    reach = BALL_RADIUS + EDGE_MARGIN
+    x, y = position
+    return bool(x < reach or x > WIDTH - reach or y < reach or y > HEIGHT - reach)
+
+
+COLOURS = {
+    "hand": (90, 90, 100),
+    "finger": (50, 50, 60),
+    "rod": (200, 150, 60),
+    "ball": (40, 90, 220),
+    "blue": (60, 110, 230),
+    "red": (220, 50, 50),
+    "static": (120, 120, 120),
+}
+
+
+def render_scene(env: RobotHandEnv, pixels: int = 320) -> np.ndarray:
+    """An RGB frame of the world: the source basket or cup blue, the target basket red, the goal a red disc."""
+    canvas = Canvas(WIDTH, HEIGHT, pixels, background=(245, 245, 240))
+    if env.task.name != "base":
+        canvas.disc(*env.layout.target, GOAL_RADIUS, (250, 200, 200))
+        canvas.disc(*env.layout.target, 0.08, COLOURS["red"])
+    for shape in env.space.static_body.shapes:
+        canvas.segment(shape.a, shape.b, max(shape.radius, 0.03), env.colours.get(shape, COLOURS["static"]))
+    for body in env.space.bodies:
+        for shape in body.shapes:
+            world = [body.local_to_world(v) for v in shape.get_vertices()] if isinstance(shape, pymunk.Poly) else None
+            if isinstance(shape, pymunk.Circle):
+                canvas.disc(*body.position, shape.radius, COLOURS["ball"])
+            elif body is env.object:
+                canvas.polygon(world, COLOURS["rod"])
+            else:
+                canvas.polygon(world, COLOURS["finger"] if body in env.hand.fingers else COLOURS["hand"])
+    return canvas.image
+
+
+def simulate_open_loop(actions: np.ndarray, lengths: np.ndarray, start: tuple[float, float]) -> np.ndarray:
+    """Grip-point paths of macro actions run open-loop by a hand alone in the world, from rest at ``start``.
+
+    ``actions`` is (n, L, 4) and ``lengths`` (n,); returns (n, L + 1, 2) positions, each path held at its last
+    position after its own length, so paths of different lengths stack.
+    """
+    n, steps = actions.shape[:2]
+    paths = np.empty((n, steps + 1, 2))
+    for i in range(n):
+        space = empty_world()
+        hand = Hand(space, start)
+        paths[i, 0] = hand.grip
+        for t in range(steps):
+            if t < lengths[i]:
+                hand.command(np.clip(actions[i, t], -1.0, 1.0))
+                for _ in range(SUBSTEPS):
+                    space.step(DT / SUBSTEPS)
+                hand.keep_on_leash()
+            paths[i, t + 1] = hand.grip
+    return paths

@@ -1,0 +1,39 @@
+"""Scripted experts: each acts from observations alone and records where its phases begin and their factors.
+
+Every expert has ``reset(observation)``, ``act(observation) -> action``, ``phase_starts`` (first step of each phase
+begun so far) and ``phase_factors`` ((phases, factors) ground truth). :func:`demonstration` says which expert,
+environment and factor names a script uses.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from famarl_cli.experts import continuous_world, pegging
+from famarl_cli.experts.continuous_world import ContinuousWorldExpert
+from famarl_cli.experts.pegging import PeggingExpert
+from famarl_cli.experts.scripts import Script
+
+
+@dataclass(frozen=True)
+class Demonstration:
+    env_id: str
+    env_kwargs: dict = field(default_factory=dict)
+    factor_names: tuple[str, ...] = ()
+
+
+def demonstration(script: Script) -> Demonstration:
+    from famarl_cli.envs import ENV_IDS
+
+    script = Script(script)
+    if script is Script.PEGGING:
+        return Demonstration(ENV_IDS["robot-hand-base"], {}, pegging.FACTOR_NAMES)
+    return Demonstration(ENV_IDS["base"], {"goal_rows": list(script.goal_rows)}, continuous_world.FACTOR_NAMES)
+
+
+def make_expert(script: Script) -> ContinuousWorldExpert | PeggingExpert:
+    script = Script(script)
+    return PeggingExpert() if script is Script.PEGGING else ContinuousWorldExpert(script)
+
+
+__all__ = ["ContinuousWorldExpert", "Demonstration", "PeggingExpert", "Script", "demonstration", "make_expert"]

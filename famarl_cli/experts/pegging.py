@@ -1,0 +1,131 @@
+"""The scripted pegging expert for RobotHand Base: carry the rod from the blue basket to the red one.
+
+Seven phases, each a straight move of the grip point or a grasp held in place:
+
+1. approach: to HOVER_CLEARANCE above the rod's grasp height, right above the rod, fingers opening;
+2. descend: down to GRASP_ABOVE_CENTRE above the rod's centre (held above its centre of mass, the rod hangs
+   upright: gravity turns it back when the carry swings it);
+3. grasp: close the fingers, hand still;
+4. lift: up to CARRY_HEIGHT, squeezing;
+5. carry: across to above the red basket, squeezing;
+6. place: down until the rod stands on the red basket's floor, squeezing;
+7. release: open the fingers, hand still; the episode succeeds once the rod stands free in the red basket.
+
+Moves "arrive" like the ContinuousWorld expert's legs: the commanded speed cruises at CRUISE and falls off
+linearly within CRUISE / APPROACH_GAIN of the target. The hand's angle is held at 0 (the rod stands upright).
+Each phase's factors are its displacement of the grip point and the grasp command it holds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from famarl_cli.envs.robot_hand import BASKET_WALL, ROD_SIZE, TURN_SPEED
+
+CRUISE = 0.8
+"""Cruising speed as a fraction of HAND_SPEED (1.6 m/s)."""
+APPROACH_GAIN = 4.0
+"""Commanded speed (in action units) per metre still to go, near the target."""
+ARRIVE_TOLERANCE = 0.02
+"""A move ends within this distance of its target (m) ..."""
+ARRIVE_SPEED = 0.1
+"""... once the hand moves slower than this (m/s)."""
+HOVER_CLEARANCE = 0.8
+"""How far above the grasp height the approach ends (m): the open fingertips pass 0.3 m over the rod's top."""
+CARRY_HEIGHT = 2.1
+"""Height of the grip point while carrying (m): the rod's bottom clears the baskets' rims by about a metre."""
+PLACE_CLEARANCE = 0.02
+"""The rod is put down this far above the red basket's floor (m); gravity does the rest once it is let go."""
+GRASP_STEPS = 6
+"""Steps the fingers close (three reach the rod, three build up the squeeze)."""
+RELEASE_STEPS = 6
+ANGLE_GAIN = 5.0
+"""Rotation command per radian of hand tilt (1/s, in action units times TURN_SPEED)."""
+
+FACTOR_NAMES = ("dx", "dy", "grasp")
+"""Per-phase ground-truth factors: the grip point's displacement over the phase (m) and the grasp command it holds
+(-1 opening, +1 closing or squeezing)."""
+
+GRASP_ABOVE_CENTRE = 0.3
+"""How far above the rod's centre the fingers take hold of it (m)."""
+GRASP_HEIGHT = BASKET_WALL + ROD_SIZE[1] / 2 + GRASP_ABOVE_CENTRE
+"""Height of the grip point when it grasps a rod standing on a basket's floor (m)."""
+
+
+@dataclass(frozen=True)
+class Phase:
+    name: str
+    target: tuple[float, float] | None
+    """Where the grip point goes (m); None for a phase that holds the hand still."""
+    grasp: float
+    steps: int = 0
+    """How long a phase with no target lasts."""
+
+
+def phases(rod_x: float, basket_x: float) -> list[Phase]:
+    return [
+        Phase("approach", (rod_x, GRASP_HEIGHT + HOVER_CLEARANCE), -1.0),
+        Phase("descend", (rod_x, GRASP_HEIGHT), -1.0),
+        Phase("grasp", None, 1.0, GRASP_STEPS),
+        Phase("lift", (rod_x, CARRY_HEIGHT), 1.0),
+        Phase("carry", (basket_x, CARRY_HEIGHT), 1.0),
+        Phase("place", (basket_x, GRASP_HEIGHT + PLACE_CLEARANCE), 1.0),
+        Phase("release", None, -1.0, RELEASE_STEPS),
+    ]
+
+
+class PeggingExpert:
+    """Acts in RobotHand Base from observations; call :meth:`reset` then :meth:`act` once per step."""
+
+    def __init__(self) -> None:
+        self.plan: list[Phase] = []
+        self.phase_starts: list[int] = []
+        self._factors: list[tuple[float, float, float]] = []
+        self._phase_start_grip = np.zeros(2)
+        self.steps = 0
+
+    def reset(self, observation: np.ndarray) -> None:
+        self.plan = phases(rod_x=float(observation[8]), basket_x=float(observation[14]))
+        self.phase_starts, self._factors, self.steps = [], [], 0
+        self._begin(0, observation)
+
+    @property
+    def phase(self) -> int:
+        return len(self.phase_starts) - 1
+
+    @property
+    def phase_factors(self) -> np.ndarray:
+        """(phases begun so far, 3) factors; the phase in progress counts its planned displacement."""
+        return np.array(self._factors, dtype=np.float64)
+
+    def _begin(self, index: int, observation: np.ndarray) -> None:
+        phase = self.plan[index]
+        grip = observation[0:2].astype(np.float64)
+        displacement = np.subtract(phase.target, grip) if phase.target is not None else np.zeros(2)
+        self.phase_starts.append(self.steps)
+        self._factors.append((float(displacement[0]), float(displacement[1]), phase.grasp))
+        self._phase_start_grip = grip
+
+    def _finished(self, phase: Phase, observation: np.ndarray) -> bool:
+        if phase.target is None:
+            return self.steps - self.phase_starts[-1] >= phase.steps
+        remaining = np.subtract(phase.target, observation[0:2])
+        return bool(np.hypot(*remaining) < ARRIVE_TOLERANCE and np.hypot(*observation[2:4]) < ARRIVE_SPEED)
+
+    def act(self, observation: np.ndarray) -> np.ndarray:
+        if self._finished(self.plan[self.phase], observation) and self.phase + 1 < len(self.plan):
+            self._begin(self.phase + 1, observation)
+        phase = self.plan[self.phase]
+        self.steps += 1
+        action = np.zeros(4, dtype=np.float32)
+        target = phase.target if phase.target is not None else self._phase_start_grip
+        remaining = np.subtract(target, observation[0:2].astype(np.float64))
+        distance = float(np.hypot(*remaining))
+        if distance > 1e-9:
+            action[0:2] = remaining / distance * min(CRUISE, APPROACH_GAIN * distance)
+        tilt = float(np.arctan2(observation[4], observation[5]))
+        action[2] = np.clip(-ANGLE_GAIN * tilt / TURN_SPEED, -1.0, 1.0)
+        action[3] = phase.grasp
+        return action

@@ -1,0 +1,34 @@
+"""The names of the scripted experts, and which environment each one demonstrates in."""
+
+from __future__ import annotations
+
+from enum import StrEnum
+
+
+class Environment(StrEnum):
+    CONTINUOUS_WORLD = "continuous-world"
+    ROBOT_HAND = "robot-hand"
+
+
+class Script(StrEnum):
+    """The paper's four ContinuousWorld scripts (its Figure 3) and RobotHand's pegging script."""
+
+    DOWN_ONLY = "down-only"
+    DOWN_AND_UP = "down-and-up"
+    PUSHED_DOWN_ONLY = "pushed-down-only"
+    PUSHED_DOWN_AND_UP = "pushed-down-and-up"
+    PEGGING = "pegging"
+
+    @property
+    def environment(self) -> Environment:
+        return Environment.ROBOT_HAND if self is Script.PEGGING else Environment.CONTINUOUS_WORLD
+
+    @property
+    def goal_rows(self) -> tuple[str, ...]:
+        """ContinuousWorld: the goal rows this script's demos are drawn from ("only" scripts never see a goal on
+        top)."""
+        return ("bottom",) if self.value.endswith("down-only") else ("top", "bottom")
+
+    @property
+    def pushed(self) -> bool:
+        return self.value.startswith("pushed")

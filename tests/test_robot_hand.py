@@ -1,0 +1,190 @@
+"""RobotHand: the grasp holds through physics, each task's rewards and ends, determinism, and the pegging expert."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from cli_helpers import famarl, usage_error
+from gymnasium.utils.env_checker import check_env
+
+from famarl_cli.artifacts import read_demos
+from famarl_cli.demos import record_demos
+from famarl_cli.envs import ROBOT_HAND_IDS
+from famarl_cli.envs import robot_hand as rh
+from famarl_cli.experts import PeggingExpert
+from famarl_cli.rl.vector import GymBatch, make_batch
+from famarl_cli.traversal import run_macro_actions
+
+STILL = np.zeros(4)
+
+
+def make(task: str, **kwargs):
+    return gym.make(ROBOT_HAND_IDS[task], **kwargs)
+
+
+def run_expert_until(env, seed: int, last_phase: str):
+    """Run the pegging expert from reset until ``last_phase`` is over; returns (expert, observations)."""
+    obs, _ = env.reset(seed=seed)
+    expert = PeggingExpert()
+    expert.reset(obs)
+    names = [phase.name for phase in expert.plan]
+    trace = [obs]
+    while expert.phase <= names.index(last_phase):
+        obs, *_ = env.step(expert.act(obs))
+        trace.append(obs)
+    return expert, np.array(trace)
+
+
+@pytest.mark.filterwarnings("ignore:.*observation space (minimum|maximum) value is")
+@pytest.mark.parametrize("task", sorted(ROBOT_HAND_IDS))
+def test_check_env_passes(task):
+    check_env(make(task).unwrapped, skip_render_check=True)
+
+
+def test_grasped_rod_rises_and_travels_with_the_grip():
+    env = make("base")
+    expert, trace = run_expert_until(env, seed=3, last_phase="carry")
+    carry = expert.phase_starts[4]
+    offset = trace[carry:, 8:10] - trace[carry:, 0:2]  # rod centre relative to the grip point
+    assert trace[carry:, 9].min() > trace[0, 9] + 1.0, "the rod was lifted clear of the basket"
+    assert abs(trace[-1, 8] - trace[carry, 8]) > 2.0, "the rod was carried across"
+    assert np.ptp(offset, axis=0).max() < 0.1, "the rod did not slip in the grip"
+    tilt = np.arctan2(trace[carry:, 12], trace[carry:, 13])
+    assert np.abs(tilt).max() < 0.15
+
+
+def test_open_fingers_leave_the_rod_in_its_basket():
+    env = make("base")
+    obs, _ = env.reset(seed=3)
+    expert = PeggingExpert()
+    expert.reset(obs)
+    while expert.plan[expert.phase].name != "lift":
+        action = expert.act(obs)
+        if expert.plan[expert.phase].name == "grasp":
+            action[3] = -1.0  # keep the fingers open where the expert would close them
+        obs, *_ = env.step(action)
+    start = obs.copy()
+    for _ in range(15):
+        obs, *_ = env.step(np.array([0.0, 1.0, 0.0, -1.0]))
+    assert obs[1] > start[1] + 1.0 and abs(obs[9] - start[9]) < 0.02
+
+
+def test_hand_is_stopped_by_the_floor():
+    env = make("reaching")
+    env.reset(seed=0)
+    for _ in range(80):
+        obs, *_ = env.step(np.array([0.0, -1.0, 0.0, 0.0]))
+    assert 0.0 < obs[1] < 0.2
+
+
+def test_reaching_rewards_and_ends():
+    env = make("reaching")
+    env.reset(seed=1)
+    far = env.unwrapped.layout.target = np.array([9.5, 5.5])
+    _, reward, terminated, _, info = env.step(STILL)
+    assert (reward, terminated, info["success"]) == (-1.0, False, False) and np.linalg.norm(far) > 0
+    env.unwrapped.layout.target = env.unwrapped.hand.grip + np.array([0.3, 0.0])
+    _, reward, terminated, _, info = env.step(STILL)
+    assert (reward, terminated, info["success"]) == (rh.REACH_REWARD, True, True)
+
+    quiet = make("reaching-no-penalty")
+    quiet.reset(seed=1)
+    quiet.unwrapped.layout.target = np.array([9.5, 5.5])
+    assert quiet.step(STILL)[1] == 0.0
+
+
+def test_ball_placing_rewards_and_ends():
+    env = make("ball-placing")
+    obs, _ = env.reset(seed=2)
+    ball = env.unwrapped.object
+    distance = np.linalg.norm(obs[8:10] - rh.BALL_GOAL)
+    _, reward, terminated, _, info = env.step(STILL)
+    assert reward == pytest.approx(-distance, abs=0.01) and not terminated and not info["success"]
+
+    ball.position, ball.velocity = (rh.BALL_GOAL[0] + 0.2, rh.BALL_GOAL[1]), (0, 0)
+    _, reward, terminated, _, info = env.step(STILL)
+    assert terminated and info["success"] and reward == pytest.approx(rh.BALL_REWARD - 0.2, abs=0.05)
+
+    env.reset(seed=2)
+    env.unwrapped.object.position = (5.0, rh.BALL_RADIUS)  # resting on the floor: an edge
+    _, reward, terminated, _, info = env.step(STILL)
+    assert terminated and not info["success"] and reward < 0
+
+
+def test_base_succeeds_only_once_the_rod_is_let_go_in_the_red_basket():
+    env = make("base")
+    expert, trace = run_expert_until(env, seed=4, last_phase="place")
+    # The last step was the release's first; the one before it, with the rod placed, did not end the episode.
+    assert trace[-2, 7] > 0.45, "still holding when placed"
+    obs, terminated = trace[-1], False
+    for _ in range(10):
+        obs, reward, terminated, _, info = env.step(expert.act(obs))
+        if terminated:
+            break
+    assert terminated and info["success"] and abs(obs[8] - obs[14]) < rh.BASKET_INNER / 2
+
+
+def test_same_seed_same_episode():
+    actions = np.random.default_rng(0).uniform(-1, 1, (60, 4))
+
+    def rollout():
+        env = make("ball-placing")
+        observations = [env.reset(seed=7)[0]]
+        observations += [env.step(a)[0] for a in actions]
+        return np.array(observations)
+
+    first, second = rollout(), rollout()
+    assert np.array_equal(first, second)
+    other = make("ball-placing")
+    assert not np.array_equal(other.reset(seed=8)[0], first[0])
+
+
+def test_render_draws_the_scene():
+    env = make("base", render_mode="rgb_array")
+    env.reset(seed=0)
+    frame = env.render()
+    assert frame.ndim == 3 and frame.shape[2] == 3 and frame.dtype == np.uint8
+    colours = {tuple(c) for c in frame.reshape(-1, 3)}
+    for name in ("hand", "finger", "rod", "blue", "red"):
+        assert rh.COLOURS[name] in colours, name
+
+
+def test_pegging_expert_succeeds_with_seven_phases():
+    demos = record_demos("pegging", 10, seed=0)
+    assert demos.success_rate == 1.0
+    assert demos.env_id == ROBOT_HAND_IDS["base"]
+    for episode in demos.episodes:
+        assert len(episode.segment_starts) == 7 and episode.factors.shape == (7, 3)
+        assert np.all(np.diff(episode.segment_starts) > 0)
+        assert episode.factors[2, 2] == 1.0 and episode.factors[6, 2] == -1.0  # grasp closes, release opens
+        carried = episode.factors[4, 0]
+        assert np.sign(carried) == np.sign(episode.observations[0, 14] - episode.observations[0, 16])
+
+
+def test_demos_cli_records_pegging_and_rejects_a_mismatched_env(tmp_path):
+    out = tmp_path / "p.h5"
+    result = famarl("demos", "--env", "robot-hand", "--script", "pegging", "--episodes", 2, "--out", out)
+    assert result.exit_code == 0, result.output
+    assert read_demos(out).script == "pegging" and out.with_suffix(".png").exists()
+    mismatch = famarl("demos", "--env", "continuous-world", "--script", "pegging", "--out", tmp_path / "x.h5")
+    assert mismatch.exit_code == 2 and "acts in robot-hand" in mismatch.stderr
+    assert "Invalid value" in usage_error(famarl("demos", "--env", "moon", "--out", tmp_path / "y.h5"))
+
+
+def test_four_dimensional_macro_actions_move_the_hand():
+    actions = np.zeros((2, 10, 4))
+    actions[0, :, 0] = 1.0  # right at full speed
+    actions[1, :, 1] = -1.0  # down
+    paths = run_macro_actions(actions, np.array([10, 5]))
+    assert paths.shape == (2, 11, 2)
+    assert paths[0, -1, 0] - paths[0, 0, 0] == pytest.approx(10 * rh.HAND_SPEED * rh.DT, rel=0.1)
+    assert paths[1, -1, 1] - paths[1, 0, 1] == pytest.approx(-5 * rh.HAND_SPEED * rh.DT, rel=0.15)
+    assert np.array_equal(paths[1, 5], paths[1, -1]), "held after its own length"
+
+
+def test_batch_reports_unsuccessful_endings():
+    batch = make_batch(ROBOT_HAND_IDS["ball-placing"], 2, seed=0)
+    assert isinstance(batch, GymBatch)
+    batch.reset()
+    batch.envs[0].unwrapped.object.position = (5.0, rh.BALL_RADIUS)
+    _, _, terminated, _, info = batch.step(np.zeros((2, 4)))
+    assert terminated.tolist() == [True, False] and info["success"].tolist() == [False, False]
