@@ -267,7 +267,39 @@ def test_train_and_evaluate_end_to_end(favae_file, tmp_path):
         assert metrics["episodes"] == 3 and 0 <= metrics["success_rate"] <= 1
         assert metrics["episode_length"] >= metrics["decisions"] >= 1
         assert (tmp_path / agent / "rollouts.png").stat().st_size > 0
+        assert_film(tmp_path / agent, max_frames=401)
     assert json.loads((tmp_path / "ppo/eval.json").read_text())["macro_length"] == 1
+
+
+def assert_film(run, max_frames):
+    """episode.gif holds a whole episode (reset frame included) and episode.png a strip of its stills."""
+    from PIL import Image
+
+    with Image.open(run / "episode.gif") as gif:
+        assert gif.format == "GIF" and 2 <= gif.n_frames <= max_frames
+        height = gif.size[1]
+    with Image.open(run / "episode.png") as strip:
+        assert strip.size[1] == height and strip.size[0] > 2 * height
+
+
+def test_robot_hand_trains_and_evaluates_through_the_gymnasium_loop(tmp_path):
+    """RobotHand runs through the generic batch: a 4-D FAVAE's macros, success from info, a rendered episode."""
+    from famarl_cli.favae.checkpoint import save_favae
+    from famarl_cli.favae.model import Favae, FavaeConfig
+
+    torch.manual_seed(0)
+    favae = tmp_path / "hand.pt"
+    save_favae(favae, Favae(FavaeConfig(action_dim=4, length=16)), {"beta": 0.1}, {})
+    out = tmp_path / "run"
+    env = "famarl/RobotHand-BallPlacing-v0"
+    result = famarl("train", "--env", env, "--favae", favae, *TINY_TRAINING, "--out", out)
+    assert result.exit_code == 0, result.output
+    assert famarl("evaluate", "--run", out, "--episodes", 2).exit_code == 0
+    metrics = json.loads((out / "eval.json").read_text())
+    assert metrics["episodes"] == 2 and 1 <= metrics["macro_length"] <= 16
+    assert_film(out, max_frames=301)
+    mismatched = famarl("train", "--env", "famarl/ContinuousWorld-Maze-v0", "--favae", favae, "--out", tmp_path / "x")
+    assert mismatched.exit_code != 0 and "Traceback" not in mismatched.output
 
 
 def test_train_same_seed_same_log_and_resume_extends_a_finished_run(tmp_path):

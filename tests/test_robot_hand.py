@@ -76,6 +76,19 @@ def test_hand_is_stopped_by_the_floor():
     assert 0.0 < obs[1] < 0.2
 
 
+def test_nothing_leaves_the_world_however_hard_it_is_pushed():
+    """Full-force pushes, turns and grasps into edges and corners (a zero-width floor once let the hand through)."""
+    env = make("reaching", max_episode_steps=None).unwrapped
+    rng = np.random.default_rng(0)
+    for seed in range(3):
+        env.reset(seed=seed)
+        for step in range(1500):
+            push = np.sign(rng.uniform(-1, 1, 4)) if step % 50 < 25 else np.array([0.0, -1.0, 1.0, 1.0])
+            env.step(push)
+            for body in env.space.bodies:
+                assert -0.05 <= body.position.x <= rh.WIDTH + 0.05 and -0.05 <= body.position.y <= rh.HEIGHT + 0.05
+
+
 def test_reaching_rewards_and_ends():
     env = make("reaching")
     env.reset(seed=1)

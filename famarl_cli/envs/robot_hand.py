@@ -42,6 +42,8 @@ SUBSTEPS = 4
 """Physics steps per environment step; contacts of a tight grasp stay stable at DT / SUBSTEPS = 12.5 ms."""
 SOLVER_ITERATIONS = 20
 COLLISION_SLOP = 0.005
+EDGE_THICKNESS = 0.5
+"""Half-thickness of the walls around the world (m): thick enough that nothing is pushed through them."""
 """Overlap (m) pymunk allows between touching shapes; its default, 0.1, is for worlds measured in pixels."""
 GRAVITY = 9.81
 
@@ -185,10 +187,10 @@ class Hand:
             motor.rate = side * float(action[3]) * FINGER_SPEED
 
     def keep_on_leash(self) -> None:
-        offset = np.subtract(self.control.position, self.palm.position)
+        inside = np.clip(self.control.position, (0.0, 0.0), (WIDTH, HEIGHT))  # never pull the palm out of the world
+        offset = inside - np.asarray(self.palm.position)
         distance = float(np.hypot(*offset))
-        if distance > LEASH:
-            self.control.position = tuple(np.asarray(self.palm.position) + offset * (LEASH / distance))
+        self.control.position = tuple(np.asarray(self.palm.position) + offset * min(1.0, LEASH / max(distance, 1e-12)))
         turn = self.control.angle - self.palm.angle
         if abs(turn) > LEASH:
             self.control.angle = self.palm.angle + np.sign(turn) * LEASH
@@ -239,9 +241,11 @@ def empty_world() -> pymunk.Space:
     space.gravity = (0.0, -GRAVITY)
     space.iterations = SOLVER_ITERATIONS
     space.collision_slop = COLLISION_SLOP
-    corners = [(0, 0), (WIDTH, 0), (WIDTH, HEIGHT), (0, HEIGHT)]
+    # Thick walls just outside the world: a hand pressed on a zero-width edge with HAND_FORCE went through it.
+    r = EDGE_THICKNESS
+    corners = [(-r, -r), (WIDTH + r, -r), (WIDTH + r, HEIGHT + r), (-r, HEIGHT + r)]
     ends = zip(corners, corners[1:] + corners[:1], strict=True)
-    edges = [pymunk.Segment(space.static_body, a, b, 0.0) for a, b in ends]
+    edges = [pymunk.Segment(space.static_body, a, b, r) for a, b in ends]
     for edge in edges:
         edge.friction = FRICTION
     space.add(*edges)
