@@ -13,7 +13,7 @@ from matplotlib.patches import Circle
 
 from famarl_cli.artifacts import Demos, atomic_path
 from famarl_cli.artifacts.segments import Segments
-from famarl_cli.envs import ROBOT_HAND_IDS
+from famarl_cli.envs import ROBOT_HAND_IDS, robot_hand
 from famarl_cli.traversal import Traversal
 
 PHASE_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown", "tab:olive")
@@ -26,8 +26,6 @@ def plot_demos(demos: Demos, path: str | os.PathLike, max_episodes: int = 100) -
     Like the paper's Figure 3: the script's family of trajectories at a glance, with the true phase boundaries
     marked, so a user sees what macro actions the demos can teach.
     """
-    from famarl_cli.envs import robot_hand
-
     robot = demos.env_id in ROBOT_HAND_IDS.values()
     fig = Figure(figsize=(8, 5.3) if robot else (5, 5.3))
     ax = fig.subplots()
@@ -213,7 +211,7 @@ def save_film(film, gif_path: str | os.PathLike, strip_path: str | os.PathLike, 
         marked.append(frame)
     images = [Image.fromarray(frame) for frame in marked]
     with atomic_path(gif_path) as temp:
-        images[0].save(temp, format="GIF", save_all=True, append_images=images[1:], duration=50, loop=0)
+        images[0].save(temp, format="GIF", save_all=True, append_images=images[1:], duration=1000 / film.fps, loop=0)
     picks = np.linspace(0, len(marked) - 1, min(stills, len(marked))).round().astype(int)
     gap = np.full((marked[0].shape[0], 4, 3), 255, dtype=np.uint8)
     strip = np.concatenate([part for i in picks for part in (marked[i], gap)][:-1], axis=1)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from famarl_cli.envs import ENV_IDS
 from famarl_cli.experts import continuous_world, pegging
 from famarl_cli.experts.continuous_world import ContinuousWorldExpert
 from famarl_cli.experts.pegging import PeggingExpert
@@ -23,8 +24,6 @@ class Demonstration:
 
 
 def demonstration(script: Script) -> Demonstration:
-    from famarl_cli.envs import ENV_IDS
-
     script = Script(script)
     if script is Script.PEGGING:
         return Demonstration(ENV_IDS["robot-hand-base"], {}, pegging.FACTOR_NAMES)

@@ -95,6 +95,8 @@ class Film:
     frames: list[np.ndarray]
     decision: list[int]
     success: bool
+    fps: float
+    """Frames per second of real time (the environment's ``render_fps``)."""
 
 
 def film(agent: TrainedAgent, seed: int) -> Film:
@@ -120,7 +122,7 @@ def film(agent: TrainedAgent, seed: int) -> Film:
             if done:
                 break
         decision += 1
-    return Film(frames, decisions, success)
+    return Film(frames, decisions, success, float(env.metadata["render_fps"]))
 
 
 SUMMARISED = ("success_rate", "return_mean", "episode_length", "decisions", "macro_length", "train_wall_s")
