@@ -186,6 +186,13 @@ class Hand:
         for side, motor in zip((-1.0, 1.0), self.motors, strict=True):
             motor.rate = side * float(action[3]) * FINGER_SPEED
 
+    def step(self, space: pymunk.Space, action: np.ndarray) -> None:
+        """One environment step of ``space`` with the hand driven by ``action`` (clipped to the action bounds)."""
+        self.command(np.clip(action, -1.0, 1.0))
+        for _ in range(SUBSTEPS):
+            space.step(DT / SUBSTEPS)
+        self.keep_on_leash()
+
     def keep_on_leash(self) -> None:
         inside = np.clip(self.control.position, (0.0, 0.0), (WIDTH, HEIGHT))  # never pull the palm out of the world
         offset = inside - np.asarray(self.palm.position)
@@ -334,13 +341,10 @@ class RobotHandEnv(gym.Env):
     def step(self, action):
         if self.space is None:
             raise RuntimeError("call reset() before step()")
-        action = np.clip(np.asarray(action, dtype=np.float64).reshape(4), -1.0, 1.0)
+        action = np.asarray(action, dtype=np.float64).reshape(4)
         if not np.isfinite(action).all():
             raise ValueError(f"action must be finite, got {action}")
-        self.hand.command(action)
-        for _ in range(SUBSTEPS):
-            self.space.step(DT / SUBSTEPS)
-        self.hand.keep_on_leash()
+        self.hand.step(self.space, action)
         reward, terminated, success = self._outcome()
         return self._observe(), reward, terminated, False, self._info(success)
 
@@ -418,13 +422,11 @@ def render_scene(env: RobotHandEnv, pixels: int = 320) -> np.ndarray:
         canvas.segment(shape.a, shape.b, max(shape.radius, 0.03), env.colours.get(shape, COLOURS["static"]))
     for body in env.space.bodies:
         for shape in body.shapes:
-            world = [body.local_to_world(v) for v in shape.get_vertices()] if isinstance(shape, pymunk.Poly) else None
             if isinstance(shape, pymunk.Circle):
                 canvas.disc(*body.position, shape.radius, COLOURS["ball"])
-            elif body is env.object:
-                canvas.polygon(world, COLOURS["rod"])
-            else:
-                canvas.polygon(world, COLOURS["finger"] if body in env.hand.fingers else COLOURS["hand"])
+                continue
+            colour = COLOURS["rod"] if body is env.object else COLOURS["finger"] if body in env.hand.fingers else None
+            canvas.polygon([body.local_to_world(v) for v in shape.get_vertices()], colour or COLOURS["hand"])
     return canvas.image
 
 
@@ -442,9 +444,6 @@ def simulate_open_loop(actions: np.ndarray, lengths: np.ndarray, start: tuple[fl
         paths[i, 0] = hand.grip
         for t in range(steps):
             if t < lengths[i]:
-                hand.command(np.clip(actions[i, t], -1.0, 1.0))
-                for _ in range(SUBSTEPS):
-                    space.step(DT / SUBSTEPS)
-                hand.keep_on_leash()
+                hand.step(space, actions[i, t])
             paths[i, t + 1] = hand.grip
     return paths

@@ -17,7 +17,7 @@ from famarl_cli.envs.continuous_world import Layouts
 from famarl_cli.rl.executor import run_open_loop
 from famarl_cli.rl.normalization import ObservationNormalizer
 from famarl_cli.rl.training import TrainedAgent, build_mode
-from famarl_cli.rl.vector import GymBatch, make_batch
+from famarl_cli.rl.vector import BatchedEnv, GymBatch, make_batch
 
 
 @dataclass
@@ -36,11 +36,26 @@ class Evaluation:
     traces: list[Trace]
 
 
+class DeterministicActor:
+    """The trained policy acting with its mode, on observations normalised with the statistics frozen at the end
+    of training; returns each decision's open-loop actions (N, L, D) and lengths (N,)."""
+
+    def __init__(self, agent: TrainedAgent, env: BatchedEnv) -> None:
+        self.agent = agent
+        self.mode = build_mode(agent.spec, env, agent.favae)
+        self.normalize = ObservationNormalizer((env.observation_size,), agent.spec.ppo.normalize_obs)
+        self.normalize.load_state_dict(agent.obs_norm_state)
+
+    def __call__(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        with torch.no_grad():
+            state = torch.from_numpy(self.normalize(obs.astype(np.float32), update=False))
+            u, index = self.agent.policy.distribution(state).mode()
+        return self.mode.to_open_loop(u.numpy().astype(np.float64), index.numpy())
+
+
 def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4) -> Evaluation:
     env = make_batch(agent.spec.env_id, episodes, seed)
-    mode = build_mode(agent.spec, env, agent.favae)
-    normalize = ObservationNormalizer((env.observation_size,), agent.spec.ppo.normalize_obs)
-    normalize.load_state_dict(agent.obs_norm_state)
+    act = DeterministicActor(agent, env)
     obs = env.reset()
     alive = np.ones(episodes, dtype=bool)
     returns, lengths, decisions, chosen = (np.zeros(episodes) for _ in range(4))
@@ -60,9 +75,7 @@ def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4) -
             labels[i].append(decision)
 
     while alive.any():
-        with torch.no_grad():
-            u, index = agent.policy.distribution(torch.from_numpy(normalize(obs, update=False))).mode()
-        actions, length = mode.to_open_loop(u.numpy().astype(np.float64), index.numpy())
+        actions, length = act(obs)
         length = np.where(alive, length, 0)
         result = run_open_loop(env, obs, actions, length, on_step=trace if traced else None)
         returns += result.reward
@@ -103,16 +116,11 @@ def film(agent: TrainedAgent, seed: int) -> Film:
     """Render one deterministic episode of ``agent`` (its first frame is the reset state)."""
     batch = GymBatch(agent.spec.env_id, 1, seed, render_mode="rgb_array")
     env = batch.envs[0]
-    mode = build_mode(agent.spec, batch, agent.favae)
-    normalize = ObservationNormalizer((batch.observation_size,), agent.spec.ppo.normalize_obs)
-    normalize.load_state_dict(agent.obs_norm_state)
+    act = DeterministicActor(agent, batch)
     obs, _ = env.reset(seed=seed)
     frames, decisions, success, done, decision = [env.render()], [], False, False, 0
     while not done:
-        with torch.no_grad():
-            state = torch.from_numpy(normalize(np.ravel(obs)[None].astype(np.float32), update=False))
-            u, index = agent.policy.distribution(state).mode()
-        actions, length = mode.to_open_loop(u.numpy().astype(np.float64), index.numpy())
+        actions, length = act(np.ravel(obs)[None])
         for k in range(int(length[0])):
             obs, _, terminated, truncated, info = env.step(actions[0, k])
             frames.append(env.render())
