@@ -155,30 +155,44 @@ def plot_rollouts(traces: list, path: str | os.PathLike, title: str) -> None:
     _save(fig, path)
 
 
-def plot_learning_curves(curves: dict[str, list[dict[str, np.ndarray]]], path: str | os.PathLike) -> None:
-    """Success rate, return and mean macro length against environment steps: per label, the mean over seeds and
-    its min-max band. The macro-length panel is the paper's Figure 8 (does training shorten macro actions?).
+LEARNING_PANELS = {
+    "episode_success": ("success rate (last 100 episodes)", (-0.02, 1.02)),
+    "episode_return": ("episode return (last 100 episodes)", None),
+    "macro_length": ("mean macro length chosen (steps, per rollout)", None),
+}
+"""The columns of ``train.csv`` a learning-curve panel can show, with their axis label and limits."""
+
+
+def plot_learning_curves(
+    curves: dict[str, list[dict[str, np.ndarray]]],
+    path: str | os.PathLike,
+    panels: tuple[str, ...] = tuple(LEARNING_PANELS),
+    title: str = "training curves: mean over seeds, band = min to max",
+) -> None:
+    """Success rate, return and mean macro length (or the chosen ``panels``) against environment steps: per label,
+    the mean over seeds and its min-max band. The macro-length panel is the paper's Figure 8 (does training shorten
+    macro actions?).
 
     Seeds log at different step counts, so each is interpolated onto a common grid that stops where the
     shortest seed stops.
     """
-    fig = Figure(figsize=(14, 3.8))
-    axes = fig.subplots(1, 3)
+    fig = Figure(figsize=(4.7 * len(panels), 3.8))
+    axes = np.atleast_1d(fig.subplots(1, len(panels)))
     for (label, runs), colour in zip(sorted(curves.items()), cm.tab10.colors, strict=False):
         end = min(run["env_steps"][-1] for run in runs)
         grid = np.linspace(0, end, 200)
-        for ax, key in zip(axes, ("episode_success", "episode_return", "macro_length"), strict=True):
+        for ax, key in zip(axes, panels, strict=True):
             values = np.array([_interpolate(grid, run["env_steps"], run[key]) for run in runs])
             with warnings.catch_warnings():  # before the first episode ends there is nothing to average
                 warnings.simplefilter("ignore", RuntimeWarning)
                 mean, low, high = np.nanmean(values, axis=0), np.nanmin(values, axis=0), np.nanmax(values, axis=0)
             ax.plot(grid, mean, color=colour, label=f"{label} ({len(runs)} seeds)")
             ax.fill_between(grid, low, high, color=colour, alpha=0.2)
-    axes[0].set(xlabel="environment steps", ylabel="success rate (last 100 episodes)", ylim=(-0.02, 1.02))
-    axes[1].set(xlabel="environment steps", ylabel="episode return (last 100 episodes)")
-    axes[2].set(xlabel="environment steps", ylabel="mean macro length chosen (steps, per rollout)")
+    for ax, key in zip(axes, panels, strict=True):
+        ylabel, ylim = LEARNING_PANELS[key]
+        ax.set(xlabel="environment steps", ylabel=ylabel, ylim=ylim)
     axes[0].legend(fontsize=8)
-    fig.suptitle("training curves: mean over seeds, band = min to max", fontsize=9)
+    fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     _save(fig, path)
 

@@ -80,6 +80,36 @@ def read_run_file(run_dir: str | os.PathLike) -> dict:
     return values
 
 
+def expand_run_folders(folders: list[Path]) -> list[Path]:
+    """Each folder as given if it is a run folder; a folder without a run file but with run folders inside stands
+    for those, in name order (``famarl evaluate --run data/maze/runs`` evaluates every run of an experiment)."""
+    expanded = []
+    for folder in folders:
+        inside = sorted(child for child in folder.glob(f"*/{RUN_FILE}")) if folder.is_dir() else []
+        if (folder / RUN_FILE).exists() or not inside:
+            expanded.append(folder)
+        else:
+            expanded.extend(path.parent for path in inside)
+    return expanded
+
+
+def read_evaluation(path: str | os.PathLike) -> dict:
+    """An ``eval.json`` written by ``famarl evaluate``, with the fields the report groups and compares by."""
+    path = Path(path)
+    try:
+        values = json.loads(path.read_text())
+    except FileNotFoundError as exc:
+        raise ArtifactError(f"{path}: no such evaluation (has famarl evaluate run?)") from exc
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ArtifactError(f"{path}: not readable JSON ({exc})") from exc
+    check(isinstance(values, dict), path, "is not an evaluation")
+    for key in ("label", "agent", "env", "seed", "run", "success_rate", "return_mean", "macro_length"):
+        check(key in values, path, f"has no {key!r} (written by an older famarl evaluate? run it again)")
+    for key in ("success_rate", "return_mean", "macro_length"):
+        check(np.isfinite(values[key]), path, f"has a non-finite {key!r}")
+    return values
+
+
 def read_run_checkpoint(run_dir: str | os.PathLike) -> dict:
     """The checkpoint's payload with the trainer state's arrays back in numpy."""
     path = Path(run_dir) / CHECKPOINT_FILE

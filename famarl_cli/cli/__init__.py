@@ -83,4 +83,4 @@ def main() -> None:
 
 
 # The commands register themselves on ``app`` when their modules are imported.
-from famarl_cli.cli import demos, evaluate, favae, inspect, segment, train, traverse  # noqa: E402, F401
+from famarl_cli.cli import demos, evaluate, favae, inspect, report, segment, train, traverse  # noqa: E402, F401

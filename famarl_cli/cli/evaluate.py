@@ -23,7 +23,8 @@ def evaluate(
         list[Path],
         typer.Option(
             "--run",
-            help="Run folder (from famarl train); repeat for several.  [default: famarl train's]",
+            help="Run folder (from famarl train), or a folder of run folders; repeat for several.  [default: famarl "
+            "train's]",
             file_okay=False,
         ),
     ] = None,
@@ -40,8 +41,17 @@ def evaluate(
     curves: Annotated[
         Path | None,
         typer.Option(
-            help="Learning curves of all runs by label.  [default: curves.png beside the runs, or in the one run]",
+            help="Learning curves of all runs by label.  [default: curves.png beside the runs' results, or with the "
+            "one run's]",
             dir_okay=False,
+        ),
+    ] = None,
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            help="Write each run's results into OUT/<run folder name>/ instead of into the run folder (keeps a "
+            "pipeline's evaluation apart from its training outputs).",
+            file_okay=False,
         ),
     ] = None,
 ) -> None:
@@ -57,6 +67,7 @@ def evaluate(
         FILM_FILE,
         ROLLOUTS_FILE,
         STILLS_FILE,
+        expand_run_folders,
         read_run_file,
         read_training_log,
     )
@@ -67,10 +78,12 @@ def evaluate(
     from famarl_cli.rl.training import load_agent
 
     torch_on_one_thread()
-    run = run or [DEFAULT_RUN]
+    run = expand_run_folders(run or [DEFAULT_RUN])
     for folder in run:
         read_run_file(folder)
-    curves = prepare_output(curves or (run[0] / "curves.png" if len(run) == 1 else run[0].parent / "curves.png"))
+    results = {folder: (out / folder.name if out else folder) for folder in run}
+    first = results[run[0]]
+    curves = prepare_output(curves or (first / "curves.png" if len(run) == 1 else first.parent / "curves.png"))
     table = Table(title=f"deterministic evaluation: {episodes} episodes per run, seed {seed}")
     for column in ("run", "env steps", "success", "return", "length", "decisions", "macro length"):
         table.add_column(column, justify="left" if column == "run" else "right")
@@ -83,19 +96,25 @@ def evaluate(
         evaluation = {
             **result.metrics,
             "label": agent.spec.label,
+            "agent": str(agent.spec.agent),
+            "env": agent.spec.env_id,
+            "seed": agent.spec.seed,
+            "run": str(folder),
             "env_steps": agent.env_steps,
             "train_wall_s": read_run_file(folder)["wall_s"],
         }
-        write_json(folder / EVAL_FILE, {**evaluation, "provenance": prov})
+        into = results[folder]
+        into.mkdir(parents=True, exist_ok=True)
+        write_json(into / EVAL_FILE, {**evaluation, "provenance": prov})
         evaluations.append(evaluation)
         if result.traces:
             plot_rollouts(
                 result.traces,
-                folder / ROLLOUTS_FILE,
+                into / ROLLOUTS_FILE,
                 f"{agent.spec.label}, seed {agent.spec.seed}: deterministic episodes, one colour per decision",
             )
         if film:
-            save_film(film_episode(agent, seed), folder / FILM_FILE, folder / STILLS_FILE)
+            save_film(film_episode(agent, seed), into / FILM_FILE, into / STILLS_FILE)
         curves_by_label.setdefault(agent.spec.label, []).append(read_training_log(folder))
         m = result.metrics
         table.add_row(
@@ -130,7 +149,8 @@ def evaluate(
     console.print(by_label)
     console.print(
         f"written {EVAL_FILE}, {ROLLOUTS_FILE} (ContinuousWorld)"
-        f"{f', {FILM_FILE}, {STILLS_FILE}' if film else ''} in each run folder, {curves}, {curves.with_suffix('.json')}"
+        f"{f', {FILM_FILE}, {STILLS_FILE}' if film else ''} in {out or 'each run folder'}, {curves}, "
+        f"{curves.with_suffix('.json')}"
     )
 
 
