@@ -119,7 +119,12 @@ class Section:
         return "does not reproduce" if held == 0 else f"partly reproduces ({held} of {len(self.claims)} claims)"
 
     def markdown(self) -> str:
-        lines = [f"## {self.title}: {self.verdict}", "", "| the paper says | we test | ours | verdict |", "|---|---|---|---|"]
+        lines = [
+            f"## {self.title}: {self.verdict}",
+            "",
+            "| the paper says | we test | ours | verdict |",
+            "|---|---|---|---|",
+        ]
         lines += [
             f"| {c.paper} | {c.criterion} | {c.ours} | {'reproduces' if c.holds else '**does not reproduce**'} |"
             for c in self.claims
@@ -244,7 +249,9 @@ def maze(data: Path, out: Path) -> Section | None:
 
 def scripts(data: Path, out: Path) -> Section | None:
     """Paper Fig. 4a: FaMARL with macro actions from each of the four scripts."""
-    results = [r for r in gather([data / "maze" / "eval", data / "scripts" / "eval"]) if r.evaluation["agent"] == "famarl"]
+    results = [
+        r for r in gather([data / "maze" / "eval", data / "scripts" / "eval"]) if r.evaluation["agent"] == "famarl"
+    ]
     groups = group(results, MAZE)
     if not results or set(groups) == {"famarl (pushed-down-only)"}:
         return None

@@ -5,7 +5,8 @@ from torch.distributions import Categorical, Normal
 
 from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.favae.model import Favae, FavaeConfig
-from famarl_cli.rl.action_modes import Agent, LatentMacroActions, PrimitiveActions, RepeatedActions
+from famarl_cli.rl import Agent
+from famarl_cli.rl.action_modes import LatentMacroActions, PrimitiveActions, RepeatedActions
 from famarl_cli.rl.evaluation import evaluate
 from famarl_cli.rl.executor import run_open_loop
 from famarl_cli.rl.normalization import RewardScaler, RunningMeanStd

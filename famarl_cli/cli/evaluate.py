@@ -11,7 +11,7 @@ from rich.table import Table
 
 from famarl_cli.cli import app, reports_errors, torch_on_one_thread
 from famarl_cli.cli.train import DEFAULT_ENV, DEFAULT_FAVAE, default_run_dir
-from famarl_cli.rl.action_modes import Agent
+from famarl_cli.rl import Agent
 
 DEFAULT_RUN = default_run_dir(DEFAULT_ENV, Agent.FAMARL, DEFAULT_FAVAE, 0)
 

@@ -11,8 +11,7 @@ from rich.table import Table
 
 from famarl_cli.cli import app, progress_bar, reports_errors, torch_on_one_thread
 from famarl_cli.errors import UsageError
-from famarl_cli.rl.action_modes import Agent
-from famarl_cli.rl.ppo import MacroDiscount
+from famarl_cli.rl import Agent, MacroDiscount
 
 DEFAULT_ENV = "famarl/ContinuousWorld-Maze-v0"
 DEFAULT_STEPS = 1_000_000

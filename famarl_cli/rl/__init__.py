@@ -9,3 +9,20 @@ FiGAR's repeated actions), all executed through the same open-loop path and budg
 - :mod:`~famarl_cli.rl.ppo`: GAE, the clipped update and the training loop;
 - :mod:`~famarl_cli.rl.evaluation`: deterministic rollouts and their metrics.
 """
+
+from enum import StrEnum
+
+
+class Agent(StrEnum):
+    """What the policy searches over. Defined here, apart from the torch code, so the CLI starts without torch."""
+
+    FAMARL = "famarl"
+    PPO = "ppo"
+    FIGAR = "figar"
+
+
+class MacroDiscount(StrEnum):
+    """How a macro action's rewards are discounted: per decision (the paper), or per environment step."""
+
+    DECISION = "decision"
+    STEPS = "steps"

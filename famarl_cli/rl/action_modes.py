@@ -10,17 +10,9 @@ repeat index (N,), and returns ``(actions (N, L, D), lengths (N,))`` for :func:`
 
 from __future__ import annotations
 
-from enum import StrEnum
-
 import numpy as np
 
 from famarl_cli.favae.model import Favae
-
-
-class Agent(StrEnum):
-    FAMARL = "famarl"
-    PPO = "ppo"
-    FIGAR = "figar"
 
 
 class PrimitiveActions:

@@ -22,22 +22,16 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields
-from enum import StrEnum
 
 import numpy as np
 import torch
 from torch import nn
 
+from famarl_cli.rl import MacroDiscount
 from famarl_cli.rl.executor import OpenLoopResult, run_open_loop
 from famarl_cli.rl.normalization import ObservationNormalizer, RewardScaler
 from famarl_cli.rl.policy import ActorCritic
 from famarl_cli.rl.vector import BatchedEnv
-
-
-class MacroDiscount(StrEnum):
-    DECISION = "decision"
-    STEPS = "steps"
-
 
 RECENT_EPISODES = 100
 """Training statistics (return, success) are means over this many most recent episodes."""

@@ -18,7 +18,8 @@ from famarl_cli.artifacts.runs import CHECKPOINT_FILE, read_run_checkpoint, writ
 from famarl_cli.errors import ArtifactError, UsageError
 from famarl_cli.favae.checkpoint import load_favae
 from famarl_cli.favae.model import Favae, FavaeConfig
-from famarl_cli.rl.action_modes import Agent, LatentMacroActions, PrimitiveActions, RepeatedActions
+from famarl_cli.rl import Agent
+from famarl_cli.rl.action_modes import LatentMacroActions, PrimitiveActions, RepeatedActions
 from famarl_cli.rl.policy import ActorCritic
 from famarl_cli.rl.ppo import PPOConfig, PPOTrainer
 from famarl_cli.rl.vector import BatchedEnv, make_batch
