@@ -18,24 +18,18 @@ ROOT = Path(__file__).resolve().parents[1]
 TINY_TRAIN = {"steps": 1500}
 TINY_EVALUATE = {"episodes": 3}
 TINY_FAVAE = {"epochs": 3}
+TINY_MAKING = {
+    "seeds": [0],
+    "demos": {"episodes": 6},
+    "segment": {"epochs": 3},
+    "favae": TINY_FAVAE,
+    "train": TINY_TRAIN,
+    "evaluate": TINY_EVALUATE,
+}
+"""For the pipelines that make demos, segments and a FAVAE before training."""
 TINY = {
-    "params.yaml": {
-        "seeds": [0],
-        "demos": {"episodes": 6},
-        "segment": {"epochs": 3},
-        "favae": TINY_FAVAE,
-        "train": TINY_TRAIN,
-        "evaluate": TINY_EVALUATE,
-    },
-    "pipelines/scripts/params.yaml": {
-        "seeds": [0],
-        "scripts": ["down-and-up"],
-        "demos": {"episodes": 6},
-        "segment": {"epochs": 3},
-        "favae": TINY_FAVAE,
-        "train": TINY_TRAIN,
-        "evaluate": TINY_EVALUATE,
-    },
+    "params.yaml": TINY_MAKING,
+    "pipelines/scripts/params.yaml": {**TINY_MAKING, "scripts": ["down-and-up"]},
     "pipelines/beta/params.yaml": {
         "seeds": [0],
         "betas": [0.1, 1],
@@ -52,14 +46,7 @@ TINY = {
         "evaluate": TINY_EVALUATE,
     },
     "pipelines/traversal/params.yaml": {"favae": TINY_FAVAE},
-    "pipelines/robothand/params.yaml": {
-        "seeds": [0],
-        "demos": {"episodes": 4},
-        "segment": {"epochs": 3},
-        "favae": TINY_FAVAE,
-        "train": TINY_TRAIN,
-        "evaluate": TINY_EVALUATE,
-    },
+    "pipelines/robothand/params.yaml": {**TINY_MAKING, "demos": {"episodes": 4}},
     "pipelines/macro-length/params.yaml": {"seeds": [0], "train": TINY_TRAIN, "evaluate": TINY_EVALUATE},
 }
 """Overrides of each params file: one seed, one variant where a pipeline sweeps (two betas, one low and one high),

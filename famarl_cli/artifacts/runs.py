@@ -68,12 +68,7 @@ def read_run_file(run_dir: str | os.PathLike) -> dict:
     path = Path(run_dir) / RUN_FILE
     if not Path(run_dir).is_dir():
         raise ArtifactError(f"{run_dir}: no such run folder")
-    try:
-        values = json.loads(path.read_text())
-    except FileNotFoundError as exc:
-        raise ArtifactError(f"{run_dir}: not a run folder (no {RUN_FILE}; was it made by famarl train?)") from exc
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ArtifactError(f"{path}: not readable JSON ({exc})") from exc
+    values = _read_json(path, f"{run_dir}: not a run folder (no {RUN_FILE}; was it made by famarl train?)")
     check(isinstance(values, dict) and values.get("schema") == RUN_SCHEMA, path, f"is not a {RUN_SCHEMA!r} file")
     found = int(values.get("schema_version", -1))
     check(found <= RUN_SCHEMA_VERSION, path, f"schema version {found} is newer than this famarl reads")
@@ -85,7 +80,7 @@ def expand_run_folders(folders: list[Path]) -> list[Path]:
     for those, in name order (``famarl evaluate --run data/maze/runs`` evaluates every run of an experiment)."""
     expanded = []
     for folder in folders:
-        inside = sorted(child for child in folder.glob(f"*/{RUN_FILE}")) if folder.is_dir() else []
+        inside = sorted(folder.glob(f"*/{RUN_FILE}")) if folder.is_dir() else []
         if (folder / RUN_FILE).exists() or not inside:
             expanded.append(folder)
         else:
@@ -96,18 +91,22 @@ def expand_run_folders(folders: list[Path]) -> list[Path]:
 def read_evaluation(path: str | os.PathLike) -> dict:
     """An ``eval.json`` written by ``famarl evaluate``, with the fields the report groups and compares by."""
     path = Path(path)
-    try:
-        values = json.loads(path.read_text())
-    except FileNotFoundError as exc:
-        raise ArtifactError(f"{path}: no such evaluation (has famarl evaluate run?)") from exc
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ArtifactError(f"{path}: not readable JSON ({exc})") from exc
+    values = _read_json(path, f"{path}: no such evaluation (has famarl evaluate run?)")
     check(isinstance(values, dict), path, "is not an evaluation")
     for key in ("label", "agent", "env", "seed", "run", "success_rate", "return_mean", "macro_length"):
         check(key in values, path, f"has no {key!r} (written by an older famarl evaluate? run it again)")
     for key in ("success_rate", "return_mean", "macro_length"):
         check(np.isfinite(values[key]), path, f"has a non-finite {key!r}")
     return values
+
+
+def _read_json(path: Path, missing: str) -> object:
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError as exc:
+        raise ArtifactError(missing) from exc
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ArtifactError(f"{path}: not readable JSON ({exc})") from exc
 
 
 def read_run_checkpoint(run_dir: str | os.PathLike) -> dict:
