@@ -327,6 +327,7 @@ def test_train_and_evaluate_bad_inputs(tmp_path, favae_file, segments_file):
         famarl("train", "--env", "NoSuchEnv-v9", "--agent", "ppo", "--out", tmp_path / "y"), 2, "unknown environment"
     )
     assert "'famarl', 'ppo', 'figar'" in usage_error(famarl("train", "--agent", "dqn"))
-    one_line_error(famarl("evaluate", "--run", tmp_path), 1, "not a run folder")
+    (tmp_path / "no-runs").mkdir()
+    one_line_error(famarl("evaluate", "--run", tmp_path / "no-runs"), 1, "not a run folder")
     (out / "checkpoint.pt").write_bytes(b"broken")
     one_line_error(famarl("evaluate", "--run", out), 1, "not a readable checkpoint")

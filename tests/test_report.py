@@ -23,16 +23,18 @@ def make_run(
     success: float,
     env: str = MAZE,
     macro_lengths: tuple[float, ...] = (20.0, 20.0),
+    learned: float | None = None,
 ) -> None:
-    """An evaluated run as the pipelines leave it: <experiment>/runs/<name>/train.csv and
-    <experiment>/eval/<name>/eval.json."""
+    """An evaluated run as the pipelines leave it: <experiment>/runs/<name>/train.csv (whose training success climbs
+    to ``learned``, by default the deterministic ``success``) and <experiment>/eval/<name>/eval.json."""
+    learned = success if learned is None else learned
     run = data / experiment / "runs" / name
     run.mkdir(parents=True)
     with open(run / "train.csv", "w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(["env_steps", "episode_success", "episode_return", "macro_length"])
         for i, length in enumerate(macro_lengths):
-            writer.writerow([(i + 1) * 1000, success * (i + 1) / len(macro_lengths), -100 + i, length])
+            writer.writerow([(i + 1) * 1000, learned * (i + 1) / len(macro_lengths), -100 + i, length])
     evaluation = {
         "label": label,
         "agent": agent,
@@ -132,3 +134,14 @@ def test_cli_refuses_unknown_experiments_and_bad_evaluations(tmp_path):
     assert result.output.strip().splitlines()[-1].startswith("error: ")
     assert "has no 'env'" in result.output
     assert not (tmp_path / "r/report.md").exists()
+
+
+def test_learning_claims_read_training_success_and_show_the_deterministic_one(tmp_path):
+    data = tmp_path / "data"
+    make_run(data, "maze", "famarl-seed0", "famarl (pushed-down-only)", "famarl", 0.9)
+    make_run(data, "maze", "ppo-seed0", "ppo", "ppo", 0.2)
+    make_run(data, "maze", "figar-seed0", "figar", "figar", 0.01, learned=0.87)
+    claims = {c.paper: c for c in write_report(["maze"], data, tmp_path / "report", "test")["maze"].claims}
+    assert not claims["FiGAR fails to converge"].holds
+    assert claims["FiGAR fails to converge"].ours == "0.87 (deterministic 0.01)"
+    assert "| figar | 1 | 2,000 | 0.87 | 0.01 |" in (tmp_path / "report/report.md").read_text()
