@@ -12,6 +12,7 @@ its most likely repeat count). The figures are PNG files (``dvc plots show`` nee
 
 from __future__ import annotations
 
+import json
 import re
 import shutil
 from collections.abc import Callable
@@ -22,8 +23,16 @@ import numpy as np
 
 from famarl_cli.artifacts import atomic_path
 from famarl_cli.artifacts.base import write_json
-from famarl_cli.artifacts.runs import EVAL_FILE, FILM_FILE, ROLLOUTS_FILE, STILLS_FILE, read_evaluation
-from famarl_cli.artifacts.runs import read_training_log as _read_training_log
+from famarl_cli.artifacts.runs import (
+    EVAL_FILE,
+    FILM_FILE,
+    LOG_FILE,
+    ROLLOUTS_FILE,
+    STILLS_FILE,
+    read_evaluation,
+    read_run_file,
+    read_training_log,
+)
 from famarl_cli.errors import ArtifactError
 
 SOLVED = 0.8
@@ -157,7 +166,7 @@ def gather(folders: list[Path]) -> list[RunResult]:
         for path in sorted(folder.glob(f"*/{EVAL_FILE}")):
             evaluation = read_evaluation(path)
             run_folder = Path(evaluation["run"])
-            log = _read_training_log(run_folder) if (run_folder / "train.csv").is_file() else None
+            log = read_training_log(run_folder) if (run_folder / LOG_FILE).is_file() else None
             results.append(RunResult(evaluation, log, path.parent))
     return results
 
@@ -284,10 +293,6 @@ def scripts(data: Path, out: Path) -> Section | None:
 
 
 def _favae_metrics(g: Group) -> dict:
-    import json
-
-    from famarl_cli.artifacts.runs import read_run_file
-
     favae = read_run_file(g.runs[0].evaluation["run"])["spec"]["favae"]
     path = Path(favae).with_suffix(".metrics.json")
     try:
@@ -355,8 +360,6 @@ def demos_count(data: Path, out: Path) -> Section | None:
 
 def traversal(data: Path, out: Path) -> Section | None:
     """Paper Fig. 5: latent traversal of the FAVAE of down-and-up demos."""
-    import json
-
     path = data / "traversal" / "down-and-up.json"
     if not path.is_file():
         return None
