@@ -132,11 +132,15 @@ class Section:
     claims: list[Claim]
     tables: list[str] = field(default_factory=list)
     figures: list[str] = field(default_factory=list)
-    notes: list[str] = field(default_factory=list)
+
+    @property
+    def held(self) -> int:
+        """How many of the claims reproduce."""
+        return sum(claim.holds for claim in self.claims)
 
     @property
     def verdict(self) -> str:
-        held = sum(claim.holds for claim in self.claims)
+        held = self.held
         if held == len(self.claims):
             return "reproduces"
         return "does not reproduce" if held == 0 else f"partly reproduces ({held} of {len(self.claims)} claims)"
@@ -155,7 +159,6 @@ class Section:
         for table in self.tables:
             lines += ["", table]
         lines += [""] + [f"![{name}]({name})" for name in self.figures]
-        lines += [f"\n{note}" for note in self.notes]
         return "\n".join(lines).rstrip() + "\n"
 
 
@@ -523,7 +526,7 @@ def write_report(names: list[str], data: Path, out: Path, version: str) -> dict[
     summary = {
         name: {
             "verdict": section.verdict,
-            "claims_reproduced": sum(claim.holds for claim in section.claims),
+            "claims_reproduced": section.held,
             "claims": len(section.claims),
         }
         for name, section in built.items()

@@ -44,5 +44,5 @@ def report(
     for column in ("experiment", "claims reproduced", "verdict"):
         table.add_column(column)
     for name, section in sections.items():
-        table.add_row(name, f"{sum(c.holds for c in section.claims)} of {len(section.claims)}", section.verdict)
+        table.add_row(name, f"{section.held} of {len(section.claims)}", section.verdict)
     Console().print(table)
