@@ -11,7 +11,7 @@ from famarl_cli.rl.evaluation import evaluate
 from famarl_cli.rl.executor import run_open_loop
 from famarl_cli.rl.normalization import RewardScaler, RunningMeanStd
 from famarl_cli.rl.policy import ActorCritic
-from famarl_cli.rl.ppo import PPOConfig, PPOTrainer, compute_gae
+from famarl_cli.rl.ppo import STATS, Minibatch, PPOConfig, PPOTrainer, clipped_objective_gradient, compute_gae
 from famarl_cli.rl.training import Run, RunSpec, load_agent
 
 MAZE = "famarl/ContinuousWorld-Maze-v0"
@@ -111,10 +111,9 @@ def test_truncation_bootstraps_the_value_of_the_final_observation():
     env = CountingEnv(n_envs=2, horizon=3)
     config = PPOConfig(n_envs=2, n_steps=7, minibatches=1, gamma=0.9, normalize_obs=False, scale_rewards=False)
     trainer = PPOTrainer(env, PrimitiveActions(*env.action_bounds), config, seed=0)
-    with torch.no_grad():  # a critic that says 5 everywhere
-        for p in trainer.policy.critic.parameters():
-            p.zero_()
-        trainer.policy.critic[-1].bias.fill_(5.0)
+    params = trainer.policy.params  # a critic that says 5 everywhere
+    params["w_value"].zero_()
+    params["b_value"].fill_(5.0)
     rollout = trainer.collect_rollout()
     raw = np.array([0, 1, 2, 0, 1, 2, 0], float)[:, None] + np.array([0.0, 10.0])
     cut = np.array([2, 5])
@@ -128,20 +127,67 @@ def test_truncation_bootstraps_the_value_of_the_final_observation():
 
 def test_figar_log_probability_is_the_joint_of_action_and_repeat():
     policy = ActorCritic(obs_size=3, action_size=2, repeat_choices=4)
-    obs = torch.randn(5, 3)
-    dist = policy.distribution(obs)
-    u, index = dist.sample()
-    features = policy.actor(obs)
-    normal = Normal(policy.mean(features), policy.log_std.exp())
-    categorical = Categorical(logits=policy.repeat_logits(features))
+    heads = policy(torch.randn(5, 3))
+    u, index, logp = policy.sample(heads)
+    normal = Normal(heads.mean, policy.log_std.exp())
+    categorical = Categorical(logits=heads.logits)
     expected = normal.log_prob(u).sum(1) + categorical.log_prob(index)
-    torch.testing.assert_close(dist.log_prob(u, index), expected)
-    torch.testing.assert_close(dist.entropy(), normal.entropy().sum(1) + categorical.entropy())
+    torch.testing.assert_close(logp, expected)
+    torch.testing.assert_close(policy.log_prob(heads, u, index), expected)
+    torch.testing.assert_close(policy.entropy(heads), normal.entropy().sum(1) + categorical.entropy())
     mode = RepeatedActions(np.full(2, -1.0), np.full(2, 1.0), max_repeat=4)
     actions, lengths = mode.to_open_loop(np.array([[2.0, -0.5]]), np.array([2]))
     assert lengths.tolist() == [3]
     np.testing.assert_array_equal(actions[0, :3], [[1.0, -0.5]] * 3)
 
+
+def _autograd_ppo_loss(policy, batch, cfg):
+    """PPO's loss the usual way (CleanRL's formulas, torch.distributions, autograd), as the reference."""
+    p = {name: view.detach().clone().requires_grad_(True) for name, view in policy.params.items()}
+    hidden = batch.obs.expand(2, -1, -1)
+    for layer in ("1", "2"):
+        hidden = torch.tanh(torch.baddbmm(p["b" + layer], hidden, p["w" + layer]))
+    normal = Normal(hidden[0] @ p["w_mean"] + p["b_mean"], p["log_std"].exp())
+    value = (hidden[1] @ p["w_value"] + p["b_value"]).squeeze(1)
+    logp, entropy = normal.log_prob(batch.u).sum(1), normal.entropy().sum(1)
+    if "w_repeat" in p:
+        categorical = Categorical(logits=hidden[0] @ p["w_repeat"] + p["b_repeat"])
+        logp, entropy = logp + categorical.log_prob(batch.index), entropy + categorical.entropy()
+    ratio = (logp - batch.logp).exp()
+    advantages = (batch.advantages - batch.advantages.mean()) / (batch.advantages.std() + 1e-8)
+    policy_loss = torch.max(-advantages * ratio, -advantages * ratio.clamp(1 - cfg.clip, 1 + cfg.clip)).mean()
+    value_error = (value - batch.returns) ** 2
+    if cfg.clip_value:
+        clipped = batch.values + (value - batch.values).clamp(-cfg.clip, cfg.clip)
+        value_error = torch.max(value_error, (clipped - batch.returns) ** 2)
+    value_loss = 0.5 * value_error.mean()
+    loss = policy_loss - cfg.ent_coef * entropy.mean() + cfg.vf_coef * value_loss
+    loss.backward()
+    return {name: tensor.grad for name, tensor in p.items()}, [policy_loss, value_loss, entropy.mean()]
+
+
+@pytest.mark.parametrize("repeat_choices", [0, 5])
+@pytest.mark.parametrize("clip_value", [True, False])
+def test_written_out_ppo_gradient_equals_autograd(repeat_choices, clip_value):
+    torch.manual_seed(0)
+    policy = ActorCritic(obs_size=4, action_size=2, repeat_choices=repeat_choices, hidden=16)
+    cfg = PPOConfig(clip_value=clip_value, ent_coef=0.01)
+    size = 64
+    obs = torch.randn(size, 4)
+    heads = policy(obs)
+    u, index, logp = policy.sample(heads)
+    # Old log-probabilities and values off by enough that both clips are active for some rows and not for others.
+    batch = Minibatch(
+        obs, u, index, logp + 0.3 * torch.randn(size), heads.value + 0.3 * torch.randn(size),
+        torch.randn(size), heads.value + torch.randn(size),
+    )
+    stats = clipped_objective_gradient(policy, batch, cfg)
+    expected, losses = _autograd_ppo_loss(policy, batch, cfg)
+    for name, gradient in expected.items():
+        torch.testing.assert_close(policy.grads[name], gradient, rtol=1e-4, atol=1e-6, msg=name)
+    torch.testing.assert_close(stats[:3], torch.stack(losses).detach(), rtol=1e-5, atol=1e-6)
+    clip_fraction = stats[STATS.index("clip_fraction")]
+    assert 0.1 < clip_fraction < 0.9
 
 def test_latent_mode_clips_latents_and_refuses_another_action_dimension():
     favae = Favae(FavaeConfig(action_dim=2, length=16)).eval()

@@ -47,9 +47,8 @@ class DeterministicActor:
         self.normalize.load_state_dict(agent.obs_norm_state)
 
     def __call__(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        with torch.no_grad():
-            state = torch.from_numpy(self.normalize(obs.astype(np.float32), update=False))
-            u, index = self.agent.policy.distribution(state).mode()
+        policy = self.agent.policy
+        u, index = policy.mode(policy(torch.from_numpy(self.normalize(obs.astype(np.float32), update=False))))
         return self.mode.to_open_loop(u.numpy().astype(np.float64), index.numpy())
 
 

@@ -25,12 +25,11 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 import torch
-from torch import nn
 
 from famarl_cli.rl import MacroDiscount
 from famarl_cli.rl.executor import OpenLoopResult, run_open_loop
 from famarl_cli.rl.normalization import ObservationNormalizer, RewardScaler
-from famarl_cli.rl.policy import ActorCritic
+from famarl_cli.rl.policy import LOG_SQRT_2PI, ActorCritic
 from famarl_cli.rl.vector import BatchedEnv
 
 RECENT_EPISODES = 100
@@ -101,6 +100,74 @@ def compute_gae(
     return advantages, advantages + values
 
 
+STATS = ("policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction")
+"""What every minibatch step reports, averaged over an update."""
+
+
+@dataclass
+class Minibatch:
+    obs: torch.Tensor
+    u: torch.Tensor
+    index: torch.Tensor
+    logp: torch.Tensor
+    """(B,) log-probability of (u, index) under the policy that collected the rollout."""
+    values: torch.Tensor
+    """(B,) the critic's estimates when the rollout was collected."""
+    advantages: torch.Tensor
+    returns: torch.Tensor
+
+
+def clipped_objective_gradient(policy: ActorCritic, batch: Minibatch, cfg: PPOConfig) -> torch.Tensor:
+    """Writes into ``policy.flat.grad`` the gradient of PPO's loss on one minibatch; returns the :data:`STATS`.
+
+    loss = clipped policy loss - ent_coef * entropy + vf_coef * (clipped) value loss, each a mean over the
+    minibatch. The derivative of each term with respect to the network's heads is written beside it; where a
+    ``max`` picks the clipped term, the clip is active and passes no gradient.
+    """
+    size = len(batch.obs)
+    heads = policy(batch.obs)
+    std = policy.log_std.exp()
+    z = (batch.u - heads.mean) / std
+    logp = (-0.5 * z.square() - policy.log_std - LOG_SQRT_2PI).sum(1)
+    if heads.logits is not None:
+        log_p = heads.logits.log_softmax(1)
+        logp = logp + log_p.gather(1, batch.index[:, None]).squeeze(1)
+    log_ratio = logp - batch.logp
+    ratio = log_ratio.exp()
+    advantages = (batch.advantages - batch.advantages.mean()) / (batch.advantages.std() + 1e-8)
+    unclipped, clipped = -advantages * ratio, -advantages * ratio.clamp(1 - cfg.clip, 1 + cfg.clip)
+    policy_loss = torch.maximum(unclipped, clipped).mean()
+    d_logp = torch.where(unclipped >= clipped, -advantages, 0.0).mul_(ratio / size)
+
+    error = heads.value - batch.returns
+    if cfg.clip_value:
+        clipped_error = batch.values + (heads.value - batch.values).clamp(-cfg.clip, cfg.clip) - batch.returns
+        use_clipped = clipped_error.square() > error.square()
+        value_loss = 0.5 * torch.maximum(error.square(), clipped_error.square()).mean()
+        d_value = torch.where(use_clipped, 0.0, error)
+    else:
+        value_loss, d_value = 0.5 * error.square().mean(), error
+    d_value = d_value.mul_(cfg.vf_coef / size)
+
+    # d logp / d mean = z / std and d logp / d log_std = z^2 - 1; the Gaussian's entropy is sum(log_std) + const.
+    d_mean = d_logp[:, None] * z / std
+    d_log_std = (d_logp[:, None] * (z.square() - 1)).sum(0) - cfg.ent_coef
+    entropy = (0.5 + LOG_SQRT_2PI + policy.log_std).sum()
+    d_logits = None
+    if heads.logits is not None:
+        p = log_p.exp()
+        categorical_entropy = -(p * log_p).sum(1)
+        entropy = entropy + categorical_entropy.mean()
+        # d log p[index] / d logits = onehot(index) - p;  d entropy / d logits = -p (log p + entropy)
+        d_logits = -p * d_logp[:, None]
+        d_logits.scatter_add_(1, batch.index[:, None], d_logp[:, None])
+        d_logits += (cfg.ent_coef / size) * p * (log_p + categorical_entropy[:, None])
+    policy.backward(heads, d_mean, d_log_std, d_value, d_logits)
+    approx_kl = ((ratio - 1) - log_ratio).mean()
+    clip_fraction = ((ratio - 1).abs() > cfg.clip).float().mean()
+    return torch.stack((policy_loss, value_loss, entropy, approx_kl, clip_fraction))
+
+
 @dataclass
 class Rollout:
     obs: np.ndarray
@@ -164,7 +231,7 @@ class PPOTrainer:
         self.env, self.mode, self.config = env, mode, config
         torch.manual_seed(seed)
         self.policy = ActorCritic(env.observation_size, mode.policy_action_size, mode.repeat_choices, config.hidden)
-        self.optimizer = torch.optim.Adam(self.policy.parameters(), lr=config.learning_rate, eps=1e-5)
+        self.optimizer = torch.optim.Adam([self.policy.flat], lr=config.learning_rate, eps=1e-5)
         self.obs_norm = ObservationNormalizer((env.observation_size,), config.normalize_obs)
         self.reward_scaler = RewardScaler(config.n_envs, config.scale_rewards)
         self.episodes = EpisodeTracker(config.n_envs)
@@ -188,13 +255,9 @@ class PPOTrainer:
         within = cfg.gamma if cfg.macro_discount == "steps" else 1.0
         for t in range(cfg.n_steps):
             obs[t] = self.obs_norm(self.obs, update=True)
-            with torch.no_grad():
-                state = torch.from_numpy(obs[t])
-                dist = self.policy.distribution(state)
-                sample, choice = dist.sample()
-                logp[t] = dist.log_prob(sample, choice).numpy()
-                values[t] = self.policy.value(state).numpy()
-            u[t], index[t] = sample.numpy(), choice.numpy()
+            heads = self.policy(torch.from_numpy(obs[t]))
+            sample, choice, sample_logp = self.policy.sample(heads)
+            u[t], index[t], logp[t], values[t] = sample.numpy(), choice.numpy(), sample_logp.numpy(), heads.value.numpy()
             actions, lengths[t] = self.mode.to_open_loop(u[t].astype(np.float64), index[t])
             result = run_open_loop(self.env, self.obs, actions, lengths[t].astype(np.int64), discount=within)
             if cfg.macro_discount == "steps":
@@ -205,63 +268,40 @@ class PPOTrainer:
             rewards[t] = self.reward_scaler(reward, discounts[t], dones[t].astype(bool))
             if result.truncated.any():
                 cut = result.truncated
-                with torch.no_grad():
-                    final = torch.from_numpy(self.obs_norm(result.final_obs[cut], update=False))
-                    rewards[t, cut] += discounts[t, cut] * self.policy.value(final).numpy()
+                final = torch.from_numpy(self.obs_norm(result.final_obs[cut], update=False))
+                rewards[t, cut] += discounts[t, cut] * self.policy.value(final).numpy()
             self.episodes.record(result)
             self.env_steps += int(result.steps.sum())
             self.decisions += n
             self.obs = result.obs
-        with torch.no_grad():
-            next_value = self.policy.value(torch.from_numpy(self.obs_norm(self.obs, update=False))).numpy()
+        next_value = self.policy.value(torch.from_numpy(self.obs_norm(self.obs, update=False))).numpy()
         advantages, returns = compute_gae(rewards, values, dones, discounts, next_value, cfg.gae_lambda)
         return Rollout(
             obs, u, index, logp, values, rewards, dones, advantages, returns, lengths, self.env_steps - steps_before
         )
 
     def update(self, rollout: Rollout) -> dict[str, float]:
-        cfg = self.config
-        flat = {}
-        for name in ("obs", "u", "index", "logp", "values", "advantages", "returns"):
-            array = getattr(rollout, name)
-            tensor = torch.as_tensor(array.reshape(-1, *array.shape[2:]))
-            flat[name] = tensor.float() if tensor.is_floating_point() else tensor
-        size = len(flat["obs"])
+        cfg, size = self.config, rollout.index.size
+        columns = [rollout.obs.reshape(size, -1), rollout.u.reshape(size, -1)]
+        columns += [getattr(rollout, name).reshape(size, 1) for name in ("logp", "values", "advantages", "returns")]
+        data = torch.from_numpy(np.concatenate(columns, axis=1, dtype=np.float32))
+        index = torch.from_numpy(rollout.index.reshape(size))
+        split = (rollout.obs.shape[-1], rollout.u.shape[-1], 1, 1, 1, 1)
         minibatch = size // cfg.minibatches
-        totals: dict[str, list[float]] = {
-            k: [] for k in ("policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction")
-        }
+        totals = torch.zeros(len(STATS))
         for _ in range(cfg.epochs):
             order = torch.randperm(size)
+            shuffled, shuffled_index = data[order], index[order]
             for start in range(0, minibatch * cfg.minibatches, minibatch):
-                batch = {k: v[order[start : start + minibatch]] for k, v in flat.items()}
-                dist = self.policy.distribution(batch["obs"])
-                log_ratio = dist.log_prob(batch["u"], batch["index"]) - batch["logp"]
-                ratio = log_ratio.exp()
-                advantages = batch["advantages"]
-                advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
-                policy_loss = torch.max(
-                    -advantages * ratio, -advantages * ratio.clamp(1 - cfg.clip, 1 + cfg.clip)
-                ).mean()
-                value = self.policy.value(batch["obs"])
-                value_error = (value - batch["returns"]) ** 2
-                if cfg.clip_value:
-                    clipped = batch["values"] + (value - batch["values"]).clamp(-cfg.clip, cfg.clip)
-                    value_error = torch.max(value_error, (clipped - batch["returns"]) ** 2)
-                value_loss = 0.5 * value_error.mean()
-                entropy = dist.entropy().mean()
-                loss = policy_loss - cfg.ent_coef * entropy + cfg.vf_coef * value_loss
-                self.optimizer.zero_grad()
-                loss.backward()
-                nn.utils.clip_grad_norm_(self.policy.parameters(), cfg.max_grad_norm)
+                rows = slice(start, start + minibatch)
+                obs, u, logp, values, advantages, returns = shuffled[rows].split(split, dim=1)
+                batch = Minibatch(obs, u, shuffled_index[rows], *(c.squeeze(1) for c in (logp, values, advantages, returns)))
+                totals += clipped_objective_gradient(self.policy, batch, cfg)
+                gradient = self.policy.flat.grad
+                # clip_grad_norm_'s rule, on the one flat gradient
+                gradient.mul_((cfg.max_grad_norm / (gradient.norm() + 1e-6)).clamp(max=1.0))
                 self.optimizer.step()
-                with torch.no_grad():
-                    totals["policy_loss"].append(policy_loss.item())
-                    totals["value_loss"].append(value_loss.item())
-                    totals["entropy"].append(entropy.item())
-                    totals["approx_kl"].append(((ratio - 1) - log_ratio).mean().item())
-                    totals["clip_fraction"].append(((ratio - 1).abs() > cfg.clip).float().mean().item())
-        stats = {k: float(np.mean(v)) for k, v in totals.items()}
+        stats = dict(zip(STATS, (totals / (cfg.epochs * cfg.minibatches)).tolist(), strict=True))
         variance = np.var(rollout.returns)
         stats["explained_variance"] = (
             float(1 - np.var(rollout.returns - rollout.values) / variance) if variance else float("nan")
