@@ -30,7 +30,7 @@ from famarl_cli.errors import ArtifactError
 RUN_SCHEMA = "famarl.run"
 RUN_SCHEMA_VERSION = 1
 CHECKPOINT_SCHEMA = "famarl.agent"
-CHECKPOINT_SCHEMA_VERSION = 1
+CHECKPOINT_SCHEMA_VERSION = 2  # 2: the policy is one flat parameter tensor (famarl_cli/rl/policy.py)
 RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE, FILM_FILE, STILLS_FILE = (
     "run.json",
     "checkpoint.pt",
