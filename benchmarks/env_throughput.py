@@ -10,16 +10,13 @@ world's step, resets included. Prints a table and writes the numbers as JSON.
 from __future__ import annotations
 
 import argparse
-import json
-import platform
-import resource
 import time
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+from common import RESULTS, peak_rss_mib, write_result
 
-import famarl_cli
 from famarl_cli.envs import ENV_IDS
 from famarl_cli.envs.batched import ContinuousWorldBatch
 
@@ -66,7 +63,7 @@ def batched_env(task: str, n_envs: int, seconds: float) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=2.0)
-    parser.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "env_throughput.json")
+    parser.add_argument("--out", type=Path, default=RESULTS / "env_throughput.json")
     args = parser.parse_args()
 
     rows = []
@@ -81,19 +78,14 @@ def main() -> None:
     print(f"{'task':<24} {'env':<20} {'worlds':>7} {'env steps/s':>14}")
     for task, kind, n_envs, rate in rows:
         print(f"{task:<24} {kind:<20} {n_envs:>7} {rate:>14,.0f}")
-    peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(f"peak RSS {peak_mib:.0f} MiB")
-
-    result = {
-        "famarl_version": famarl_cli.__version__,
-        "machine": {"processor": platform.processor() or platform.machine(), "python": platform.python_version()},
-        "seconds_per_measurement": args.seconds,
-        "peak_rss_mib": round(peak_mib, 1),
-        "rows": [{"task": t, "env": k, "worlds": n, "env_steps_per_s": round(r)} for t, k, n, r in rows],
-    }
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(result, indent=2) + "\n")
-    print(f"written {args.out}")
+    print(f"peak RSS {peak_rss_mib():.0f} MiB")
+    write_result(
+        args.out,
+        {
+            "seconds_per_measurement": args.seconds,
+            "rows": [{"task": t, "env": k, "worlds": n, "env_steps_per_s": round(r)} for t, k, n, r in rows],
+        },
+    )
 
 
 if __name__ == "__main__":

@@ -1,30 +1,27 @@
 """Our PPO against Stable-Baselines3's on the same work: env steps per second and learning curves.
 
     pip install -e ".[bench]"
-    python benchmarks/ppo_vs_sb3.py [--steps 200000] [--seed 0] [--out benchmarks/results/ppo_vs_sb3.json]
+    python benchmarks/ppo_vs_sb3.py [--steps 200000] [--seeds 0 1 2] [--out benchmarks/results/ppo_vs_sb3.json]
 
 Both learn `famarl/ContinuousWorld-Maze-v0` on primitive actions with the same PPO: 16 environments x 128 steps
 per rollout, minibatches of 256, 10 epochs, 64-64 tanh networks, gamma 0.99, lambda 0.95, clip 0.2, lr 3e-4
 annealed linearly, observation and reward normalisation, one torch thread. Each uses its best vector-env setup:
 ours the numpy batch (all worlds in one call), SB3 a DummyVecEnv of gymnasium envs with VecNormalize.
-They run one after the other in one process; the JSON holds both learning curves (success rate and return of
-the last 100 episodes against env steps) and a PNG draws them.
+They run one after the other in one process, each seed in turn; the speed is total env steps over total seconds.
+The JSON holds every learning curve (success rate and return of the last 100 episodes against env steps) and a
+PNG draws them.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import platform
-import resource
-import time
 from pathlib import Path
 
 import numpy as np
 import torch
+from common import RESULTS, timed, write_result
 from matplotlib.figure import Figure
 
-import famarl_cli
 from famarl_cli.envs import ENV_IDS
 from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.rl.action_modes import PrimitiveActions
@@ -40,10 +37,12 @@ def ours(steps: int, seed: int) -> dict:
     )
     trainer = PPOTrainer(env, PrimitiveActions(*env.action_bounds), config, seed)
     curve = []
-    start = time.perf_counter()
-    trainer.train(lambda t, row: curve.append((row["env_steps"], row["episode_success"], row["episode_return"])))
-    elapsed = time.perf_counter() - start
-    return {"env_steps": trainer.env_steps, "seconds": elapsed, "curve": curve}
+
+    def record(trainer: PPOTrainer, row: dict) -> None:
+        curve.append((row["env_steps"], row["episode_success"], row["episode_return"]))
+
+    _, seconds = timed(lambda: trainer.train(record))
+    return {"env_steps": trainer.env_steps, "seconds": seconds, "curve": curve}
 
 
 def stable_baselines3(steps: int, seed: int) -> dict:
@@ -86,24 +85,28 @@ def stable_baselines3(steps: int, seed: int) -> dict:
         device="cpu",
         verbose=0,
     )
-    start = time.perf_counter()
-    model.learn(total_timesteps=steps, callback=Curve())
-    elapsed = time.perf_counter() - start
-    return {"env_steps": int(model.num_timesteps), "seconds": elapsed, "curve": curve}
+    _, seconds = timed(lambda: model.learn(total_timesteps=steps, callback=Curve()))
+    return {"env_steps": int(model.num_timesteps), "seconds": seconds, "curve": curve}
 
 
-def plot(results: dict, path: Path) -> None:
+def rate(runs: list[dict]) -> float:
+    return sum(r["env_steps"] for r in runs) / sum(r["seconds"] for r in runs)
+
+
+def plot(results: dict[str, list[dict]], path: Path) -> None:
     fig = Figure(figsize=(10, 3.6))
     axes = fig.subplots(1, 2)
-    for name, result in results.items():
-        steps, success, returns = np.array(result["curve"], dtype=float).T
-        label = f"{name}: {result['env_steps'] / result['seconds']:,.0f} env steps/s"
-        axes[0].plot(steps, success, label=label)
-        axes[1].plot(steps, returns, label=label)
+    for (name, runs), color in zip(results.items(), ("tab:blue", "tab:orange"), strict=False):
+        for i, run in enumerate(runs):
+            steps, success, returns = np.array(run["curve"], dtype=float).T
+            label = f"{name}: {rate(runs):,.0f} env steps/s" if i == 0 else None
+            axes[0].plot(steps, success, color=color, alpha=0.8, lw=1, label=label)
+            axes[1].plot(steps, returns, color=color, alpha=0.8, lw=1)
     axes[0].set(xlabel="environment steps", ylabel="success (last 100 episodes)", ylim=(-0.02, 1.02))
     axes[1].set(xlabel="environment steps", ylabel="return (last 100 episodes)")
     axes[0].legend(fontsize=8)
-    fig.suptitle("PPO on ContinuousWorld-Maze, same hyperparameters, one torch thread", fontsize=9)
+    seeds = len(next(iter(results.values())))
+    fig.suptitle(f"PPO on ContinuousWorld-Maze, same hyperparameters, one torch thread, {seeds} seeds each", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
 
@@ -111,31 +114,24 @@ def plot(results: dict, path: Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--steps", type=int, default=200_000)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", type=Path, default=Path("benchmarks/results/ppo_vs_sb3.json"))
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
+    parser.add_argument("--out", type=Path, default=RESULTS / "ppo_vs_sb3.json")
     args = parser.parse_args()
     torch.set_num_threads(1)
-    results = {"famarl": ours(args.steps, args.seed), "stable-baselines3": stable_baselines3(args.steps, args.seed)}
-    rates = {name: r["env_steps"] / r["seconds"] for name, r in results.items()}
-    print(f"{'implementation':<20} {'env steps':>10} {'seconds':>8} {'env steps/s':>12} {'final success':>14}")
-    for name, r in results.items():
-        final = r["curve"][-1][1] if r["curve"] else float("nan")
-        print(f"{name:<20} {r['env_steps']:>10,} {r['seconds']:>8.1f} {rates[name]:>12,.0f} {final:>14.2f}")
-    ratio = rates["famarl"] / rates["stable-baselines3"]
-    print(f"ratio famarl / stable-baselines3: {ratio:.2f}x")
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    summary = {
-        "famarl_version": famarl_cli.__version__,
-        "machine": platform.platform(),
-        "steps": args.steps,
-        "seed": args.seed,
-        "ratio": ratio,
-        "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-        "results": results,
+    results = {
+        "famarl": [ours(args.steps, seed) for seed in args.seeds],
+        "stable-baselines3": [stable_baselines3(args.steps, seed) for seed in args.seeds],
     }
-    args.out.write_text(json.dumps(summary, indent=2))
+    print(f"{'implementation':<20} {'env steps':>10} {'seconds':>8} {'env steps/s':>12} {'final success per seed':>24}")
+    for name, runs in results.items():
+        steps, seconds = sum(r["env_steps"] for r in runs), sum(r["seconds"] for r in runs)
+        finals = " ".join(f"{r['curve'][-1][1]:.2f}" for r in runs)
+        print(f"{name:<20} {steps:>10,} {seconds:>8.1f} {rate(runs):>12,.0f} {finals:>24}")
+    ratio = rate(results["famarl"]) / rate(results["stable-baselines3"])
+    print(f"ratio famarl / stable-baselines3: {ratio:.2f}x")
+    write_result(args.out, {"steps": args.steps, "seeds": args.seeds, "ratio": ratio, "results": results})
     plot(results, args.out.with_suffix(".png"))
-    print(f"written {args.out} and {args.out.with_suffix('.png')}")
+    print(f"written {args.out.with_suffix('.png')}")
 
 
 if __name__ == "__main__":

@@ -1,0 +1,111 @@
+"""FaMARL's decision throughput: FAVAE decoding alone, and training with the decoder in the loop against PPO
+and FiGAR on the same environment.
+
+    python benchmarks/famarl_throughput.py [--favae data/favae/pushed-down-only.pt] [--steps 200000]
+
+1. Decoding: ``Favae.decode_macro_actions`` on batches of 1 to 256 latents (one batch per rollout step of that
+   many environments): macro decisions per second.
+2. Training: each agent with `famarl train`'s defaults (16 environments; 16, 32, 128 decisions per environment
+   per rollout for famarl, figar, ppo) for ``--steps`` environment steps on the Maze: env steps and decisions per
+   second, and where the time goes (decoding, the rest of the rollout, PPO updates).
+
+The FAVAE is the default pipeline's (`dvc repro` makes it). Prints tables and writes JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from common import RESULTS, peak_rss_mib, timed, write_result
+
+from famarl_cli.cli.train import DECISIONS_PER_ROLLOUT
+from famarl_cli.envs.batched import ContinuousWorldBatch
+from famarl_cli.favae.checkpoint import load_favae
+from famarl_cli.rl import Agent
+from famarl_cli.rl.ppo import PPOConfig, PPOTrainer
+from famarl_cli.rl.training import RunSpec, build_mode
+
+BATCHES = (1, 16, 64, 256)
+
+
+def decoding(favae, seconds: float) -> list[dict]:
+    rows = []
+    rng = np.random.default_rng(0)
+    for batch in BATCHES:
+        latents = rng.standard_normal((64, batch, favae.config.latent_size)).astype(np.float32)
+        favae.decode_macro_actions(latents[0])
+        calls, start = 0, time.perf_counter()
+        while (elapsed := time.perf_counter() - start) < seconds:
+            _, lengths = favae.decode_macro_actions(latents[calls % 64])
+            calls += 1
+        rows.append({"batch": batch, "decisions_per_s": calls * batch / elapsed, "ms_per_call": 1000 * elapsed / calls})
+    return rows
+
+
+def training(agent: Agent, favae, favae_path: Path, steps: int) -> dict:
+    config = PPOConfig(total_steps=steps, n_steps=DECISIONS_PER_ROLLOUT[agent])
+    spec = RunSpec("famarl/ContinuousWorld-Maze-v0", agent, seed=0, ppo=config, favae=str(favae_path))
+    env = ContinuousWorldBatch("maze", n_envs=config.n_envs, seed=0)
+    trainer = PPOTrainer(env, build_mode(spec, env, favae if agent == Agent.FAMARL else None), spec.ppo, seed=0)
+    spent = {"decoding": 0.0, "update": 0.0}
+
+    def clocked(name, function):
+        def call(*args):
+            result, seconds = timed(lambda: function(*args))
+            spent[name] += seconds
+            return result
+
+        return call
+
+    trainer.mode.to_open_loop = clocked("decoding", trainer.mode.to_open_loop)
+    trainer.update = clocked("update", trainer.update)
+    _, seconds = timed(trainer.train)
+    return {
+        "agent": str(agent),
+        "env_steps": trainer.env_steps,
+        "decisions": trainer.decisions,
+        "seconds": seconds,
+        "env_steps_per_s": trainer.env_steps / seconds,
+        "decisions_per_s": trainer.decisions / seconds,
+        "decoding_s": spent["decoding"],
+        "rollout_other_s": seconds - spent["decoding"] - spent["update"],
+        "update_s": spent["update"],
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--favae", type=Path, default=Path("data/favae/pushed-down-only.pt"))
+    parser.add_argument("--steps", type=int, default=200_000)
+    parser.add_argument("--seconds", type=float, default=2.0, help="per decoding measurement")
+    parser.add_argument("--out", type=Path, default=RESULTS / "famarl_throughput.json")
+    args = parser.parse_args()
+    if not args.favae.is_file():
+        parser.error(f"{args.favae} not found: make it with `dvc repro favae_fit` (or pass --favae)")
+    torch.set_num_threads(1)
+    favae = load_favae(args.favae)[0]
+
+    decode_rows = decoding(favae, args.seconds)
+    print(f"{'latents per call':>16} {'decisions/s':>12} {'ms per call':>12}")
+    for row in decode_rows:
+        print(f"{row['batch']:>16} {row['decisions_per_s']:>12,.0f} {row['ms_per_call']:>12.3f}")
+
+    train_rows = [training(agent, favae, args.favae, args.steps) for agent in (Agent.FAMARL, Agent.PPO, Agent.FIGAR)]
+    print(f"\n{'agent':<8} {'env steps/s':>12} {'decisions/s':>12} {'decoding':>9} {'rollout':>9} {'update':>9}")
+    for row in train_rows:
+        shares = [row[k] / row["seconds"] for k in ("decoding_s", "rollout_other_s", "update_s")]
+        cells = " ".join(f"{share:>9.0%}" for share in shares)
+        print(f"{row['agent']:<8} {row['env_steps_per_s']:>12,.0f} {row['decisions_per_s']:>12,.0f} {cells}")
+    rates = {row["agent"]: row["env_steps_per_s"] for row in train_rows}
+    ratio = rates["famarl"] / rates["ppo"]
+    print(f"famarl / ppo env steps per second: {ratio:.2f}x   peak RSS {peak_rss_mib():.0f} MiB")
+    result = {"favae": str(args.favae), "steps": args.steps, "ratio": ratio}
+    write_result(args.out, {**result, "decoding": decode_rows, "training": train_rows})
+
+
+if __name__ == "__main__":
+    main()
