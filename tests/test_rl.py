@@ -125,14 +125,31 @@ def test_truncation_bootstraps_the_value_of_the_final_observation():
     np.testing.assert_allclose(rollout.returns[cut], expected[cut])
 
 
-def test_figar_log_probability_is_the_joint_of_action_and_repeat():
-    policy = ActorCritic(obs_size=3, action_size=2, repeat_choices=4)
-    heads = policy(torch.randn(5, 3))
-    u, index, logp = policy.sample(heads)
-    normal = Normal(heads.mean, policy.log_std.exp())
-    categorical = Categorical(logits=heads.logits)
-    expected = normal.log_prob(u).sum(1) + categorical.log_prob(index)
-    torch.testing.assert_close(logp, expected)
+@pytest.mark.parametrize("repeat_choices", [0, 4])
+def test_numpy_acting_agrees_with_the_torch_network_and_samples_its_distribution(repeat_choices):
+    """Acting (numpy) and learning (torch) take separate paths through the same parameters; they must agree."""
+    torch.manual_seed(0)
+    policy = ActorCritic(obs_size=3, action_size=2, repeat_choices=repeat_choices)
+    policy.params["log_std"].fill_(-0.5)
+    obs = np.random.default_rng(0).normal(size=(4000, 3)).astype(np.float32)
+    heads = policy(torch.from_numpy(obs))
+    mode, action = policy.act(obs), policy.act(obs, np.random.default_rng(1))
+    np.testing.assert_allclose(mode.u, heads.mean.numpy(), rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(action.value, heads.value.numpy(), rtol=1e-5, atol=1e-6)
+    u, index = torch.from_numpy(action.u), torch.from_numpy(action.index)
+    expected = Normal(heads.mean, policy.log_std.exp()).log_prob(u).sum(1)
+    # The noise has the policy's std, and the repeat index its categorical's frequencies.
+    assert abs(float((u - heads.mean).std()) - float(np.exp(-0.5))) < 0.02
+    if repeat_choices:
+        categorical = Categorical(logits=heads.logits)
+        expected = expected + categorical.log_prob(index)
+        frequencies = np.bincount(action.index, minlength=repeat_choices) / len(obs)
+        np.testing.assert_allclose(frequencies, categorical.probs.mean(0).numpy(), atol=0.03)
+        np.testing.assert_array_equal(mode.index, heads.logits.argmax(1).numpy())
+    torch.testing.assert_close(torch.from_numpy(action.logp), expected, rtol=1e-4, atol=1e-4)
+
+
+def test_figar_repeats_the_clipped_action_index_plus_one_times():
     mode = RepeatedActions(np.full(2, -1.0), np.full(2, 1.0), max_repeat=4)
     actions, lengths = mode.to_open_loop(np.array([[2.0, -0.5]]), np.array([2]))
     assert lengths.tolist() == [3]
@@ -173,7 +190,8 @@ def test_written_out_ppo_gradient_equals_autograd(repeat_choices, clip_value):
     size = 64
     obs = torch.randn(size, 4)
     heads = policy(obs)
-    u, index, logp = policy.sample(heads)
+    action = policy.act(obs.numpy(), np.random.default_rng(0))
+    u, index, logp = (torch.from_numpy(x) for x in (action.u, action.index, action.logp))
     # Old log-probabilities and values off by enough that both clips are active for some rows and not for others.
     batch = Minibatch(
         obs,

@@ -10,7 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import torch
 
 from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.envs.continuous_world import Layouts
@@ -47,9 +46,8 @@ class DeterministicActor:
         self.normalize.load_state_dict(agent.obs_norm_state)
 
     def __call__(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        policy = self.agent.policy
-        u, index = policy.mode(policy(torch.from_numpy(self.normalize(obs.astype(np.float32), update=False))))
-        return self.mode.to_open_loop(u.numpy().astype(np.float64), index.numpy())
+        action = self.agent.policy.act(self.normalize(obs.astype(np.float32), update=False))
+        return self.mode.to_open_loop(action.u.astype(np.float64), action.index)
 
 
 def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4) -> Evaluation:

@@ -19,6 +19,7 @@ The budget is counted in environment steps, so agents whose decisions last diffe
 
 from __future__ import annotations
 
+import json
 from collections import deque
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields
@@ -120,7 +121,7 @@ class Minibatch:
 
 
 def clipped_objective_gradient(policy: ActorCritic, batch: Minibatch, cfg: PPOConfig) -> torch.Tensor:
-    """Writes into ``policy.flat.grad`` the gradient of PPO's loss on one minibatch; returns the :data:`STATS`.
+    """Writes into ``policy.gradient`` the gradient of PPO's loss on one minibatch; returns the :data:`STATS`.
 
     loss = clipped policy loss - ent_coef * entropy + vf_coef * (clipped) value loss, each a mean over the
     minibatch. The derivative of each term with respect to the network's heads is written beside it; where a
@@ -237,7 +238,8 @@ class PPOTrainer:
 
     def __init__(self, env: BatchedEnv, mode, config: PPOConfig, seed: int) -> None:
         self.env, self.mode, self.config = env, mode, config
-        torch.manual_seed(seed)
+        torch.manual_seed(seed)  # initialisation and the minibatch shuffles
+        self.rng = np.random.default_rng(seed)  # the rollouts' sampling
         self.policy = ActorCritic(env.observation_size, mode.policy_action_size, mode.repeat_choices, config.hidden)
         self.optimizer = FlatAdam(self.policy.flat, lr=config.learning_rate, eps=1e-5)
         self.obs_norm = ObservationNormalizer((env.observation_size,), config.normalize_obs)
@@ -253,8 +255,6 @@ class PPOTrainer:
     def done(self) -> bool:
         return self.env_steps >= self.config.total_steps
 
-    # inference_mode: no autograd bookkeeping on any tensor (the gradient is written out), a third off every call.
-    @torch.inference_mode()
     def collect_rollout(self) -> Rollout:
         cfg, n = self.config, self.config.n_envs
         obs = np.zeros((cfg.n_steps, n, self.env.observation_size), np.float32)
@@ -265,10 +265,8 @@ class PPOTrainer:
         within = cfg.gamma if cfg.macro_discount == "steps" else 1.0
         for t in range(cfg.n_steps):
             obs[t] = self.obs_norm(self.obs, update=True)
-            heads = self.policy(torch.from_numpy(obs[t]))
-            sample, choice, sample_logp = self.policy.sample(heads)
-            u[t], index[t], logp[t] = sample.numpy(), choice.numpy(), sample_logp.numpy()
-            values[t] = heads.value.numpy()
+            action = self.policy.act(obs[t], self.rng)
+            u[t], index[t], logp[t], values[t] = action.u, action.index, action.logp, action.value
             actions, lengths[t] = self.mode.to_open_loop(u[t].astype(np.float64), index[t])
             result = run_open_loop(self.env, self.obs, actions, lengths[t].astype(np.int64), discount=within)
             if cfg.macro_discount == "steps":
@@ -279,18 +277,19 @@ class PPOTrainer:
             rewards[t] = self.reward_scaler(reward, discounts[t], dones[t].astype(bool))
             if result.truncated.any():
                 cut = result.truncated
-                final = torch.from_numpy(self.obs_norm(result.final_obs[cut], update=False))
-                rewards[t, cut] += discounts[t, cut] * self.policy.value(final).numpy()
+                final = self.obs_norm(result.final_obs[cut], update=False)
+                rewards[t, cut] += discounts[t, cut] * self.policy.act(final).value
             self.episodes.record(result)
             self.env_steps += int(result.steps.sum())
             self.decisions += n
             self.obs = result.obs
-        next_value = self.policy.value(torch.from_numpy(self.obs_norm(self.obs, update=False))).numpy()
+        next_value = self.policy.act(self.obs_norm(self.obs, update=False)).value
         advantages, returns = compute_gae(rewards, values, dones, discounts, next_value, cfg.gae_lambda)
         return Rollout(
             obs, u, index, logp, values, rewards, dones, advantages, returns, lengths, self.env_steps - steps_before
         )
 
+    # inference_mode: no autograd bookkeeping on any tensor (the gradient is written out), a third off every call.
     @torch.inference_mode()
     def update(self, rollout: Rollout) -> dict[str, float]:
         cfg, size = self.config, rollout.index.size
@@ -301,7 +300,7 @@ class PPOTrainer:
         split = [column.shape[1] for column in columns]
         minibatch = size // cfg.minibatches
         totals = torch.zeros(len(STATS))
-        gradient = self.policy.flat.grad
+        gradient = self.policy.gradient
         for _ in range(cfg.epochs):
             shuffled = data[torch.randperm(size)][: minibatch * cfg.minibatches]
             columns = dict(zip(names, shuffled.split(split, dim=1), strict=True))
@@ -356,6 +355,7 @@ class PPOTrainer:
             "policy": self.policy.state_dict(),
             "optimizer": self.optimizer.state_dict(),
             "torch_rng": torch.get_rng_state(),
+            "sampling_rng": json.dumps(self.rng.bit_generator.state),
             "obs_norm": self.obs_norm.state_dict(),
             "reward_scaler": self.reward_scaler.state_dict(),
             "episodes": self.episodes.state_dict(),
@@ -369,6 +369,7 @@ class PPOTrainer:
         self.policy.load_state_dict(state["policy"])
         self.optimizer.load_state_dict(state["optimizer"])
         torch.set_rng_state(state["torch_rng"])
+        self.rng.bit_generator.state = json.loads(state["sampling_rng"])
         self.obs_norm.load_state_dict(state["obs_norm"])
         self.reward_scaler.load_state_dict(state["reward_scaler"])
         self.log = list(state["log"])

@@ -161,5 +161,4 @@ def load_agent(run_dir: str | os.PathLike) -> TrainedAgent:
     mode = build_mode(spec, env, favae)
     policy = ActorCritic(env.observation_size, mode.policy_action_size, mode.repeat_choices, spec.ppo.hidden)
     policy.load_state_dict(trainer["policy"])
-    policy.eval()
     return TrainedAgent(spec, policy, trainer["obs_norm"], favae, int(trainer["counters"]["env_steps"]))
