@@ -295,9 +295,9 @@ class PPOTrainer:
         cfg, size = self.config, rollout.index.size
         # One table, so that an epoch's shuffle is one gather; the repeat index rides along as a float.
         names = ("obs", "u", "logp", "values", "advantages", "returns", "index")
-        columns = [getattr(rollout, name).reshape(size, -1) for name in names]
-        data = torch.from_numpy(np.concatenate(columns, axis=1, dtype=np.float32))
-        split = [column.shape[1] for column in columns]
+        arrays = [getattr(rollout, name).reshape(size, -1) for name in names]
+        data = torch.from_numpy(np.concatenate(arrays, axis=1, dtype=np.float32))
+        split = [array.shape[1] for array in arrays]
         minibatch = size // cfg.minibatches
         totals = torch.zeros(len(STATS))
         gradient = self.policy.gradient
