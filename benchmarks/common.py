@@ -34,6 +34,18 @@ def timed(function: Callable[[], object]) -> tuple[object, float]:
     return result, time.perf_counter() - start
 
 
+def rate(call: Callable[[], object], items_per_call: int, seconds: float) -> float:
+    """Calls ``call`` repeatedly for about ``seconds`` after a short warm-up; returns items per second."""
+    for _ in range(10):
+        call()
+    calls, start = 0, time.perf_counter()
+    while (elapsed := time.perf_counter() - start) < seconds:
+        for _ in range(10):
+            call()
+        calls += 10
+    return calls * items_per_call / elapsed
+
+
 def write_result(path: Path, payload: dict) -> None:
     """Writes ``payload`` with the package version, machine and peak RSS, atomically."""
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -10,27 +10,14 @@ world's step, resets included. Prints a table and writes the numbers as JSON.
 from __future__ import annotations
 
 import argparse
-import time
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-from common import RESULTS, peak_rss_mib, write_result
+from common import RESULTS, peak_rss_mib, rate, write_result
 
 from famarl_cli.envs import ENV_IDS
 from famarl_cli.envs.batched import ContinuousWorldBatch
-
-
-def timed(step, steps_per_call: int, seconds: float) -> float:
-    """Calls ``step`` repeatedly for about ``seconds``; returns env steps per second."""
-    for _ in range(10):
-        step()
-    calls, start = 0, time.perf_counter()
-    while (elapsed := time.perf_counter() - start) < seconds:
-        for _ in range(50):
-            step()
-        calls += 50
-    return calls * steps_per_call / elapsed
 
 
 def single_env(task: str, seconds: float, unwrapped: bool) -> float:
@@ -50,14 +37,14 @@ def single_env(task: str, seconds: float, unwrapped: bool) -> float:
             env.reset()
             elapsed[0] = 0
 
-    return timed(step, 1, seconds)
+    return rate(step, 1, seconds)
 
 
 def batched_env(task: str, n_envs: int, seconds: float) -> float:
     batch = ContinuousWorldBatch(task, n_envs=n_envs, seed=0)
     actions = np.random.default_rng(0).uniform(-1, 1, (8, n_envs, 2))
     counter = iter(range(1 << 62))
-    return timed(lambda: batch.step(actions[next(counter) % 8]), n_envs, seconds)
+    return rate(lambda: batch.step(actions[next(counter) % 8]), n_envs, seconds)
 
 
 def main() -> None:
@@ -76,8 +63,8 @@ def main() -> None:
         rows.append((task, "single (gym.make)", 1, single_env(task, args.seconds, unwrapped=False)))
 
     print(f"{'task':<24} {'env':<20} {'worlds':>7} {'env steps/s':>14}")
-    for task, kind, n_envs, rate in rows:
-        print(f"{task:<24} {kind:<20} {n_envs:>7} {rate:>14,.0f}")
+    for task, kind, n_envs, per_s in rows:
+        print(f"{task:<24} {kind:<20} {n_envs:>7} {per_s:>14,.0f}")
     print(f"peak RSS {peak_rss_mib():.0f} MiB")
     write_result(
         args.out,

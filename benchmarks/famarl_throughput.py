@@ -15,12 +15,12 @@ The FAVAE is the default pipeline's (`dvc repro` makes it). Prints tables and wr
 from __future__ import annotations
 
 import argparse
-import time
+import itertools
 from pathlib import Path
 
 import numpy as np
 import torch
-from common import RESULTS, peak_rss_mib, timed, write_result
+from common import RESULTS, peak_rss_mib, rate, timed, write_result
 
 from famarl_cli.cli.train import DECISIONS_PER_ROLLOUT
 from famarl_cli.envs.batched import ContinuousWorldBatch
@@ -36,13 +36,9 @@ def decoding(favae, seconds: float) -> list[dict]:
     rows = []
     rng = np.random.default_rng(0)
     for batch in BATCHES:
-        latents = rng.standard_normal((64, batch, favae.config.latent_size)).astype(np.float32)
-        favae.decode_macro_actions(latents[0])
-        calls, start = 0, time.perf_counter()
-        while (elapsed := time.perf_counter() - start) < seconds:
-            _, lengths = favae.decode_macro_actions(latents[calls % 64])
-            calls += 1
-        rows.append({"batch": batch, "decisions_per_s": calls * batch / elapsed, "ms_per_call": 1000 * elapsed / calls})
+        latents = itertools.cycle(rng.standard_normal((64, batch, favae.config.latent_size)).astype(np.float32))
+        per_s = rate(lambda: favae.decode_macro_actions(next(latents)), batch, seconds)  # noqa: B023 (called here)
+        rows.append({"batch": batch, "decisions_per_s": per_s, "ms_per_call": 1000 * batch / per_s})
     return rows
 
 
