@@ -23,11 +23,11 @@ import torch
 from common import RESULTS, peak_rss_mib, rate, timed, write_result
 
 from famarl_cli.cli.train import DECISIONS_PER_ROLLOUT
-from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.favae.checkpoint import load_favae
 from famarl_cli.rl import Agent
 from famarl_cli.rl.ppo import PPOConfig, PPOTrainer
 from famarl_cli.rl.training import RunSpec, build_mode
+from famarl_cli.rl.vector import make_batch
 
 BATCHES = (1, 16, 64, 256)
 
@@ -45,7 +45,7 @@ def decoding(favae, seconds: float) -> list[dict]:
 def training(agent: Agent, favae, favae_path: Path, steps: int) -> dict:
     config = PPOConfig(total_steps=steps, n_steps=DECISIONS_PER_ROLLOUT[agent])
     spec = RunSpec("famarl/ContinuousWorld-Maze-v0", agent, seed=0, ppo=config, favae=str(favae_path))
-    env = ContinuousWorldBatch("maze", n_envs=config.n_envs, seed=0)
+    env = make_batch(spec.env_id, config.n_envs, seed=0)
     trainer = PPOTrainer(env, build_mode(spec, env, favae if agent == Agent.FAMARL else None), spec.ppo, seed=0)
     spent = {"decoding": 0.0, "update": 0.0}
 

@@ -25,8 +25,6 @@ import torch
 from torch import nn
 
 LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
-
-
 ONE, MINUS_ONE = torch.tensor(1.0), torch.tensor(-1.0)
 
 
