@@ -4,6 +4,7 @@ episodes."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -74,3 +75,25 @@ def record_demos(
         env_kwargs=spec.env_kwargs,
         provenance=provenance("famarl demos", params, seed),
     )
+
+
+DEMOS_FILE = "demos.h5"
+
+
+def run_job(config: dict, folder: Path, context) -> dict:
+    """Demos as a sweep job (:mod:`famarl_cli.sweep`): ``folder/demos.h5`` and, with ``plot``, ``demos.png``."""
+    from famarl_cli.artifacts.demos import write_demos
+    from famarl_cli.plots import plot_demos
+
+    episodes = config["episodes"]
+    done = []
+
+    def advance(episode: Episode) -> None:
+        done.append(episode)
+        context.progress(len(done), episodes)
+
+    recorded = record_demos(Script(config["script"]), episodes, config["seed"], on_episode=advance)
+    write_demos(folder / DEMOS_FILE, recorded)
+    if config["plot"]:
+        plot_demos(recorded, (folder / DEMOS_FILE).with_suffix(".png"))
+    return {"success": recorded.success_rate, "episodes": len(recorded.episodes)}

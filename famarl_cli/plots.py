@@ -167,11 +167,11 @@ def plot_learning_curves(
     curves: dict[str, list[dict[str, np.ndarray]]],
     path: str | os.PathLike,
     panels: tuple[str, ...] = tuple(LEARNING_PANELS),
-    title: str = "training curves: mean over seeds, band = min to max",
+    title: str = "training curves",
 ) -> None:
     """Success rate, return and mean macro length (or the chosen ``panels``) against environment steps: per label,
-    the mean over seeds and its min-max band. The macro-length panel is the paper's Figure 8 (does training shorten
-    macro actions?).
+    the mean over seeds and, with two seeds or more, the 95% bootstrap interval of that mean (percentile, seeds
+    resampled). The macro-length panel is the paper's Figure 8 (does training shorten macro actions?).
 
     Seeds log at different step counts, so each is interpolated onto a common grid that stops where the
     shortest seed stops.
@@ -185,14 +185,74 @@ def plot_learning_curves(
             values = np.array([_interpolate(grid, run["env_steps"], run[key]) for run in runs])
             with warnings.catch_warnings():  # before the first episode ends there is nothing to average
                 warnings.simplefilter("ignore", RuntimeWarning)
-                mean, low, high = np.nanmean(values, axis=0), np.nanmin(values, axis=0), np.nanmax(values, axis=0)
-            ax.plot(grid, mean, color=colour, label=f"{label} ({len(runs)} seeds)")
-            ax.fill_between(grid, low, high, color=colour, alpha=0.2)
+                mean = np.nanmean(values, axis=0)
+                ax.plot(grid, mean, color=colour, label=f"{label} (n={len(runs)})")
+                if len(runs) > 1:
+                    low, high = _bootstrap_band(values)
+                    ax.fill_between(grid, low, high, color=colour, alpha=0.2)
     for ax, key in zip(axes, panels, strict=True):
         ylabel, ylim = LEARNING_PANELS[key]
         ax.set(xlabel="environment steps", ylabel=ylabel, ylim=ylim)
     axes[0].legend(fontsize=8)
-    fig.suptitle(title, fontsize=9)
+    fig.suptitle(f"{title}: mean over seeds, band = 95% bootstrap interval of the mean", fontsize=9)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def _bootstrap_band(values: np.ndarray, resamples: int = 1000, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Per grid point, the 2.5 and 97.5 percentiles of the mean over seeds resampled with replacement."""
+    rng = np.random.default_rng(seed)
+    picks = rng.integers(0, len(values), (resamples, len(values)))
+    means = np.nanmean(values[picks], axis=1)
+    return np.nanpercentile(means, 2.5, axis=0), np.nanpercentile(means, 97.5, axis=0)
+
+
+VERDICT_COLOURS = {"reproduces": "tab:green", "does not reproduce": "tab:red", "inconclusive": "tab:grey"}
+
+
+def plot_intervals(claims: list, path: str | os.PathLike, title: str) -> None:
+    """Per claim, each interval its verdict read (estimate and 95% interval, coloured by the verdict) beside the
+    threshold it was compared with (a black tick)."""
+    rows = [(claim, estimate) for claim in claims for estimate in claim.judgement.estimates]
+    fig = Figure(figsize=(9, 0.45 * max(len(rows), 1) + 1.2))
+    ax = fig.subplots()
+    for y, (claim, estimate) in enumerate(rows):
+        interval, colour = estimate.interval, VERDICT_COLOURS[claim.verdict.value]
+        low, high = (v if np.isfinite(v) else interval.estimate for v in (interval.low, interval.high))
+        ax.plot([low, high], [y, y], color=colour, linewidth=3, solid_capstyle="butt")
+        ax.plot([interval.estimate], [y], "o", color="black", markersize=4)
+        if estimate.reference is not None:
+            ax.plot([estimate.reference], [y], "|", color="black", markersize=14)
+    labels = [f"{_short(claim.paper)}: {estimate.name}" for claim, estimate in rows]
+    ax.set_yticks(range(len(rows)), labels, fontsize=7)
+    ax.invert_yaxis()
+    ax.grid(axis="x", alpha=0.3)
+    handles = [Line2D([], [], color=c, linewidth=3, label=v) for v, c in VERDICT_COLOURS.items()]
+    handles.append(Line2D([], [], color="black", marker="|", linestyle="", markersize=10, label="threshold"))
+    ax.legend(handles=handles, fontsize=7, loc="best")
+    ax.set_title(f"{title}: estimate and 95% interval per claim", fontsize=9)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def _short(text: str, width: int = 48) -> str:
+    return text if len(text) <= width else text[: width - 1] + "…"
+
+
+def plot_performance_profile(scores: dict[str, list[np.ndarray]], path: str | os.PathLike, title: str) -> None:
+    """Per agent, the fraction of its runs (every task pooled) whose success exceeds each threshold in [0, 1]
+    (rliable's performance profile)."""
+    from famarl_cli.statistics import performance_profile
+
+    thresholds = np.linspace(0, 1, 101)
+    fig = Figure(figsize=(5, 3.8))
+    ax = fig.subplots()
+    for (agent, per_task), colour in zip(scores.items(), cm.tab10.colors, strict=False):
+        pooled = np.concatenate(per_task)
+        ax.plot(thresholds, performance_profile(pooled, thresholds), color=colour, label=f"{agent} ({len(pooled)} runs)")
+    ax.set(xlabel="success threshold tau", ylabel="fraction of runs with success > tau", ylim=(-0.02, 1.02))
+    ax.legend(fontsize=8)
+    ax.set_title(title, fontsize=9)
     fig.tight_layout()
     _save(fig, path)
 

@@ -18,40 +18,48 @@ ROOT = Path(__file__).resolve().parents[1]
 TINY_TRAIN = {"steps": 1500}
 TINY_EVALUATE = {"episodes": 3}
 TINY_FAVAE = {"epochs": 3}
-TINY_MAKING = {
-    "seeds": [0],
-    "demos": {"episodes": 6},
-    "segment": {"epochs": 3},
-    "favae": TINY_FAVAE,
-    "train": TINY_TRAIN,
-    "evaluate": TINY_EVALUATE,
-}
-"""For the pipelines that make demos, segments and a FAVAE before training."""
+TINY_SEGMENT = {"epochs": 3}
 TINY = {
-    "params.yaml": TINY_MAKING,
-    "pipelines/scripts/params.yaml": {**TINY_MAKING, "scripts": ["down-and-up"]},
-    "pipelines/beta/params.yaml": {
-        "seeds": [0],
-        "betas": [0.1, 1],
+    "params.yaml": {
+        "seeds": "0-1",
+        "demos": {"episodes": 6},
+        "segment": TINY_SEGMENT,
         "favae": TINY_FAVAE,
         "train": TINY_TRAIN,
         "evaluate": TINY_EVALUATE,
     },
+    "pipelines/scripts/params.yaml": {
+        "seeds": "0-1",
+        "scripts": "down-and-up",
+        "demos": {"episodes": 6},
+        "segment": TINY_SEGMENT,
+        "favae": TINY_FAVAE,
+        "train": TINY_TRAIN,
+        "evaluate": TINY_EVALUATE,
+    },
+    "pipelines/beta/params.yaml": {"seeds": "0-1", "betas": "0.1", "favae": TINY_FAVAE, "train": TINY_TRAIN, "evaluate": TINY_EVALUATE},
     "pipelines/demos-count/params.yaml": {
-        "seeds": [0],
-        "counts": [4],
-        "segment": {"epochs": 3},
+        "seeds": "0-1",
+        "counts": "4",
+        "segment": TINY_SEGMENT,
         "favae": TINY_FAVAE,
         "train": TINY_TRAIN,
         "evaluate": TINY_EVALUATE,
     },
-    "pipelines/traversal/params.yaml": {"favae": TINY_FAVAE},
-    "pipelines/robothand/params.yaml": {**TINY_MAKING, "demos": {"episodes": 4}},
-    "pipelines/macro-length/params.yaml": {"seeds": [0], "train": TINY_TRAIN, "evaluate": TINY_EVALUATE},
+    "pipelines/traversal/params.yaml": {"seeds": "0-1", "favae": TINY_FAVAE},
+    "pipelines/robothand/params.yaml": {
+        "seeds": "0-1",
+        "demos": {"episodes": 4},
+        "segment": TINY_SEGMENT,
+        "favae": TINY_FAVAE,
+        "train": TINY_TRAIN,
+        "evaluate": TINY_EVALUATE,
+    },
+    "pipelines/macro-length/params.yaml": {"seeds": "0-1", "train": TINY_TRAIN, "evaluate": TINY_EVALUATE},
 }
-"""Overrides of each params file: one seed, one variant where a pipeline sweeps (two betas, one low and one high),
-a few episodes, epochs and env steps. Every key must already exist, so the test fails if a params file is
-restructured without it. down-and-up stays among the scripts: pipelines/traversal reads its segments."""
+"""Overrides of each params file: two seeds (an interval needs two), one variant where a pipeline sweeps, a few
+episodes, epochs and env steps. Every key must already exist, so the test fails if a params file is restructured
+without it. down-and-up stays among the scripts: pipelines/traversal reads its segments."""
 
 EXPERIMENTS = ("scripts", "beta", "demos-count", "traversal", "robothand", "macro-length")
 

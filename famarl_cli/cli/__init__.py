@@ -7,6 +7,8 @@ Every command turns a :class:`~famarl_cli.errors.FamarlError` into one line on s
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Annotated
 
 import typer
@@ -61,10 +63,42 @@ def reports_errors(command):
 
 
 def torch_on_one_thread() -> None:
-    """Small networks train fastest on one thread (measured: a second adds nothing on a 2-core laptop)."""
-    import torch
+    """Small networks train fastest on one thread (measured: a second adds nothing on a 2-core laptop); the
+    portable profile's backends when it is on (famarl_cli.reproducibility)."""
+    from famarl_cli.reproducibility import one_thread
 
-    torch.set_num_threads(1)
+    one_thread()
+
+
+@dataclass(frozen=True)
+class JobRecipe:
+    """What one point of ``famarl sweep COMMAND`` runs: a job runner, its config, its input files, and whether it
+    can continue unfinished work (famarl_cli.sweep.plan.Job gets its name and key from the sweep)."""
+
+    runner: str
+    config: dict
+    inputs: tuple[str, ...] = ()
+    resumable: bool = False
+
+
+@dataclass(frozen=True)
+class Sweepable:
+    make: Callable[[dict], JobRecipe]
+    """From the command's parsed options to the job."""
+    owned: tuple[str, ...]
+    """Options the sweep sets itself (the output folder), which the command's options must not give."""
+
+
+SWEEPABLE: dict[str, Sweepable] = {}
+"""Commands that ``famarl sweep`` can run many of; each registers itself with :func:`sweepable`."""
+
+
+def sweepable(command: str, owned: tuple[str, ...] = ()):
+    def register(make: Callable[[dict], JobRecipe]) -> Callable[[dict], JobRecipe]:
+        SWEEPABLE[command] = Sweepable(make, owned)
+        return make
+
+    return register
 
 
 def progress_bar() -> Progress:
@@ -83,4 +117,15 @@ def main() -> None:
 
 
 # The commands register themselves on ``app`` when their modules are imported.
-from famarl_cli.cli import demos, evaluate, favae, inspect, report, segment, train, traverse  # noqa: E402, F401
+from famarl_cli.cli import (  # noqa: E402, F401
+    demos,
+    evaluate,
+    favae,
+    inspect,
+    macros,
+    report,
+    segment,
+    sweep,
+    train,
+    traverse,
+)

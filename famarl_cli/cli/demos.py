@@ -11,7 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.artifacts import Demos
-from famarl_cli.cli import app, progress_bar, reports_errors
+from famarl_cli.cli import JobRecipe, app, progress_bar, reports_errors, sweepable
 from famarl_cli.errors import UsageError
 from famarl_cli.experts.scripts import Environment, Script
 
@@ -56,6 +56,17 @@ def demos(
     table = demos_table(recorded, f"demos: {script.value}")
     table.add_row("written", ", ".join(map(str, written)))
     Console().print(table)
+
+
+@sweepable("demos", owned=("--out",))
+def demos_job(params: dict) -> JobRecipe:
+    """``famarl sweep demos``: each job records what ``famarl demos`` with the same options would, into
+    ``<job folder>/demos.h5`` (and ``.png``)."""
+    script, env = params["script"], params["env"]
+    if env is not None and env != script.environment:
+        raise UsageError(f"script {script.value} acts in {script.environment}, not in {env.value}")
+    config = {"script": script.value, "episodes": params["episodes"], "seed": params["seed"], "plot": params["plot"]}
+    return JobRecipe("famarl_cli.demos:run_job", config)
 
 
 def demos_table(demos: Demos, title: str) -> Table:

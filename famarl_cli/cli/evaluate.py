@@ -9,9 +9,11 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import app, reports_errors, torch_on_one_thread
+from famarl_cli.cli import app, progress_bar, reports_errors, torch_on_one_thread
 from famarl_cli.cli.train import DEFAULT_ENV, DEFAULT_FAVAE, default_run_dir
+from famarl_cli.errors import FamarlError
 from famarl_cli.rl import Agent
+from famarl_cli.sweep.executors import default_jobs
 
 DEFAULT_RUN = default_run_dir(DEFAULT_ENV, Agent.FAMARL, DEFAULT_FAVAE, 0)
 
@@ -46,6 +48,10 @@ def evaluate(
             dir_okay=False,
         ),
     ] = None,
+    jobs: Annotated[
+        int | None,
+        typer.Option(min=1, help="Runs evaluated at once.  [default: $FAMARL_JOBS, else one per usable core]"),
+    ] = None,
     out: Annotated[
         Path | None,
         typer.Option(
@@ -56,26 +62,17 @@ def evaluate(
     ] = None,
 ) -> None:
     """Success rate, return, episode length, decisions and macro length of each run; pictures and a GIF of
-    rollouts."""
+    rollouts. Each run is evaluated twice on the same episodes: acting with the policy's mode (deterministic) and
+    drawing its actions as in training (sampled)."""
     import numpy as np
 
     from famarl_cli.artifacts import write_json
-    from famarl_cli.artifacts.base import prepare_output, provenance
-    from famarl_cli.artifacts.runs import (
-        CHECKPOINT_FILE,
-        EVAL_FILE,
-        FILM_FILE,
-        ROLLOUTS_FILE,
-        STILLS_FILE,
-        expand_run_folders,
-        read_run_file,
-        read_training_log,
-    )
-    from famarl_cli.plots import plot_learning_curves, plot_rollouts, save_film
-    from famarl_cli.rl.evaluation import evaluate as evaluate_agent
-    from famarl_cli.rl.evaluation import film as film_episode
+    from famarl_cli.artifacts.base import prepare_output
+    from famarl_cli.artifacts.runs import EVAL_FILE, FILM_FILE, ROLLOUTS_FILE, STILLS_FILE, expand_run_folders
+    from famarl_cli.artifacts.runs import read_run_file, read_training_log
+    from famarl_cli.plots import plot_learning_curves
     from famarl_cli.rl.evaluation import summarise
-    from famarl_cli.rl.training import load_agent
+    from famarl_cli.sweep.executors import make_executor
 
     torch_on_one_thread()
     run = expand_run_folders(run or [DEFAULT_RUN])
@@ -84,44 +81,35 @@ def evaluate(
     results = {folder: (out / folder.name if out else folder) for folder in run}
     first = results[run[0]]
     curves = prepare_output(curves or (first / "curves.png" if len(run) == 1 else first.parent / "curves.png"))
-    table = Table(title=f"deterministic evaluation: {episodes} episodes per run, seed {seed}")
+    table = Table(title=f"evaluation: {episodes} episodes per run, seed {seed}; deterministic (sampled)")
     for column in ("run", "env steps", "success", "return", "length", "decisions", "macro length"):
         table.add_column(column, justify="left" if column == "run" else "right")
-    curves_by_label: dict[str, list[dict[str, np.ndarray]]] = {}
-    evaluations = []
-    for folder in run:
-        agent = load_agent(folder)
-        result = evaluate_agent(agent, episodes, seed, rollouts)
-        prov = provenance("famarl evaluate", {"episodes": episodes, "seed": seed}, seed, [folder / CHECKPOINT_FILE])
-        evaluation = {
-            **result.metrics,
-            "label": agent.spec.label,
-            "agent": str(agent.spec.agent),
-            "env": agent.spec.env_id,
-            "seed": agent.spec.seed,
-            "run": str(folder),
-            "env_steps": agent.env_steps,
-            "train_wall_s": read_run_file(folder)["wall_s"],
-        }
-        into = results[folder]
-        into.mkdir(parents=True, exist_ok=True)
-        write_json(into / EVAL_FILE, {**evaluation, "provenance": prov})
-        evaluations.append(evaluation)
-        if result.traces:
-            plot_rollouts(
-                result.traces,
-                into / ROLLOUTS_FILE,
-                f"{agent.spec.label}, seed {agent.spec.seed}: deterministic episodes, one colour per decision",
+    with make_executor(min(jobs or default_jobs(), len(run))) as executor, progress_bar() as progress:
+        task = progress.add_task("evaluate", total=len(run))
+        futures = [
+            executor.submit(
+                "famarl_cli.stages:evaluate_run", str(folder), str(results[folder]), episodes, seed, rollouts, film
             )
-        if film:
-            save_film(film_episode(agent, seed), into / FILM_FILE, into / STILLS_FILE)
-        curves_by_label.setdefault(agent.spec.label, []).append(read_training_log(folder))
-        m = result.metrics
+            for folder in run
+        ]
+        evaluations = []
+        for folder, future in zip(run, futures, strict=True):
+            try:
+                evaluations.append(future.result())
+            except FamarlError:
+                raise
+            except Exception as exc:  # a worker that died: say which run, not the pool's internals
+                raise FamarlError(f"{folder}: evaluation failed ({type(exc).__name__}: {exc})") from exc
+            progress.advance(task)
+    curves_by_label: dict[str, list[dict[str, np.ndarray]]] = {}
+    for folder, evaluation in zip(run, evaluations, strict=True):
+        curves_by_label.setdefault(evaluation["label"], []).append(read_training_log(folder))
+        m, ms = evaluation, evaluation["sampled"]
         table.add_row(
             folder.name,
-            f"{agent.env_steps:,}",
-            f"{m['success_rate']:.0%}",
-            f"{m['return_mean']:.1f}",
+            f"{evaluation['env_steps']:,}",
+            f"{m['success_rate']:.0%} ({ms['success_rate']:.0%})",
+            f"{m['return_mean']:.1f} ({ms['return_mean']:.1f})",
             f"{m['episode_length']:.0f}",
             f"{m['decisions']:.1f}",
             f"{m['macro_length']:.1f}",

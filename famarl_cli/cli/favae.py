@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict
 from pathlib import Path
 from typing import Annotated
 
@@ -12,7 +11,6 @@ from rich.progress import Progress
 from rich.table import Table
 
 from famarl_cli.cli import app, progress_bar, reports_errors, torch_on_one_thread
-from famarl_cli.errors import UsageError
 
 favae_app = typer.Typer(
     help="Fit FAVAE, the sequence VAE whose latents become the macro-action space.", no_args_is_help=True
@@ -27,24 +25,6 @@ SeedOption = Annotated[int, typer.Option(help="Seed of the initialisation, batch
 DEFAULT_SEGMENTS = Path("data/segments/pushed-down-only.h5")
 
 
-def _favae_setup(segments: Path, ladders: int, latent_dim: int):
-    """The segments and the model config they call for (L and D come from the segments file)."""
-    from famarl_cli.artifacts.segments import read_segments
-    from famarl_cli.favae.model import FavaeConfig
-
-    loaded = read_segments(segments)
-    try:
-        config = FavaeConfig(
-            action_dim=loaded.action_dim,
-            length=loaded.max_length,
-            latent_dims=(latent_dim,) * ladders,
-            channels=tuple(min(32 * 2**i, 64) for i in range(ladders)),
-        )
-    except ValueError as exc:
-        raise UsageError(f"{exc}; re-run famarl segment with a --length divisible by {2**ladders}") from exc
-    return loaded, config
-
-
 def _epoch_reporter(progress: Progress, task, phase: str):
     def report(row: dict) -> None:
         kls = "/".join(f"{v:.2f}" for k, v in row.items() if k.startswith("kl_"))
@@ -53,19 +33,6 @@ def _epoch_reporter(progress: Progress, task, phase: str):
         )
 
     return report
-
-
-def _calibrate(loaded, config, params, segments: Path, out: Path) -> tuple[list[float], list[dict]]:
-    from famarl_cli.artifacts import provenance
-    from famarl_cli.favae.checkpoint import write_calibration
-    from famarl_cli.favae.training import calibrate
-
-    with progress_bar() as progress:
-        task = progress.add_task("calibrate", total=params.epochs)
-        c_last, log = calibrate(loaded.padded, config, params, _epoch_reporter(progress, task, "C_last pre-run"))
-    options = {**asdict(params), "config": config.to_dict()}
-    write_calibration(out, c_last, config, provenance("famarl favae calibrate", options, params.seed, [segments]))
-    return c_last, log
 
 
 @favae_app.command("calibrate")
@@ -81,13 +48,21 @@ def favae_calibrate(
     seed: SeedOption = 0,
 ) -> None:
     """The C_last pre-run: fit with beta = 0.1 and C = 0; each ladder's final KL becomes its C_last."""
-    from famarl_cli.artifacts import prepare_output
+    from famarl_cli import stages
     from famarl_cli.favae.training import TrainingParams
 
     torch_on_one_thread()
-    out = prepare_output(out or Path("data/favae") / f"{segments.stem}.calibration.json")
-    loaded, config = _favae_setup(segments, ladders, latent_dim)
-    c_last, _ = _calibrate(loaded, config, TrainingParams(epochs=epochs, seed=seed), segments, out)
+    out = out or Path("data/favae") / f"{segments.stem}.calibration.json"
+    with progress_bar() as progress:
+        task = progress.add_task("calibrate", total=epochs)
+        c_last, _ = stages.calibrate(
+            segments,
+            out,
+            ladders,
+            latent_dim,
+            TrainingParams(epochs=epochs, seed=seed),
+            _epoch_reporter(progress, task, "C_last pre-run"),
+        )
     Console().print(f"C_last per ladder: {', '.join(f'{c:.3f}' for c in c_last)}  -> {out}")
 
 
@@ -110,42 +85,28 @@ def favae_fit(
     seed: SeedOption = 0,
 ) -> None:
     """Fit FAVAE on segments (after the C_last pre-run unless --calibration is given) and score it."""
-    from famarl_cli.artifacts import prepare_output, provenance, write_csv, write_json
-    from famarl_cli.favae.checkpoint import read_calibration, save_favae
-    from famarl_cli.favae.training import TrainingParams, evaluate_fit, train_favae, training_summary
+    from famarl_cli import stages
+    from famarl_cli.favae.training import TrainingParams
 
     torch_on_one_thread()
-    out = prepare_output(out or Path("data/favae") / f"{segments.stem}.pt")
-    loaded, config = _favae_setup(segments, ladders, latent_dim)
-    params = TrainingParams(epochs=epochs, seed=seed)
-    inputs, log = [segments], []
-    if calibration:
-        c_last = read_calibration(calibration, config)
-        inputs.append(calibration)
-    else:
-        c_last, calibration_log = _calibrate(loaded, config, params, segments, out.with_suffix(".calibration.json"))
-        log += [{"phase": "calibrate", **row} for row in calibration_log]
     with progress_bar() as progress:
-        task = progress.add_task("fit", total=epochs)
-        model, fit_log = train_favae(
-            loaded.padded, config, beta, c_last, params, _epoch_reporter(progress, task, "fit")
+        tasks = {} if calibration else {"calibrate": progress.add_task("calibrate", total=epochs)}
+        tasks["fit"] = progress.add_task("fit", total=epochs)
+        reporters = {
+            phase: _epoch_reporter(progress, task, "C_last pre-run" if phase == "calibrate" else phase)
+            for phase, task in tasks.items()
+        }
+        fitted = stages.fit(
+            segments,
+            out or Path("data/favae") / f"{segments.stem}.pt",
+            beta,
+            calibration,
+            ladders,
+            latent_dim,
+            TrainingParams(epochs=epochs, seed=seed),
+            lambda phase, row: reporters[phase](row),
         )
-    log += [{"phase": "fit", **row} for row in fit_log]
-    scores = evaluate_fit(model, loaded.padded, loaded.length, loaded.factors)
-    training = training_summary(params, beta, c_last)
-    options = {**training, "ladders": ladders, "latent_dim": latent_dim}
-    save_favae(out, model, training, provenance("famarl favae fit", options, seed, inputs))
-    metrics = {
-        **scores,
-        "beta": beta,
-        "c_last": c_last,
-        "final_kl_per_ladder": [fit_log[-1][f"kl_{i + 1}"] for i in range(config.ladders)],
-        "segments": len(loaded.length),
-        "factor_names": list(loaded.factor_names),
-    }
-    write_csv(out.with_suffix(".log.csv"), log)
-    write_json(out.with_suffix(".metrics.json"), metrics)
-
+    scores, c_last = fitted.scores, fitted.c_last
     table = Table(title=f"FAVAE on {segments} (beta {beta:g})", show_header=False)
     table.add_row("C_last per ladder", ", ".join(f"{c:.3f}" for c in c_last))
     table.add_row("KL per ladder", ", ".join(f"{k:.3f}" for k in scores["kl_per_ladder"]))
@@ -154,7 +115,5 @@ def favae_fit(
         "length", f"{scores['length_accuracy']:.1%} exact, mean error {scores['length_mean_abs_error']:.2f} steps"
     )
     table.add_row("MIG", f"{scores['mig']:.3f} ({scores['mig_bins']} bins)")
-    table.add_row(
-        "written", ", ".join(str(p) for p in (out, out.with_suffix(".log.csv"), out.with_suffix(".metrics.json")))
-    )
+    table.add_row("written", ", ".join(map(str, fitted.written)))
     Console().print(table)

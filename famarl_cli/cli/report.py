@@ -21,8 +21,7 @@ def report(
         typer.Option(
             "--experiment",
             "-e",
-            help="Report only this experiment; repeat for several.  [default: every experiment with data: maze, "
-            "scripts, beta, demos-count, traversal, robothand, macro-length]",
+            help="Report only this experiment; repeat for several.  [default: every experiment (famarl_cli/experiments)]",
         ),
     ] = None,
     data: Annotated[Path, typer.Option(help="Where the pipelines wrote.", file_okay=False)] = Path("data"),
@@ -31,18 +30,28 @@ def report(
     ] = Path("data/report"),
 ) -> None:
     """Gather the evaluations, training logs, FAVAE metrics and traversals of whatever runs exist into report.md:
-    a table per experiment of the paper, our number beside the paper's claim, and a verdict."""
+    a table per experiment of the paper, our numbers beside the paper's claims, and a three-way verdict per claim
+    (reproduces, does not reproduce, inconclusive) from 95% intervals over seeds."""
     from famarl_cli import __version__
-    from famarl_cli.report import EXPERIMENTS, write_report
+    from famarl_cli.experiments import experiments
+    from famarl_cli.report import write_report
 
-    names = experiment or list(EXPERIMENTS)
-    unknown = [name for name in names if name not in EXPERIMENTS]
+    known = experiments()
+    names = experiment or list(known)
+    unknown = [name for name in names if name not in known]
     if unknown:
-        raise UsageError(f"unknown experiment {', '.join(unknown)} (known: {', '.join(EXPERIMENTS)})")
+        raise UsageError(f"unknown experiment {', '.join(unknown)} (known: {', '.join(known)})")
     sections = write_report(names, data, out, __version__)
     table = Table(title=f"{out / 'report.md'}")
-    for column in ("experiment", "claims reproduced", "verdict"):
+    for column in ("experiment", "claims", "reproduce", "do not", "inconclusive"):
         table.add_column(column)
     for name, section in sections.items():
-        table.add_row(name, f"{section.held} of {len(section.claims)}", section.verdict)
+        counts = section.summary()
+        table.add_row(
+            name,
+            str(counts["claims"]),
+            str(counts["claims_reproduced"]),
+            str(counts["claims_not_reproduced"]),
+            str(counts["claims_inconclusive"]),
+        )
     Console().print(table)

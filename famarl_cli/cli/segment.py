@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
@@ -64,56 +63,30 @@ def segment(
     epochs: Annotated[int, typer.Option(min=1, help="Training epochs of the autoencoder.")] = 300,
     seed: Annotated[int, typer.Option(help="Seed of the autoencoder's initialisation and batches.")] = 0,
     plot: Annotated[bool, typer.Option(help="Also draw distance curves and boundaries to <out>.png.")] = True,
+    episodes: Annotated[
+        int | None, typer.Option(min=1, help="Only the first this many episodes of the demos.  [default: all]")
+    ] = None,
 ) -> None:
     """Cut demos into macro actions at the peaks of an autoencoder's code distance (paper Alg. 1)."""
-    from famarl_cli.artifacts import prepare_output, provenance, read_demos, write_json
-    from famarl_cli.artifacts.segments import write_segments
-    from famarl_cli.plots import plot_segmentation
-    from famarl_cli.segmentation import (
-        AutoencoderConfig,
-        SegmentParams,
-        TrainingConfig,
-        load_autoencoder,
-        save_autoencoder,
-        segment_demos,
-        train_autoencoder,
-    )
+    from famarl_cli import stages
+    from famarl_cli.segmentation import SegmentParams
 
     torch_on_one_thread()
-    out = prepare_output(out or Path("data/segments") / f"{demos.stem}.h5")
-    metrics_path, segmenter_path = out.with_suffix(".metrics.json"), out.with_suffix(".segmenter.pt")
-    loaded = read_demos(demos)
     params = SegmentParams(peak_neighbours, margin, distance.value, length, long.value, tolerance, seed)
-    options = {**asdict(params), "window": window, "code_dim": code_dim, "hidden": hidden, "epochs": epochs}
-    inputs = [demos] + ([encoder] if encoder else [])
-    if encoder:
-        model, train_mse = load_autoencoder(encoder), None
-    else:
-        config = AutoencoderConfig(
-            window=window, action_dim=loaded.episodes[0].actions.shape[1], hidden=hidden, code_dim=code_dim
+    segmenter = stages.SegmenterOptions(window=window, code_dim=code_dim, hidden=hidden, epochs=epochs)
+    with progress_bar() as progress:
+        task = progress.add_task("segmenter", total=epochs)
+        result = stages.segment(
+            demos,
+            out or Path("data/segments") / f"{demos.stem}.h5",
+            params,
+            segmenter,
+            encoder,
+            plot,
+            on_epoch=lambda epoch, mse: progress.update(task, advance=1, description=f"segmenter mse {mse:.2e}"),
+            episodes=episodes,
         )
-        with progress_bar() as progress:
-            task = progress.add_task("segmenter", total=epochs)
-            model, train_mse = train_autoencoder(
-                [e.actions for e in loaded.episodes],
-                config,
-                TrainingConfig(epochs=epochs),
-                seed,
-                on_epoch=lambda epoch, mse: progress.update(task, advance=1, description=f"segmenter mse {mse:.2e}"),
-            )
-    segments, metrics = segment_demos(loaded, model, params)
-    metrics["autoencoder_mse"] = train_mse
-    segments.provenance = provenance("famarl segment", options, seed, inputs)
-    write_segments(out, segments)
-    written = [out, metrics_path]
-    if not encoder:
-        save_autoencoder(segmenter_path, model, provenance("famarl segment", options, seed, [demos]))
-        written.append(segmenter_path)
-    write_json(metrics_path, metrics)
-    if plot:
-        written.append(out.with_suffix(".png"))
-        plot_segmentation(loaded, segments, written[-1])
-
+    segments, metrics = result.segments, result.metrics
     table = segments_table(segments, f"segments of {demos}")
     for key in ("boundaries_exact", f"boundaries_within_{tolerance}"):
         score = metrics[key]
@@ -122,7 +95,7 @@ def segment(
             f"{score['f1']:.3f}  (precision {score['precision']:.3f}, recall {score['recall']:.3f}; "
             f"{score['predicted']} found, {score['true']} true)",
         )
-    table.add_row("written", ", ".join(map(str, written)))
+    table.add_row("written", ", ".join(map(str, result.written)))
     Console().print(table)
 
 

@@ -9,7 +9,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import app, progress_bar, reports_errors, torch_on_one_thread
+from famarl_cli.cli import JobRecipe, app, progress_bar, reports_errors, sweepable, torch_on_one_thread
 from famarl_cli.errors import UsageError
 from famarl_cli.rl import Agent, MacroDiscount
 
@@ -94,52 +94,108 @@ def train(
     ] = None,
 ) -> None:
     """Train an agent with PPO; writes run.json, checkpoint.pt and train.csv into the run folder."""
-    from famarl_cli.artifacts.base import prepare_output
+    from famarl_cli.artifacts.lock import claim_folder
     from famarl_cli.artifacts.runs import CHECKPOINT_FILE, EVAL_FILE, LOG_FILE, ROLLOUTS_FILE, RUN_FILE
-    from famarl_cli.rl.ppo import PPOConfig
-    from famarl_cli.rl.training import Run, RunSpec, default_label
+    from famarl_cli.rl.training import Run
 
     torch_on_one_thread()
     out = out or default_run_dir(env, agent, favae, seed)
-    if resume:
-        run = Run.resume(out, steps)
-    else:
-        if (out / RUN_FILE).exists() and not overwrite:
-            raise UsageError(f"{out} already holds a run; add --resume to continue it or --overwrite to replace it")
-        try:
-            ppo = PPOConfig(
-                total_steps=steps or DEFAULT_STEPS,
-                n_envs=n_envs,
-                n_steps=n_steps or DECISIONS_PER_ROLLOUT[agent],
-                epochs=epochs,
-                minibatches=minibatches,
-                learning_rate=lr,
-                gamma=gamma,
-                gae_lambda=gae_lambda,
-                clip=clip,
-                clip_value=clip_value,
-                ent_coef=ent_coef,
-                macro_discount=str(macro_discount),
-                normalize_obs=normalize,
-                scale_rewards=normalize,
+    # A new run is built (its options and files checked) before the folder is claimed, so bad input writes nothing.
+    fresh = None
+    if not resume:
+        fresh = Run.start(
+            run_spec(
+                env, agent, favae, steps, seed, n_envs, n_steps, epochs, minibatches, lr, gamma, gae_lambda, clip,
+                ent_coef, macro_discount, latent_bound, max_repeat, normalize, clip_value, label,
             )
-        except ValueError as exc:
-            raise UsageError(str(exc)) from exc
-        spec = RunSpec(
-            env_id=env,
-            agent=agent,
-            seed=seed,
-            ppo=ppo,
-            latent_bound=latent_bound,
-            max_repeat=max_repeat,
-            favae=str(favae) if agent == Agent.FAMARL else None,
-            label=label or default_label(agent, favae),
+        )  # fmt: skip
+    with claim_folder(out):
+        if fresh is None:
+            run = Run.resume(out, steps)
+        else:
+            if (out / RUN_FILE).exists() and not overwrite:
+                raise UsageError(
+                    f"{out} already holds a run; add --resume to continue it or --overwrite to replace it"
+                )
+            run = fresh
+            # Only once the new run has started: a bad option must not cost the user the old run.
+            for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE):
+                (out / name).unlink(missing_ok=True)
+        _train(run, out, checkpoint_every)
+
+
+def run_spec(
+    env: str,
+    agent: Agent,
+    favae: Path,
+    steps: int | None,
+    seed: int,
+    n_envs: int,
+    n_steps: int | None,
+    epochs: int,
+    minibatches: int,
+    lr: float,
+    gamma: float,
+    gae_lambda: float,
+    clip: float,
+    ent_coef: float,
+    macro_discount: MacroDiscount,
+    latent_bound: float,
+    max_repeat: int,
+    normalize: bool,
+    clip_value: bool,
+    label: str | None,
+    **_,
+):
+    """The RunSpec that ``famarl train``'s options describe (shared with ``famarl sweep train``)."""
+    from famarl_cli.rl.ppo import PPOConfig
+    from famarl_cli.rl.training import RunSpec, default_label
+
+    try:
+        ppo = PPOConfig(
+            total_steps=steps or DEFAULT_STEPS,
+            n_envs=n_envs,
+            n_steps=n_steps or DECISIONS_PER_ROLLOUT[agent],
+            epochs=epochs,
+            minibatches=minibatches,
+            learning_rate=lr,
+            gamma=gamma,
+            gae_lambda=gae_lambda,
+            clip=clip,
+            clip_value=clip_value,
+            ent_coef=ent_coef,
+            macro_discount=str(macro_discount),
+            normalize_obs=normalize,
+            scale_rewards=normalize,
         )
-        run = Run.start(spec)
-        prepare_output(out / RUN_FILE)
-        # Only once the new run has started: a bad option must not cost the user the old run.
-        for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE):
-            (out / name).unlink(missing_ok=True)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from exc
+    return RunSpec(
+        env_id=env,
+        agent=agent,
+        seed=seed,
+        ppo=ppo,
+        latent_bound=latent_bound,
+        max_repeat=max_repeat,
+        favae=str(favae) if agent == Agent.FAMARL else None,
+        label=label or default_label(agent, favae),
+    )
+
+
+@sweepable("train", owned=("--out", "--resume", "--overwrite"))
+def train_job(params: dict) -> JobRecipe:
+    """``famarl sweep train``: each run of the sweep is what ``famarl train`` with the same options would do."""
+    spec = run_spec(**params)
+    return JobRecipe(
+        runner="famarl_cli.rl.training:run_job",
+        config={"spec": spec.to_dict(), "checkpoint_every": params["checkpoint_every"]},
+        inputs=(spec.favae,) if spec.favae else (),
+        resumable=True,
+    )
+
+
+def _train(run, out: Path, checkpoint_every: int) -> None:
+    from famarl_cli.artifacts.runs import CHECKPOINT_FILE, LOG_FILE, RUN_FILE
 
     trainer = run.trainer
     with progress_bar() as progress:

@@ -29,25 +29,13 @@ def traverse(
     ] = None,
 ) -> None:
     """Decode sweeps of single latent variables and draw the paths their macro actions take (paper Fig. 5)."""
-    from famarl_cli.artifacts import prepare_output, provenance, write_json
-    from famarl_cli.artifacts.traversal import write_traversal
-    from famarl_cli.favae.checkpoint import load_favae
-    from famarl_cli.plots import plot_traversal
-    from famarl_cli.traversal import parse_values, variables_of
-    from famarl_cli.traversal import traverse as run_traversal
+    from famarl_cli import stages
+    from famarl_cli.traversal import parse_values
 
     torch_on_one_thread()
-    parsed = parse_values(values)
     name = model.stem + (f"-ladder{ladder}" if ladder else "") + (f"-index{index}" if index else "")
-    out = prepare_output(out or Path("data/traverse") / f"{name}.h5")
-    favae, _ = load_favae(model)
-    result = run_traversal(favae, variables_of(favae, ladder, index), parsed)
-    options = {"ladder": ladder, "index": index, "values": parsed}
-    write_traversal(out, result, provenance("famarl traverse", options, None, [model]))
-    effects = {f"({lad},{i})": float(e) for (lad, i), e in zip(result.variables.tolist(), result.effects, strict=True)}
-    write_json(out.with_suffix(".json"), {"effects_m": effects, "values": parsed})
-    plot_traversal(result, out.with_suffix(".png"), f"{model.name}: latent traversal over {values}")
-
+    out = out or Path("data/traverse") / f"{name}.h5"
+    result = stages.traverse(model, out, parse_values(values), ladder, index)
     table = Table(title=f"traversal of {model}", show_header=True)
     table.add_column("(ladder, index)")
     table.add_column("effect (m)", justify="right")

@@ -35,24 +35,27 @@ class Evaluation:
     traces: list[Trace]
 
 
-class DeterministicActor:
-    """The trained policy acting with its mode, on observations normalised with the statistics frozen at the end
-    of training; returns each decision's open-loop actions (N, L, D) and lengths (N,)."""
+class FrozenActor:
+    """The trained policy on observations normalised with the statistics frozen at the end of training: acting
+    with its mode, or sampling as it did in training when given a generator. Returns each decision's open-loop
+    actions (N, L, D) and lengths (N,)."""
 
-    def __init__(self, agent: TrainedAgent, env: BatchedEnv) -> None:
-        self.agent = agent
+    def __init__(self, agent: TrainedAgent, env: BatchedEnv, rng: np.random.Generator | None = None) -> None:
+        self.agent, self.rng = agent, rng
         self.mode = build_mode(agent.spec, env, agent.favae)
         self.normalize = ObservationNormalizer((env.observation_size,), agent.spec.ppo.normalize_obs)
         self.normalize.load_state_dict(agent.obs_norm_state)
 
     def __call__(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        action = self.agent.policy.act(self.normalize(obs.astype(np.float32), update=False))
+        action = self.agent.policy.act(self.normalize(obs.astype(np.float32), update=False), self.rng)
         return self.mode.to_open_loop(action.u.astype(np.float64), action.index)
 
 
-def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4) -> Evaluation:
+def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4, sample: bool = False) -> Evaluation:
+    """``episodes`` episodes (one per world, layouts from ``seed``) of the policy acting with its mode, or, with
+    ``sample``, drawing its actions as in training (from a generator seeded with ``seed``)."""
     env = make_batch(agent.spec.env_id, episodes, seed)
-    act = DeterministicActor(agent, env)
+    act = FrozenActor(agent, env, np.random.default_rng(seed) if sample else None)
     obs = env.reset()
     alive = np.ones(episodes, dtype=bool)
     returns, lengths, decisions, chosen = (np.zeros(episodes) for _ in range(4))
@@ -109,11 +112,11 @@ class Film:
     """Frames per second of real time (the environment's ``render_fps``)."""
 
 
-def film(agent: TrainedAgent, seed: int) -> Film:
+def film_episode(agent: TrainedAgent, seed: int) -> Film:
     """Render one deterministic episode of ``agent`` (its first frame is the reset state)."""
     batch = GymBatch(agent.spec.env_id, 1, seed, render_mode="rgb_array")
     env = batch.envs[0]
-    act = DeterministicActor(agent, batch)
+    act = FrozenActor(agent, batch)
     obs, _ = env.reset(seed=seed)
     frames, decisions, success, done, decision = [env.render()], [], False, False, 0
     while not done:

@@ -49,7 +49,10 @@ class RunSpec:
 
 
 def default_label(agent: Agent, favae: str | os.PathLike | None) -> str:
-    return f"famarl ({Path(favae).stem})" if agent == Agent.FAMARL and favae else str(agent)
+    """``famarl (<FAVAE file name>)``, or plain ``famarl`` for a FAVAE named favae.pt (famarl macros folders)."""
+    if agent != Agent.FAMARL or not favae or Path(favae).stem == "favae":
+        return str(agent)
+    return f"famarl ({Path(favae).stem})"
 
 
 def build_mode(spec: RunSpec, env: BatchedEnv, favae: Favae | None):
@@ -125,20 +128,30 @@ class Run:
         write_run(run_dir, self.spec.to_dict(), trainer.state_dict(), _favae_state(self.favae), self.provenance, status)
 
     def train(
-        self, run_dir: str | os.PathLike, checkpoint_every: int, on_update: Callable[[dict], None] | None = None
+        self,
+        run_dir: str | os.PathLike,
+        checkpoint_every: int,
+        on_update: Callable[[dict], None] | None = None,
+        before_save: Callable[[], None] | None = None,
     ) -> None:
-        """Train to the budget, saving every ``checkpoint_every`` updates and at the end."""
+        """Train to the budget, saving every ``checkpoint_every`` updates and at the end. ``before_save`` may raise
+        to stop the run without writing (a sweep attempt that lost its lease)."""
         started = time.perf_counter() - self.wall_s
+
+        def save() -> None:
+            if before_save is not None:
+                before_save()
+            self.save(run_dir)
 
         def after_update(trainer: PPOTrainer, row: dict) -> None:
             self.wall_s = time.perf_counter() - started
             if trainer.updates % checkpoint_every == 0 and not trainer.done:
-                self.save(run_dir)
+                save()
             if on_update is not None:
                 on_update(row)
 
         self.trainer.train(after_update)
-        self.save(run_dir)
+        save()
 
 
 @dataclass
@@ -162,3 +175,22 @@ def load_agent(run_dir: str | os.PathLike) -> TrainedAgent:
     policy = ActorCritic(env.observation_size, mode.policy_action_size, mode.repeat_choices, spec.ppo.hidden)
     policy.load_state_dict(trainer["policy"])
     return TrainedAgent(spec, policy, trainer["obs_norm"], favae, int(trainer["counters"]["env_steps"]))
+
+
+def run_job(config: dict, folder: Path, context) -> dict:
+    """A training run as a sweep job (:mod:`famarl_cli.sweep`): ``config`` holds the run's ``spec`` and its
+    ``checkpoint_every``; an unfinished run in ``folder`` continues from its checkpoint, exactly as
+    ``famarl train --resume`` would."""
+    if context.resume and (folder / CHECKPOINT_FILE).exists():
+        run = Run.resume(folder)
+    else:
+        run = Run.start(RunSpec.from_dict(config["spec"]))
+    total = run.trainer.config.total_steps
+    run.train(
+        folder,
+        int(config["checkpoint_every"]),
+        on_update=lambda row: context.progress(min(row["env_steps"], total), total),
+        before_save=context.check_lease,
+    )
+    summary = run.trainer.episodes.summary()
+    return {"env_steps": run.trainer.env_steps, "success": summary["episode_success"], "return": summary["episode_return"]}

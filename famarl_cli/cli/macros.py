@@ -1,0 +1,99 @@
+"""``famarl macros``: learn a macro-action space from demos for one seed (segment, pre-run, fit, traverse)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from famarl_cli.cli import JobRecipe, app, progress_bar, reports_errors, sweepable, torch_on_one_thread
+
+
+@app.command()
+@reports_errors
+def macros(
+    demos: Annotated[Path | None, typer.Option(help="Demos HDF5 file to segment (or give --segments).")] = None,
+    episodes: Annotated[
+        int | None, typer.Option(min=1, help="Only the first this many episodes of --demos.  [default: all]")
+    ] = None,
+    segments: Annotated[
+        Path | None, typer.Option(help="Use these segments (from famarl segment) instead of segmenting demos.")
+    ] = None,
+    calibration: Annotated[
+        Path | None, typer.Option(help="C_last from famarl favae calibrate on --segments; without it the pre-run runs.")
+    ] = None,
+    out: Annotated[
+        Path | None,
+        typer.Option(help="Folder.  [default: data/macros/<demos or segments name>/seed<S>]", file_okay=False),
+    ] = None,
+    seed: Annotated[int, typer.Option(help="Seed of the segmenter, the pre-run and the fit.")] = 0,
+    margin: Annotated[
+        float, typer.Option(min=0.0, max=1.0, help="Segmentation peak threshold (famarl segment --margin).")
+    ] = 0.7,
+    segment_epochs: Annotated[int, typer.Option(min=1, help="Training epochs of the segmenter.")] = 300,
+    beta: Annotated[float, typer.Option(min=0.0, help="FAVAE's weight of the capacity term.")] = 50.0,
+    epochs: Annotated[int, typer.Option(min=1, help="Epochs of the pre-run and of the fit.")] = 1500,
+    ladders: Annotated[int, typer.Option(min=1, help="FAVAE ladders.")] = 3,
+    latent_dim: Annotated[int, typer.Option(min=1, help="Latent variables per ladder.")] = 2,
+    values: Annotated[str, typer.Option(help="Traversal values; write --values=-3,-1,1,3.")] = "-3,-1,1,3",
+) -> None:
+    """Everything the method learns before RL, for one seed, into one folder: segments, C_last, FAVAE, traversal.
+
+    The folder's files are those of famarl segment, favae calibrate, favae fit and traverse. An interrupted folder
+    continues at the step it was in. famarl sweep macros runs this for many seeds (independent replicates).
+    """
+    from famarl_cli.artifacts.lock import claim_folder
+    from famarl_cli.macros import learn_macros
+
+    torch_on_one_thread()
+    config = _config(locals())
+    source = Path(config.demos or config.segments)
+    out = out or Path("data/macros") / source.stem / f"seed{seed}"
+    with claim_folder(out), progress_bar() as progress:
+        tasks: dict[str, int] = {}
+
+        def show(phase: str, done: int, total: int) -> None:
+            if phase not in tasks:
+                tasks[phase] = progress.add_task(phase, total=total)
+            progress.update(tasks[phase], completed=done)
+
+        metrics = learn_macros(config, out, show)
+    table = Table(title=f"macro actions of {source}, seed {seed}", show_header=False)
+    table.add_row("KL per ladder", ", ".join(f"{k:.3f}" for k in metrics["kl_per_ladder"]))
+    table.add_row("length accuracy", f"{metrics['length_accuracy']:.1%}")
+    table.add_row("MIG", f"{metrics['mig']:.3f}")
+    table.add_row("written", str(out))
+    Console().print(table)
+
+
+def _config(params: dict):
+    from famarl_cli.macros import MacrosConfig
+    from famarl_cli.traversal import parse_values
+
+    def text(path: Path | None) -> str | None:
+        return None if path is None else str(path)
+
+    return MacrosConfig(
+        seed=params["seed"],
+        demos=text(params["demos"]),
+        episodes=params["episodes"],
+        segments=text(params["segments"]),
+        calibration=text(params["calibration"]),
+        margin=params["margin"],
+        segment_epochs=params["segment_epochs"],
+        beta=params["beta"],
+        epochs=params["epochs"],
+        ladders=params["ladders"],
+        latent_dim=params["latent_dim"],
+        values=parse_values(params["values"]),
+    )
+
+
+@sweepable("macros", owned=("--out",))
+def macros_job(params: dict) -> JobRecipe:
+    """``famarl sweep macros``: each replicate is what ``famarl macros`` with the same options would make."""
+    config = _config(params)
+    return JobRecipe("famarl_cli.macros:run_job", config.to_dict(), tuple(map(str, config.inputs)), resumable=True)

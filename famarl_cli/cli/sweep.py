@@ -1,0 +1,181 @@
+"""``famarl sweep COMMAND``: many runs of one command (seeds x variants) at once, on every core or a Ray cluster."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.progress import Progress, TaskID
+from rich.table import Table
+
+from famarl_cli.cli import SWEEPABLE, app, progress_bar, reports_errors
+from famarl_cli.errors import FamarlError, UsageError
+
+
+@app.command(no_args_is_help=True)
+@reports_errors
+def sweep(
+    command: Annotated[str, typer.Argument(help="The command to sweep: train or macros.", show_default=False)],
+    options: Annotated[
+        list[str] | None,
+        typer.Argument(
+            help="COMMAND's own options, after --; {seed} and {NAME} of each --over axis are filled in per run.",
+            show_default=False,
+        ),
+    ] = None,
+    out: Annotated[
+        Path,
+        typer.Option(
+            help="Folder of the sweep's runs, one folder each. The sweep owns it: it deletes runs no longer in the "
+            "plan.",
+            file_okay=False,
+        ),
+    ] = ...,
+    seeds: Annotated[str, typer.Option(help="Seeds: a range 0-9, a list 0,3,7, or both (0-4,10).")] = "0",
+    over: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="Another axis, NAME=V1,V2,... (repeat for more). When COMMAND has an option --NAME, each run "
+            "gets its value; {NAME} in the options is replaced by it.",
+        ),
+    ] = None,
+    name: Annotated[
+        str | None,
+        typer.Option(help="Each run's folder name, with {seed} and the axes.  [default: the values, e.g. ppo-seed3]"),
+    ] = None,
+    jobs: Annotated[
+        int | None,
+        typer.Option(min=1, help="Runs at once on this machine.  [default: $FAMARL_JOBS, else one per usable core]"),
+    ] = None,
+    ray_address: Annotated[
+        str | None,
+        typer.Option(
+            help="Run on the Ray cluster at this address instead (needs famarl[ray]; paths on a shared filesystem). "
+            "[default: $RAY_ADDRESS]"
+        ),
+    ] = None,
+    max_attempts: Annotated[int, typer.Option(min=1, help="Attempts per run when its worker or node dies.")] = 3,
+) -> None:
+    """Run COMMAND once per combination of seeds and --over values, several at once, resuming what is unfinished.
+
+    Example: famarl sweep train --seeds 0-9 --over agent=ppo,figar --out data/runs -- --steps 500000
+
+    A run whose options, inputs and code are unchanged and that finished is skipped; one that was stopped
+    continues from its checkpoint; one whose options changed runs again; a run folder no longer in the plan is
+    deleted. A run whose worker dies is resubmitted; a run that fails does not stop the others, and the command
+    exits non-zero at the end.
+    """
+    from famarl_cli.sweep.driver import run_sweep
+    from famarl_cli.sweep.executors import make_executor
+
+    planned = plan(command, options or [], seeds, over or [], name)
+    with make_executor(jobs, ray_address) as executor:
+        console = Console(stderr=True)
+        console.print(f"sweep {command}: {len(planned)} runs into {out}, {executor.workers} at once")
+        with progress_bar() as progress:
+            display = SweepDisplay(progress)
+            state = run_sweep(out, planned, executor, max_attempts, display)
+    Console().print(summary_table(state, command, out))
+    if state.failed:
+        first = state.failed[0]
+        raise FamarlError(
+            f"{len(state.failed)} of {len(state.jobs)} runs failed (first: {first.job.name}: {first.error}); "
+            "run the sweep again to redo only those"
+        )
+
+
+def plan(command: str, options: list[str], seeds: str, over: list[str], name: str | None):
+    """The sweep's jobs: one per combination of the axes, each parsed by COMMAND's own option parser."""
+    from famarl_cli.sweep.plan import Axis, Job, default_name, expand, fill, parse_values
+
+    if command not in SWEEPABLE:
+        raise UsageError(f"cannot sweep {command!r}; sweepable commands: {', '.join(sorted(SWEEPABLE))}")
+    sweepable = SWEEPABLE[command]
+    parser = typer.main.get_command(app).commands[command]
+    accepted = {opt: param.name for param in parser.params for opt in param.opts}
+    for option in sweepable.owned:
+        if _given(option, options):
+            raise UsageError(f"{option} is set by the sweep (its --out holds every run); leave it out of the options")
+    axes = [Axis("seed", parse_values(seeds)), *(Axis.parse(text) for text in over)]
+    jobs = []
+    for point in expand(axes):
+        argv = [fill(option, point) for option in options]
+        for axis, value in point.items():
+            option = "--" + axis.replace("_", "-")
+            if option in accepted and not _given(option, argv):
+                argv += [option, value]
+        try:
+            parsed = parser.make_context(f"famarl {command}", list(argv)).params
+        except Exception as exc:  # typer's (bundled click's) usage errors: they carry their message
+            if not hasattr(exc, "format_message"):
+                raise
+            raise UsageError(f"famarl {command} {' '.join(argv)}: {exc.format_message()}") from None
+        recipe = sweepable.make(parsed)
+        job_name = fill(name, point) if name else default_name(point)
+        jobs.append(Job(job_name, recipe.runner, recipe.config, recipe.inputs, recipe.resumable, point))
+    return jobs
+
+
+def _given(option: str, argv: list[str]) -> bool:
+    return any(arg == option or arg.startswith(option + "=") for arg in argv)
+
+
+class SweepDisplay:
+    """One bar for the sweep (done / running / queued) and one per running job (its steps or epochs)."""
+
+    def __init__(self, progress: Progress) -> None:
+        self.progress = progress
+        self.overall: TaskID | None = None
+        self.rows: dict[str, TaskID] = {}
+
+    def __call__(self, state) -> None:
+        finished = state.count("done") + state.count("skipped") + state.count("failed")
+        counts = ", ".join(
+            f"{state.count(status)} {status}" for status in ("done", "running", "queued", "failed") if state.count(status)
+        )
+        if self.overall is None:
+            self.overall = self.progress.add_task("runs", total=len(state.jobs))
+        self.progress.update(self.overall, completed=finished, description=f"runs: {counts or 'nothing to do'}")
+        for job_state in state.jobs:
+            row = self.rows.get(job_state.job.name)
+            if job_state.status == "running":
+                if row is None:
+                    row = self.rows[job_state.job.name] = self.progress.add_task(job_state.job.name, total=1)
+                self.progress.update(row, completed=job_state.done, total=max(job_state.total, 1))
+            elif row is not None:
+                self.progress.remove_task(row)
+                del self.rows[job_state.job.name]
+
+
+def summary_table(state, command: str, out: Path) -> Table:
+    table = Table(title=f"famarl sweep {command} -> {out}")
+    for column in ("run", "status", "attempts", "result", "wall"):
+        table.add_column(column, justify="right" if column in ("attempts", "wall") else "left")
+    for job_state in state.jobs:
+        began = job_state.started or job_state.submitted
+        wall = f"{job_state.finished - began:.0f} s" if began is not None and job_state.finished is not None else ""
+        table.add_row(
+            job_state.job.name,
+            job_state.status + (" (resumed)" if job_state.action == "resume" and job_state.status == "done" else ""),
+            str(job_state.attempts),
+            job_state.error or _result(job_state.result),
+            wall,
+        )
+    if state.deleted:
+        table.caption = f"deleted, no longer in the plan: {', '.join(state.deleted)}"
+    return table
+
+
+def _result(result: dict | None) -> str:
+    if not result:
+        return ""
+    return ", ".join(f"{key} {_number(value)}" for key, value in result.items() if not isinstance(value, list))
+
+
+def _number(value) -> str:
+    if isinstance(value, float):
+        return "-" if value != value else f"{value:.3g}"
+    return f"{value:,}" if isinstance(value, int) else str(value)
+

@@ -1,0 +1,99 @@
+"""What several experiments share: the thresholds fixed before any run, the claims about success rates, the
+FAVAE replicates' table and the learning curves.
+
+Every threshold and smallest effect of interest below was fixed before the 10-seed runs were made; the paper
+shows curves, not numbers, so each is our reading of its words.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from famarl_cli.results import Group, macros_folders, read_json
+from famarl_cli.statistics import LEVEL, mean_interval
+from famarl_cli.verdicts import Claim, best, fails, not_run, solves
+
+MAZE = "famarl/ContinuousWorld-Maze-v0"
+SOLVED = 0.8
+"""Success rate from which a task counts as completed."""
+FAILED = 0.5
+"""Success rate at or below which an agent counts as having failed ("fails to converge")."""
+SUCCESS_DELTA = 0.05
+"""Smallest difference in success rate that counts as one agent being better."""
+AUC_DELTA = 0.05
+"""Smallest difference in normalised area under the success curve that counts as learning faster."""
+EQUIVALENCE_MARGIN = 0.1
+"""Largest difference in success rate that still counts as "does not impact"."""
+
+
+def success_measure(g: Group | None) -> str:
+    episodes = g.episodes if g is not None else "K"
+    return f"success over {episodes} evaluation episodes, policy sampling as in training"
+
+
+AUC_MEASURE = "area under the training success curve, normalised to [0, 1] over the budget"
+
+
+def solves_claim(paper: str, g: Group | None, level: float = LEVEL) -> Claim:
+    if g is None:
+        return not_run(paper, success_measure(g))
+    return Claim(paper, success_measure(g), solves(g.label, g.values("success"), SOLVED, g.episodes, level))
+
+
+def fails_claim(paper: str, g: Group | None, level: float = LEVEL) -> Claim:
+    if g is None:
+        return not_run(paper, success_measure(g))
+    return Claim(paper, success_measure(g), fails(g.label, g.values("success"), FAILED, g.episodes, level))
+
+
+def best_claim(paper: str, candidate: Group | None, rivals: list[Group], key: str = "success") -> Claim:
+    measure = success_measure(candidate) if key == "success" else AUC_MEASURE
+    if candidate is None or not rivals:
+        return not_run(paper, measure)
+    episodes = candidate.episodes if key == "success" else None
+    delta = SUCCESS_DELTA if key == "success" else AUC_DELTA
+    judgement = best(candidate.label, candidate.values(key), {r.label: r.values(key) for r in rivals}, delta, episodes)
+    return Claim(paper, measure, judgement)
+
+
+def favae_table(folder: Path) -> str | None:
+    """The FAVAE replicates of a ``famarl sweep macros`` folder: each score's mean and 95% interval over seeds."""
+    folders = macros_folders(folder)
+    if not folders:
+        return None
+    metrics = [read_json(f / "favae.metrics.json", "FAVAE metrics") for f in folders]
+    segments = [read_json(f / "segments.metrics.json", "segmentation metrics") for f in folders if (f / "segments.metrics.json").is_file()]
+    rows = {
+        "MIG": [m["mig"] for m in metrics],
+        "length accuracy": [m["length_accuracy"] for m in metrics],
+        "reconstruction MSE": [m["reconstruction_mse"] for m in metrics],
+    }
+    for ladder in range(len(metrics[0]["kl_per_ladder"])):
+        rows[f"KL of ladder {ladder + 1} (nats)"] = [m["kl_per_ladder"][ladder] for m in metrics]
+    if segments:
+        rows["segments"] = [s["segments"] for s in segments]
+        rows["boundary F1 (±2 steps)"] = [s["boundaries_within_2"]["f1"] for s in segments]
+    lines = [f"FAVAE replicates ({folder}), n = {len(folders)}:", "", "| score | mean [95% CI] | per seed |", "|---|---|---|"]
+    for name, values in rows.items():
+        values = np.asarray(values, dtype=float)
+        fmt = "{:.4f}" if name == "reconstruction MSE" else "{:.3f}" if values.max() < 10 else "{:.0f}"
+        per_seed = " ".join(fmt.format(v) for v in values)
+        lines.append(f"| {name} | {mean_interval(values).text(fmt)} | {per_seed} |")
+    return "\n".join(lines)
+
+
+def favae_metrics_of(g: Group) -> list[dict]:
+    """Per seed, the metrics of the FAVAE that seed's run decoded with."""
+    from famarl_cli.artifacts.runs import read_run_file
+
+    paths = [Path(read_run_file(run.evaluation["run"])["spec"]["favae"]).with_suffix(".metrics.json") for run in g.runs]
+    return [read_json(path, "FAVAE metrics") for path in paths]
+
+
+def curves(groups: list[Group], path: Path, title: str, panels: tuple[str, ...] | None = None) -> str:
+    from famarl_cli.plots import LEARNING_PANELS, plot_learning_curves
+
+    plot_learning_curves({g.label: g.logs for g in groups}, path, panels or tuple(LEARNING_PANELS), title)
+    return path.name

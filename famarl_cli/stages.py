@@ -1,0 +1,249 @@
+"""The file-to-file stages of the method after the demos: segment, the FAVAE pre-run and fit, and the traversal.
+
+Each function reads its input files, runs the method (:mod:`~famarl_cli.segmentation`,
+:mod:`~famarl_cli.favae.training`, :mod:`~famarl_cli.traversal`) and writes its outputs with their provenance.
+The CLI commands and :mod:`~famarl_cli.macros` (all of them for one seed, into one folder) call these, so a stage
+writes the same files whichever way it runs. Progress goes to the optional ``on_epoch`` callbacks.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from famarl_cli.artifacts import prepare_output, provenance, read_demos, write_csv, write_json
+from famarl_cli.artifacts.segments import Segments, read_segments, write_segments
+from famarl_cli.errors import UsageError
+
+
+@dataclass(frozen=True)
+class SegmenterOptions:
+    """The window autoencoder's shape and training (the rest of the stage's options are SegmentParams)."""
+
+    window: int = 4
+    code_dim: int = 4
+    hidden: int = 32
+    epochs: int = 300
+
+
+@dataclass
+class Segmented:
+    segments: Segments
+    metrics: dict
+    written: list[Path]
+
+
+def segment(
+    demos: Path,
+    out: Path,
+    params,
+    segmenter: SegmenterOptions | None = None,
+    encoder: Path | None = None,
+    plot: bool = True,
+    on_epoch: Callable[[int, float], None] | None = None,
+    episodes: int | None = None,
+) -> Segmented:
+    """Cut ``demos`` (only its first ``episodes`` episodes, when given) into macro actions; writes ``out``
+    (segments), ``.metrics.json``, the segmenter's ``.segmenter.pt`` (unless a trained ``encoder`` is given) and
+    ``.png``. ``params`` is a SegmentParams."""
+    from famarl_cli.plots import plot_segmentation
+    from famarl_cli.segmentation import (
+        AutoencoderConfig,
+        TrainingConfig,
+        load_autoencoder,
+        save_autoencoder,
+        segment_demos,
+        train_autoencoder,
+    )
+
+    out = prepare_output(out)
+    segmenter = segmenter or SegmenterOptions()
+    metrics_path, segmenter_path = out.with_suffix(".metrics.json"), out.with_suffix(".segmenter.pt")
+    loaded = read_demos(demos)
+    if episodes is not None:
+        if not 1 <= episodes <= len(loaded.episodes):
+            raise UsageError(f"{demos} holds {len(loaded.episodes)} episodes; cannot take the first {episodes}")
+        loaded = replace(loaded, episodes=loaded.episodes[:episodes])
+    options = {**asdict(params), **asdict(segmenter), "episodes": episodes}
+    inputs = [demos] + ([encoder] if encoder else [])
+    if encoder:
+        model, train_mse = load_autoencoder(encoder), None
+    else:
+        config = AutoencoderConfig(
+            window=segmenter.window,
+            action_dim=loaded.episodes[0].actions.shape[1],
+            hidden=segmenter.hidden,
+            code_dim=segmenter.code_dim,
+        )
+        model, train_mse = train_autoencoder(
+            [e.actions for e in loaded.episodes], config, TrainingConfig(epochs=segmenter.epochs), params.seed, on_epoch
+        )
+    segments, metrics = segment_demos(loaded, model, params)
+    metrics["autoencoder_mse"] = train_mse
+    segments.provenance = provenance("famarl segment", options, params.seed, inputs)
+    write_segments(out, segments)
+    written = [out]
+    if not encoder:
+        save_autoencoder(segmenter_path, model, provenance("famarl segment", options, params.seed, [demos]))
+        written.append(segmenter_path)
+    # The metrics last: their presence says the stage finished (famarl_cli.macros resumes by it).
+    if plot:
+        plot_segmentation(loaded, segments, out.with_suffix(".png"))
+        written.append(out.with_suffix(".png"))
+    write_json(metrics_path, metrics)
+    written.append(metrics_path)
+    return Segmented(segments, metrics, written)
+
+
+def favae_setup(segments: Path, ladders: int, latent_dim: int):
+    """The segments and the FAVAE config they call for (L and D come from the segments file)."""
+    from famarl_cli.favae.model import FavaeConfig
+
+    loaded = read_segments(segments)
+    try:
+        config = FavaeConfig(
+            action_dim=loaded.action_dim,
+            length=loaded.max_length,
+            latent_dims=(latent_dim,) * ladders,
+            channels=tuple(min(32 * 2**i, 64) for i in range(ladders)),
+        )
+    except ValueError as exc:
+        raise UsageError(f"{exc}; re-run famarl segment with a --length divisible by {2**ladders}") from exc
+    return loaded, config
+
+
+def calibrate(
+    segments: Path, out: Path, ladders: int, latent_dim: int, params, on_epoch: Callable[[dict], None] | None = None
+) -> tuple[list[float], list[dict]]:
+    """The C_last pre-run on ``segments``, written to ``out`` (JSON); returns C_last and the pre-run's log.
+    ``params`` is a TrainingParams."""
+    from famarl_cli.favae.checkpoint import write_calibration
+    from famarl_cli.favae.training import calibrate as run_calibration
+
+    out = prepare_output(out)
+    loaded, config = favae_setup(segments, ladders, latent_dim)
+    c_last, log = run_calibration(loaded.padded, config, params, on_epoch)
+    options = {**asdict(params), "config": config.to_dict()}
+    write_calibration(out, c_last, config, provenance("famarl favae calibrate", options, params.seed, [segments]))
+    return c_last, log
+
+
+@dataclass
+class Fitted:
+    scores: dict
+    """evaluate_fit's scores plus beta, C_last, the final KL per ladder and the number of segments."""
+    c_last: list[float]
+    written: list[Path]
+
+
+def fit(
+    segments: Path,
+    out: Path,
+    beta: float,
+    calibration: Path | None,
+    ladders: int,
+    latent_dim: int,
+    params,
+    on_epoch: Callable[[str, dict], None] | None = None,
+) -> Fitted:
+    """Fit FAVAE on ``segments`` (after the C_last pre-run, written beside ``out``, unless ``calibration`` is
+    given) and score it; writes the checkpoint ``out``, ``.log.csv`` and ``.metrics.json``. ``on_epoch`` gets the
+    phase ("calibrate" or "fit") and the epoch's log row."""
+    from famarl_cli.favae.checkpoint import read_calibration, save_favae
+    from famarl_cli.favae.training import evaluate_fit, train_favae, training_summary
+
+    out = prepare_output(out)
+    loaded, config = favae_setup(segments, ladders, latent_dim)
+    inputs, log = [segments], []
+
+    def phase(name: str):
+        return None if on_epoch is None else (lambda row: on_epoch(name, row))
+
+    if calibration:
+        c_last = read_calibration(calibration, config)
+        inputs.append(calibration)
+    else:
+        c_last, calibration_log = calibrate(
+            segments, out.with_suffix(".calibration.json"), ladders, latent_dim, params, phase("calibrate")
+        )
+        log += [{"phase": "calibrate", **row} for row in calibration_log]
+    model, fit_log = train_favae(loaded.padded, config, beta, c_last, params, phase("fit"))
+    log += [{"phase": "fit", **row} for row in fit_log]
+    scores = evaluate_fit(model, loaded.padded, loaded.length, loaded.factors)
+    training = training_summary(params, beta, c_last)
+    options = {**training, "ladders": ladders, "latent_dim": latent_dim}
+    save_favae(out, model, training, provenance("famarl favae fit", options, params.seed, inputs))
+    metrics = {
+        **scores,
+        "beta": beta,
+        "c_last": c_last,
+        "final_kl_per_ladder": [fit_log[-1][f"kl_{i + 1}"] for i in range(config.ladders)],
+        "segments": len(loaded.length),
+        "factor_names": list(loaded.factor_names),
+    }
+    write_csv(out.with_suffix(".log.csv"), log)
+    # The metrics last: their presence says the stage finished (famarl_cli.macros resumes by it).
+    write_json(out.with_suffix(".metrics.json"), metrics)
+    return Fitted(metrics, c_last, [out, out.with_suffix(".log.csv"), out.with_suffix(".metrics.json")])
+
+
+def traverse(model: Path, out: Path, values: list[float], ladder: int | None = None, index: int | None = None):
+    """Traverse the FAVAE in ``model``; writes ``out`` (HDF5), ``.png`` and ``.json`` (effect per variable, m).
+    Returns the Traversal."""
+    from famarl_cli.artifacts.traversal import write_traversal
+    from famarl_cli.favae.checkpoint import load_favae
+    from famarl_cli.plots import plot_traversal
+    from famarl_cli.traversal import traverse as run_traversal
+    from famarl_cli.traversal import variables_of
+
+    out = prepare_output(out)
+    favae, _ = load_favae(model)
+    result = run_traversal(favae, variables_of(favae, ladder, index), values)
+    options = {"ladder": ladder, "index": index, "values": values}
+    write_traversal(out, result, provenance("famarl traverse", options, None, [model]))
+    plot_traversal(result, out.with_suffix(".png"), f"{model.name}: latent traversal over {format_values(values)}")
+    effects = {f"({lad},{i})": float(e) for (lad, i), e in zip(result.variables.tolist(), result.effects, strict=True)}
+    write_json(out.with_suffix(".json"), {"effects_m": effects, "values": values})
+    return result
+
+
+def format_values(values: list[float]) -> str:
+    return ",".join(f"{v:g}" for v in np.asarray(values, dtype=float))
+
+
+def evaluate_run(run: str, into: str, episodes: int, seed: int, rollouts: int, film: bool) -> dict:
+    """Evaluate the run folder ``run`` into the folder ``into``: ``eval.json`` (the policy acting with its mode,
+    and under ``sampled`` the same numbers for the policy drawing its actions as in training), ``rollouts.png``
+    (ContinuousWorld) and, with ``film``, one rendered episode. Returns what eval.json holds, less provenance."""
+    from famarl_cli.artifacts.runs import CHECKPOINT_FILE, EVAL_FILE, FILM_FILE, ROLLOUTS_FILE, STILLS_FILE, read_run_file
+    from famarl_cli.plots import plot_rollouts, save_film
+    from famarl_cli.rl.evaluation import evaluate, film_episode
+    from famarl_cli.rl.training import load_agent
+
+    run_folder, into_folder = Path(run), Path(into)
+    agent = load_agent(run_folder)
+    result = evaluate(agent, episodes, seed, rollouts)
+    sampled = evaluate(agent, episodes, seed, 0, sample=True)
+    evaluation = {
+        **result.metrics,
+        "sampled": sampled.metrics,
+        "label": agent.spec.label,
+        "agent": str(agent.spec.agent),
+        "env": agent.spec.env_id,
+        "seed": agent.spec.seed,
+        "run": str(run_folder),
+        "env_steps": agent.env_steps,
+        "train_wall_s": read_run_file(run_folder)["wall_s"],
+    }
+    into_folder.mkdir(parents=True, exist_ok=True)
+    prov = provenance("famarl evaluate", {"episodes": episodes, "seed": seed}, seed, [run_folder / CHECKPOINT_FILE])
+    write_json(into_folder / EVAL_FILE, {**evaluation, "provenance": prov})
+    if result.traces:
+        title = f"{agent.spec.label}, seed {agent.spec.seed}: deterministic episodes, one colour per decision"
+        plot_rollouts(result.traces, into_folder / ROLLOUTS_FILE, title)
+    if film:
+        save_film(film_episode(agent, seed), into_folder / FILM_FILE, into_folder / STILLS_FILE)
+    return evaluation

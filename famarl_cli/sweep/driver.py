@@ -1,0 +1,211 @@
+"""The driver of a sweep: reconcile the output folder with the plan, run what is missing on an executor, retry
+jobs whose worker died, and mark jobs complete. The same for every executor.
+
+- A job whose worker or node dies is resubmitted, up to ``max_attempts`` times in all, and continues from its
+  last checkpoint. Jobs that were only queued when a local pool broke go back to the queue without using an
+  attempt.
+- A job that raises (a bug, bad data) is not retried: the other jobs finish, then the sweep reports the failure
+  and the command exits non-zero; the next run redoes only the failed jobs.
+- Only the driver writes a job's record (``job.json``): at the start (incomplete) and when the job has returned
+  (complete). Before every attempt it writes a fresh lease token (:mod:`famarl_cli.sweep.worker`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import time
+import uuid
+from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, Future, wait
+from dataclasses import dataclass
+from pathlib import Path
+
+from famarl_cli.artifacts.base import write_json
+from famarl_cli.sweep.executors import Executor
+from famarl_cli.sweep.plan import (
+    JOB_FILE,
+    JOB_SCHEMA,
+    JOB_SCHEMA_VERSION,
+    MANIFEST,
+    Action,
+    Job,
+    reconcile,
+)
+from famarl_cli.sweep.worker import LEASE_FILE, PROGRESS_FILE, read_progress
+
+MAX_ATTEMPTS = 3
+MAX_REQUEUES = 10
+"""Times a job may go back to the queue because its pool broke before the job started."""
+POLL_S = 0.5
+
+
+@dataclass
+class JobState:
+    job: Job
+    action: Action
+    status: str = "queued"
+    """queued, running, done, skipped, failed"""
+    attempts: int = 0
+    """Attempts that started."""
+    requeued: int = 0
+    done: float = 0.0
+    total: float = 0.0
+    error: str | None = None
+    result: dict | None = None
+    token: str = ""
+    submitted: float | None = None
+    started: float | None = None
+    finished: float | None = None
+
+
+@dataclass
+class SweepState:
+    jobs: list[JobState]
+    deleted: list[str]
+
+    def count(self, status: str) -> int:
+        return sum(state.status == status for state in self.jobs)
+
+    @property
+    def failed(self) -> list[JobState]:
+        return [state for state in self.jobs if state.status == "failed"]
+
+
+def _record(job: Job, key: str, complete: bool) -> dict:
+    return {
+        "schema": JOB_SCHEMA,
+        "schema_version": JOB_SCHEMA_VERSION,
+        "name": job.name,
+        "key": key,
+        "runner": job.runner,
+        "config": job.config,
+        "point": job.point,
+        "complete": complete,
+    }
+
+
+def prepare(out: Path, jobs: list[Job]) -> tuple[SweepState, dict[str, str]]:
+    """Reconcile ``out`` with the plan: delete what is not in it, wipe what must run afresh, and write each
+    pending job's record and the manifest. Returns the state and every job's key."""
+    out.mkdir(parents=True, exist_ok=True)
+    names = [job.name for job in jobs]
+    if len(set(names)) < len(names):
+        duplicate = next(name for name in names if names.count(name) > 1)
+        raise ValueError(f"two jobs of the sweep are named {duplicate!r}")
+    keys = {job.name: job.key for job in jobs}
+    plan = reconcile(out, jobs, keys)
+    for folder in plan.delete:
+        shutil.rmtree(folder)
+    states = []
+    for job in jobs:
+        action = plan.actions[job.name]
+        folder = out / job.name
+        if action == Action.RUN and folder.exists():
+            shutil.rmtree(folder)
+        if action != Action.SKIP:
+            folder.mkdir(parents=True, exist_ok=True)
+            write_json(folder / JOB_FILE, _record(job, keys[job.name], complete=False))
+        states.append(JobState(job, action, status="skipped" if action == Action.SKIP else "queued"))
+    manifest = {"schema": "famarl.sweep", "schema_version": 1, "jobs": {j.name: {"key": keys[j.name], **j.point} for j in jobs}}
+    write_json(out / MANIFEST, manifest)
+    return SweepState(states, [folder.name for folder in plan.delete]), keys
+
+
+def run_sweep(
+    out: Path,
+    jobs: list[Job],
+    executor: Executor,
+    max_attempts: int = MAX_ATTEMPTS,
+    on_update: Callable[[SweepState], None] | None = None,
+) -> SweepState:
+    """Run every job of the plan that is not complete in ``out``; returns the final state (check ``failed``)."""
+    out, cwd = out.resolve(), os.getcwd()
+    state, keys = prepare(out, jobs)
+    running: dict[Future, JobState] = {}
+
+    def submit(job_state: JobState) -> None:
+        job_state.token = uuid.uuid4().hex
+        folder = out / job_state.job.name
+        write_json(folder / LEASE_FILE, {"token": job_state.token, "attempt": job_state.attempts + 1})
+        resume = job_state.action == Action.RESUME or job_state.attempts > 0
+        job = job_state.job
+        future = executor.submit(
+            "famarl_cli.sweep.worker:execute", job.runner, job.config, str(folder), job_state.token, resume, cwd
+        )
+        job_state.status, job_state.submitted = "queued", time.monotonic()
+        running[future] = job_state
+
+    def started(job_state: JobState) -> bool:
+        progress = read_progress(out / job_state.job.name)
+        return progress is not None and progress.get("token") == job_state.token
+
+    for job_state in state.jobs:
+        if job_state.status == "queued":
+            submit(job_state)
+    while running:
+        finished, _ = wait(list(running), timeout=POLL_S, return_when=FIRST_COMPLETED)
+        if executor.breaks_as_a_whole and any(executor.worker_died(_exception(f)) for f in finished):
+            # The whole local pool broke: every job it held ends now, started or only queued.
+            finished = wait(list(running))[0]
+        died = []
+        for future in finished:
+            job_state = running.pop(future)
+            try:
+                job_state.result = future.result()
+            except BaseException as exc:  # noqa: BLE001 - every failure of a job is reported, none stops the others
+                if executor.worker_died(exc):
+                    died.append(job_state)
+                else:
+                    cause = executor.unwrap(exc)
+                    _fail(job_state, f"{type(cause).__name__}: {cause}".splitlines()[0])
+                continue
+            job_state.attempts += 1
+            _complete(out, job_state, keys)
+        if died:
+            if executor.breaks_as_a_whole:
+                executor.restart()
+            for job_state in died:
+                if started(job_state):
+                    job_state.attempts += 1
+                else:
+                    job_state.requeued += 1
+                if job_state.attempts >= max_attempts:
+                    _fail(job_state, f"its worker died in each of {job_state.attempts} attempts")
+                elif job_state.requeued > MAX_REQUEUES:
+                    _fail(job_state, f"its worker died {job_state.requeued} times before it started")
+                else:
+                    submit(job_state)
+        for job_state in running.values():
+            progress = read_progress(out / job_state.job.name)
+            if progress is not None and progress.get("token") == job_state.token:
+                if job_state.status == "queued":
+                    job_state.status, job_state.started = "running", time.monotonic()
+                job_state.done, job_state.total = float(progress["done"]), float(progress["total"])
+        if on_update is not None:
+            on_update(state)
+    if on_update is not None:
+        on_update(state)
+    return state
+
+
+def _fail(job_state: JobState, error: str) -> None:
+    job_state.status, job_state.error, job_state.finished = "failed", error, time.monotonic()
+
+
+def _exception(future: Future) -> BaseException | None:
+    return future.exception() if future.done() else None
+
+
+def _complete(out: Path, job_state: JobState, keys: dict[str, str]) -> None:
+    folder = out / job_state.job.name
+    (folder / LEASE_FILE).unlink(missing_ok=True)
+    (folder / PROGRESS_FILE).unlink(missing_ok=True)
+    write_json(folder / JOB_FILE, _record(job_state.job, keys[job_state.job.name], complete=True))
+    job_state.status, job_state.finished = "done", time.monotonic()
+    job_state.done = job_state.total = max(job_state.total, 1.0)
+
+
+def read_manifest(out: Path) -> dict:
+    return json.loads((out / MANIFEST).read_text())

@@ -1,0 +1,202 @@
+"""A sweep's plan: its axes, the jobs they expand to, each job's key, and what to do with the folder that holds
+them.
+
+A job's *key* hashes everything its result depends on: the function that runs it, its full config, the package
+version, a fingerprint of the package's source, and the content of its input files. Two jobs with the same key
+produce the same files (on the same machine), so a complete job whose key is unchanged is never run again.
+
+Before a sweep runs, :func:`reconcile` compares the output folder with the plan, job folder by job folder:
+
+============================================  ==========================================
+the folder                                    becomes
+============================================  ==========================================
+complete, same key                            skipped
+started, same key, the job can resume         resumed from where it stopped
+any other key, or never marked by the driver  wiped and run again
+a job folder that is not in the plan          deleted
+============================================  ==========================================
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import itertools
+import json
+import re
+from dataclasses import dataclass, field
+from enum import StrEnum
+from pathlib import Path
+
+from famarl_cli import __version__
+from famarl_cli.artifacts.base import sha256
+from famarl_cli.errors import ArtifactError, UsageError
+
+JOB_FILE = "job.json"
+"""In every job folder, written by the driver only: the job's key, config and whether it is complete."""
+JOB_SCHEMA, JOB_SCHEMA_VERSION = "famarl.job", 1
+MANIFEST = "sweep.json"
+"""In the sweep's output folder: the plan (each job's name, axis values and key)."""
+
+_RANGE = re.compile(r"^(\d+)-(\d+)$")
+
+
+def parse_values(text: str) -> tuple[str, ...]:
+    """``"0-9"`` -> 0..9, ``"0,3,7"`` -> 0, 3, 7, ``"a, b"`` -> a, b; ranges and lists mix (``"0-2,10"``)."""
+    values: list[str] = []
+    for part in (p.strip() for p in str(text).split(",")):
+        if not part:
+            continue
+        found = _RANGE.match(part)
+        if found:
+            low, high = int(found[1]), int(found[2])
+            if low > high:
+                raise UsageError(f"range {part!r} runs backwards; write {high}-{low}")
+            values += [str(v) for v in range(low, high + 1)]
+        else:
+            values.append(part)
+    if not values:
+        raise UsageError(f"no values in {text!r}")
+    if len(set(values)) < len(values):
+        raise UsageError(f"{text!r} repeats a value")
+    return tuple(values)
+
+
+@dataclass(frozen=True)
+class Axis:
+    name: str
+    values: tuple[str, ...]
+
+    @staticmethod
+    def parse(text: str) -> Axis:
+        """``NAME=V1,V2,...`` (values as :func:`parse_values` reads them)."""
+        name, sep, values = text.partition("=")
+        name = name.strip()
+        if not sep or not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_-]*", name):
+            raise UsageError(f"--over takes NAME=V1,V2,...; got {text!r}")
+        return Axis(name, parse_values(values))
+
+
+def expand(axes: list[Axis]) -> list[dict[str, str]]:
+    """Every combination of the axes' values, the first axis varying slowest."""
+    names = [axis.name for axis in axes]
+    if len(set(names)) < len(names):
+        raise UsageError(f"an axis is given twice: {', '.join(names)}")
+    return [dict(zip(names, combo, strict=True)) for combo in itertools.product(*(a.values for a in axes))]
+
+
+def fill(template: str, point: dict[str, str]) -> str:
+    """``template`` with ``{axis}`` replaced by the point's value."""
+    try:
+        return template.format_map(point)
+    except KeyError as exc:
+        raise UsageError(f"{template!r} names {{{exc.args[0]}}}, which is not an axis ({', '.join(point)})") from None
+    except (ValueError, IndexError) as exc:
+        raise UsageError(f"{template!r} is not a valid template ({exc})") from None
+
+
+def default_name(point: dict[str, str]) -> str:
+    """``famarl-seed3``, ``beta0.1-seed3``: each value, prefixed by its axis name when it is a number; the seed
+    last."""
+    ordered = sorted(point.items(), key=lambda item: item[0] == "seed")
+    return "-".join(value if not re.fullmatch(r"[-+0-9.e]+", value) else f"{name}{value}" for name, value in ordered)
+
+
+@dataclass(frozen=True)
+class Job:
+    """One unit of a sweep, run in a worker as ``runner(config, folder, context)``."""
+
+    name: str
+    """Its folder's name inside the sweep's output folder."""
+    runner: str
+    """``package.module:function``; any importable function can be a job kind."""
+    config: dict
+    """Everything the job is made from (JSON types only)."""
+    inputs: tuple[str, ...] = ()
+    """Files whose content the result depends on."""
+    resumable: bool = False
+    """Whether the runner can continue a folder it left unfinished."""
+    point: dict = field(default_factory=dict)
+    """The axis values this job was expanded from."""
+
+    def __post_init__(self) -> None:
+        if not re.fullmatch(r"[A-Za-z0-9_.+=-]+", self.name) or self.name.startswith("."):
+            raise UsageError(f"{self.name!r} is not a usable folder name for a job (letters, digits, . _ + = -)")
+
+    @property
+    def key(self) -> str:
+        return job_key(self)
+
+
+@functools.cache
+def code_fingerprint() -> str:
+    """Hash of the package's source: a job's key changes whenever the code that runs it may have."""
+    root = Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
+def job_key(job: Job) -> str:
+    missing = [p for p in job.inputs if not Path(p).is_file()]
+    if missing:
+        raise ArtifactError(f"{missing[0]}: no such file (an input of job {job.name})")
+    payload = {
+        "runner": job.runner,
+        "config": job.config,
+        "famarl_version": __version__,
+        "code": code_fingerprint(),
+        "inputs": {p: sha256(p) for p in job.inputs},
+    }
+    return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+
+
+class Action(StrEnum):
+    SKIP = "skip"
+    RESUME = "resume"
+    RUN = "run"
+
+
+@dataclass
+class Reconciliation:
+    actions: dict[str, Action]
+    """Per job name."""
+    delete: list[Path]
+    """Job folders of earlier plans."""
+
+
+def read_job_record(folder: Path) -> dict | None:
+    """The driver's record in a job folder, or None when there is none (or it is unreadable)."""
+    try:
+        record = json.loads((folder / JOB_FILE).read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(record, dict) or record.get("schema") != JOB_SCHEMA:
+        return None
+    return record
+
+
+def reconcile(out: Path, jobs: list[Job], keys: dict[str, str]) -> Reconciliation:
+    """What to do with each job's folder in ``out``, and which folders to delete (see the module doc)."""
+    actions = {}
+    for job in jobs:
+        record = read_job_record(out / job.name)
+        if record is None or record.get("key") != keys[job.name]:
+            actions[job.name] = Action.RUN
+        elif record.get("complete"):
+            actions[job.name] = Action.SKIP
+        else:
+            actions[job.name] = Action.RESUME if job.resumable else Action.RUN
+    planned = {job.name for job in jobs}
+    delete, foreign = [], []
+    for entry in sorted(out.iterdir()) if out.is_dir() else []:
+        if entry.name in planned or entry.name == MANIFEST or entry.name.startswith("."):
+            continue
+        (delete if entry.is_dir() and (entry / JOB_FILE).is_file() else foreign).append(entry)
+    if foreign:
+        raise UsageError(
+            f"{out} holds {foreign[0].name}, which is not a job folder of a famarl sweep; "
+            "a sweep deletes what is not in its plan, so give it a folder of its own"
+        )
+    return Reconciliation(actions, delete)

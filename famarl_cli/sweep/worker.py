@@ -1,0 +1,91 @@
+"""What runs inside a worker: one attempt of one job, with its lease and its progress.
+
+The driver writes a fresh *lease token* into the job folder (``.lease``) before each attempt and gives the
+attempt the same token. A runner calls :meth:`JobContext.check_lease` before it writes a checkpoint: an attempt
+whose token is no longer the folder's (a zombie on a node the driver gave up on, whose retry now owns the folder)
+stops there instead of racing the retry. The attempt also holds the folder's lock (:mod:`famarl_cli.artifacts.lock`),
+so no second process on the same machine can write into it.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from famarl_cli.errors import FamarlError
+
+LEASE_FILE = ".lease"
+PROGRESS_FILE = ".progress"
+PROGRESS_EVERY_S = 0.5
+
+
+class LeaseLost(FamarlError):
+    """This attempt no longer owns its job folder: the driver has given it to a newer attempt."""
+
+
+def read_token(path: Path) -> str | None:
+    try:
+        return json.loads(path.read_text()).get("token")
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+@dataclass
+class JobContext:
+    folder: Path
+    token: str
+    resume: bool
+    """The folder may hold this job's unfinished work: continue it."""
+    _written: float = field(default=0.0, repr=False)
+
+    def check_lease(self) -> None:
+        if read_token(self.folder / LEASE_FILE) != self.token:
+            raise LeaseLost(f"{self.folder}: this attempt lost its lease to a newer one; stopping without writing")
+
+    def progress(self, done: float, total: float, force: bool = False) -> None:
+        """Tell the driver how far the job is (written at most every PROGRESS_EVERY_S)."""
+        now = time.monotonic()
+        if not force and now - self._written < PROGRESS_EVERY_S:
+            return
+        self._written = now
+        temp = self.folder / f"{PROGRESS_FILE}.{os.getpid()}"
+        temp.write_text(json.dumps({"token": self.token, "done": done, "total": total}))
+        os.replace(temp, self.folder / PROGRESS_FILE)
+
+
+def read_progress(folder: Path) -> dict | None:
+    try:
+        values = json.loads((folder / PROGRESS_FILE).read_text())
+    except (OSError, ValueError):
+        return None
+    return values if isinstance(values, dict) else None
+
+
+def resolve(runner: str):
+    module, _, name = runner.partition(":")
+    try:
+        return getattr(importlib.import_module(module), name)
+    except (ImportError, AttributeError) as exc:
+        raise FamarlError(f"job runner {runner!r} cannot be imported ({exc})") from exc
+
+
+def execute(runner: str, config: dict, folder: str, token: str, resume: bool, cwd: str) -> dict:
+    """One attempt of one job, in whatever process the executor chose; returns the runner's result. Relative
+    paths in ``config`` are the driver's, so the job runs in the driver's folder ``cwd`` (on a cluster, a path
+    that every node sees)."""
+    from famarl_cli.artifacts.lock import claim_folder
+    from famarl_cli.reproducibility import one_thread
+
+    os.chdir(cwd)
+    one_thread()
+    function = resolve(runner)
+    path = Path(folder)
+    context = JobContext(path, token, resume)
+    context.check_lease()
+    with claim_folder(path):
+        context.progress(0, 1, force=True)
+        return function(config, path, context) or {}
