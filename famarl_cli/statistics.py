@@ -98,9 +98,14 @@ def aggregate_interval(
     def pooled(*resampled: np.ndarray) -> float:
         return float(statistic(np.concatenate(resampled)))
 
+    return _stratified_bootstrap(samples, pooled, estimate, level, seed)
+
+
+def _stratified_bootstrap(samples: tuple, statistic, estimate: float, level: float, seed: int) -> Interval:
+    """Percentile interval of ``statistic(*samples)``, each sample resampled with replacement on its own."""
     result = stats.bootstrap(
         samples,
-        pooled,
+        statistic,
         vectorized=False,
         paired=False,
         method="percentile",
@@ -136,17 +141,7 @@ def probability_of_improvement(
     estimate = average(*xs, *ys)
     if min(len(s) for s in xs + ys) < 2:
         return Interval(estimate, -np.inf, np.inf, level)
-    result = stats.bootstrap(
-        (*xs, *ys),
-        average,
-        vectorized=False,
-        paired=False,
-        method="percentile",
-        confidence_level=level,
-        n_resamples=BOOTSTRAP_RESAMPLES,
-        rng=np.random.default_rng(seed),
-    )
-    return Interval(estimate, float(result.confidence_interval.low), float(result.confidence_interval.high), level)
+    return _stratified_bootstrap((*xs, *ys), average, estimate, level, seed)
 
 
 def performance_profile(scores: Sequence[float], thresholds: np.ndarray) -> np.ndarray:

@@ -133,7 +133,9 @@ class SweepDisplay:
     def __call__(self, state) -> None:
         finished = state.count("done") + state.count("skipped") + state.count("failed")
         counts = ", ".join(
-            f"{state.count(status)} {status}" for status in ("done", "running", "queued", "failed") if state.count(status)
+            f"{state.count(status)} {status}"
+            for status in ("done", "running", "queued", "failed")
+            if state.count(status)
         )
         if self.overall is None:
             self.overall = self.progress.add_task("runs", total=len(state.jobs))
@@ -178,4 +180,3 @@ def _number(value) -> str:
     if isinstance(value, float):
         return "-" if value != value else f"{value:.3g}"
     return f"{value:,}" if isinstance(value, int) else str(value)
-

@@ -64,7 +64,11 @@ def favae_table(folder: Path) -> str | None:
     if not folders:
         return None
     metrics = [read_json(f / "favae.metrics.json", "FAVAE metrics") for f in folders]
-    segments = [read_json(f / "segments.metrics.json", "segmentation metrics") for f in folders if (f / "segments.metrics.json").is_file()]
+    segments = [
+        read_json(f / "segments.metrics.json", "segmentation metrics")
+        for f in folders
+        if (f / "segments.metrics.json").is_file()
+    ]
     rows = {
         "MIG": [m["mig"] for m in metrics],
         "length accuracy": [m["length_accuracy"] for m in metrics],
@@ -75,7 +79,12 @@ def favae_table(folder: Path) -> str | None:
     if segments:
         rows["segments"] = [s["segments"] for s in segments]
         rows["boundary F1 (±2 steps)"] = [s["boundaries_within_2"]["f1"] for s in segments]
-    lines = [f"FAVAE replicates ({folder}), n = {len(folders)}:", "", "| score | mean [95% CI] | per seed |", "|---|---|---|"]
+    lines = [
+        f"FAVAE replicates ({folder}), n = {len(folders)}:",
+        "",
+        "| score | mean [95% CI] | per seed |",
+        "|---|---|---|",
+    ]
     for name, values in rows.items():
         values = np.asarray(values, dtype=float)
         fmt = "{:.4f}" if name == "reconstruction MSE" else "{:.3f}" if values.max() < 10 else "{:.0f}"
