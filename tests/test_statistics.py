@@ -37,7 +37,8 @@ def test_binomial_floor_gives_seeds_at_one_a_nonzero_width():
     assert floored_variance([1.0, 1.0, 1.0], episodes=100) == pytest.approx(p * (1 - p) / 100)
     assert floored_variance([1.0, 1.0, 1.0]) == 0.0
     interval = mean_interval([1.0, 1.0, 1.0], episodes=100)
-    assert interval.high - interval.low == pytest.approx(2 * stats.t.ppf(0.975, 2) * np.sqrt(p * (1 - p) / 100 / 3))
+    assert interval.low == pytest.approx(1 - stats.t.ppf(0.975, 2) * np.sqrt(p * (1 - p) / 100 / 3))
+    assert interval.high == 1.0  # a rate's interval is cut to [0, 1]
     # A spread larger than the floor is kept.
     assert floored_variance([0.2, 0.8], episodes=100) == pytest.approx(np.var([0.2, 0.8], ddof=1))
 
