@@ -1,11 +1,12 @@
 """Wall time and peak memory of every stage of the default pipeline, from scratch, at a chosen number of seeds.
 
-    python benchmarks/pipeline_stages.py [--seeds 0-9] [--jobs N] [--out benchmarks/results/pipeline_stages.json]
+    python benchmarks/pipeline_stages.py [--seeds 0-9] [--jobs N] [--workdir DIR] [--out ...]
 
-Copies the root dvc.yaml and params.yaml into a temporary folder, sets ``seeds`` (and FAMARL_JOBS when --jobs is
-given), and runs the pipeline there one stage at a time in DVC's order (`dvc repro --single-item STAGE`). For
-each stage it records the wall time and the peak RSS of its process tree (the largest of DVC, the famarl command and
-each of its sweep workers, from wait4). Prints a table and writes JSON. Nothing in this checkout changes.
+Copies the root dvc.yaml and params.yaml into a temporary folder (or ``--workdir``, which is kept, report and all),
+sets ``seeds`` (and FAMARL_JOBS when --jobs is given), and runs the pipeline there one stage at a time in DVC's
+order (`dvc repro --single-item STAGE`). For each stage it records the wall time and the peak RSS of its process
+tree (the largest of DVC, the famarl command and each of its sweep workers, from wait4). Prints a table and writes
+JSON. Nothing in this checkout changes.
 """
 
 from __future__ import annotations
@@ -41,12 +42,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", default=None, help="Replaces params.yaml's seeds.  [default: as committed]")
     parser.add_argument("--jobs", type=int, default=None, help="FAMARL_JOBS.  [default: one per usable core]")
+    parser.add_argument("--workdir", type=Path, default=None, help="Run here and keep it (must not exist yet).")
     parser.add_argument("--out", type=Path, default=RESULTS / "pipeline_stages.json")
     args = parser.parse_args()
     env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
     env |= {"DVC_NO_ANALYTICS": "1", "MPLBACKEND": "Agg"} | ({"FAMARL_JOBS": str(args.jobs)} if args.jobs else {})
     with tempfile.TemporaryDirectory() as temp:
-        folder = Path(temp)
+        folder = args.workdir or Path(temp)
+        folder.mkdir(parents=True, exist_ok=args.workdir is None)
         shutil.copy(ROOT / "dvc.yaml", folder)
         params = yaml.safe_load((ROOT / "params.yaml").read_text())
         params["seeds"] = args.seeds or params["seeds"]
