@@ -17,7 +17,7 @@ from famarl_cli.errors import FamarlError, UsageError
 @app.command(no_args_is_help=True)
 @reports_errors
 def sweep(
-    command: Annotated[str, typer.Argument(help="The command to sweep: train or macros.", show_default=False)],
+    command: Annotated[str, typer.Argument(help="The command to sweep: train, macros or demos.", show_default=False)],
     options: Annotated[
         list[str] | None,
         typer.Argument(
