@@ -15,7 +15,9 @@ OPPOSITE = {("reproduces", "does not reproduce"), ("does not reproduce", "reprod
 
 def verdicts(path: Path) -> dict[tuple[str, str], str]:
     summary = json.loads(path.read_text())
-    return {(name, claim): verdict for name, section in summary.items() for claim, verdict in section["verdicts"].items()}
+    return {
+        (name, claim): verdict for name, section in summary.items() for claim, verdict in section["verdicts"].items()
+    }
 
 
 def main() -> None:
