@@ -1,19 +1,21 @@
-"""Wall time and peak memory of every stage of the default pipeline, and the FAVAE fit's throughput.
+"""Wall time and peak memory of every stage of the default pipeline, from scratch, at a chosen number of seeds.
 
-    python benchmarks/pipeline_stages.py [--out benchmarks/results/pipeline_stages.json]
+    python benchmarks/pipeline_stages.py [--seeds 0-9] [--jobs N] [--workdir DIR] [--out ...]
 
-Runs the root dvc.yaml in place, one stage at a time in DVC's order (`dvc repro --force --single-item STAGE`),
-so every stage runs whether or not it changed; the outputs and dvc.lock it leaves are those `dvc repro -f` would.
-For each stage it records the wall time and the peak RSS of its process tree (DVC and the famarl command it
-starts, from wait4). The FAVAE fit's throughput is segments x epochs / its wall time. Prints a table and writes
-JSON.
+Copies the root dvc.yaml and params.yaml into a temporary folder (or ``--workdir``, which is kept, report and all),
+sets ``seeds`` (and FAMARL_JOBS when --jobs is given), and runs the pipeline there one stage at a time in DVC's
+order (`dvc repro --single-item STAGE`). For each stage it records the wall time and the peak RSS of its process
+tree (the largest of DVC, the famarl command and each of its sweep workers, from wait4). Prints a table and writes
+JSON. Nothing in this checkout changes.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -21,14 +23,14 @@ from pathlib import Path
 import yaml
 from common import RESULTS, write_result
 
-from famarl_cli.artifacts.segments import read_segments
+ROOT = Path(__file__).resolve().parents[1]
 
 
-def run_stage(name: str) -> dict:
+def run_stage(name: str, folder: Path, env: dict) -> dict:
     start = time.perf_counter()
     with tempfile.TemporaryFile() as log:
-        command = ["dvc", "repro", "--force", "--single-item", name]
-        process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT)
+        command = [sys.executable, "-m", "dvc", "repro", "--single-item", name]
+        process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, cwd=folder, env=env)
         _, status, usage = os.wait4(process.pid, 0)
         if os.waitstatus_to_exitcode(status):
             log.seek(0)
@@ -38,28 +40,39 @@ def run_stage(name: str) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--seeds", default=None, help="Replaces params.yaml's seeds.  [default: as committed]")
+    parser.add_argument("--jobs", type=int, default=None, help="FAMARL_JOBS.  [default: one per usable core]")
+    parser.add_argument("--workdir", type=Path, default=None, help="Run here and keep it (must not exist yet).")
     parser.add_argument("--out", type=Path, default=RESULTS / "pipeline_stages.json")
     args = parser.parse_args()
-    listing = subprocess.run(["dvc", "stage", "list", "--name-only"], capture_output=True, text=True, check=True)
-    stages = listing.stdout.split()
-    rows = []
-    print(f"{'stage':<24} {'seconds':>8} {'peak RSS MiB':>13}")
-    for name in stages:
-        rows.append(run_stage(name))
-        print(f"{name:<24} {rows[-1]['seconds']:>8.1f} {rows[-1]['peak_rss_mib']:>13.0f}", flush=True)
+    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
+    env |= {"DVC_NO_ANALYTICS": "1", "MPLBACKEND": "Agg"} | ({"FAMARL_JOBS": str(args.jobs)} if args.jobs else {})
+    with tempfile.TemporaryDirectory() as temp:
+        folder = args.workdir or Path(temp)
+        folder.mkdir(parents=True, exist_ok=args.workdir is None)
+        shutil.copy(ROOT / "dvc.yaml", folder)
+        params = yaml.safe_load((ROOT / "params.yaml").read_text())
+        params["seeds"] = args.seeds or params["seeds"]
+        (folder / "params.yaml").write_text(yaml.safe_dump(params))
+        env["DVC_SITE_CACHE_DIR"] = str(folder / ".dvc-site")
+        subprocess.run([sys.executable, "-m", "dvc", "init", "--no-scm"], cwd=folder, env=env, check=True)
+        listing = subprocess.run(
+            [sys.executable, "-m", "dvc", "stage", "list", "--name-only"],
+            cwd=folder,
+            env=env,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        rows = []
+        print(f"seeds {params['seeds']}, {args.jobs or 'one per core'} jobs")
+        print(f"{'stage':<12} {'seconds':>8} {'peak RSS MiB':>13}")
+        for name in listing.stdout.split():
+            rows.append(run_stage(name, folder, env))
+            print(f"{name:<12} {rows[-1]['seconds']:>8.1f} {rows[-1]['peak_rss_mib']:>13.0f}", flush=True)
     total = sum(row["seconds"] for row in rows)
-    print(f"{'total':<24} {total:>8.1f} {max(row['peak_rss_mib'] for row in rows):>13.0f}")
-
-    params = yaml.safe_load(Path("params.yaml").read_text())
-    segments = read_segments(Path("data/segments") / f"{params['demos']['script']}.h5")
-    fit_seconds = next(row["seconds"] for row in rows if row["stage"] == "favae_fit")
-    fit = {
-        "segments": int(len(segments.length)),
-        "epochs": params["favae"]["epochs"],
-        "segments_per_s": len(segments.length) * params["favae"]["epochs"] / fit_seconds,
-    }
-    print(f"FAVAE fit: {fit['segments']} segments x {fit['epochs']} epochs, {fit['segments_per_s']:,.0f} segments/s")
-    write_result(args.out, {"stages": rows, "total_s": total, "favae_fit": fit})
+    print(f"{'total':<12} {total:>8.1f} {max(row['peak_rss_mib'] for row in rows):>13.0f}")
+    write_result(args.out, {"seeds": params["seeds"], "jobs": args.jobs, "stages": rows, "total_s": total})
 
 
 if __name__ == "__main__":

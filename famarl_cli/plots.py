@@ -249,7 +249,9 @@ def plot_performance_profile(scores: dict[str, list[np.ndarray]], path: str | os
     ax = fig.subplots()
     for (agent, per_task), colour in zip(scores.items(), cm.tab10.colors, strict=False):
         pooled = np.concatenate(per_task)
-        ax.plot(thresholds, performance_profile(pooled, thresholds), color=colour, label=f"{agent} ({len(pooled)} runs)")
+        ax.plot(
+            thresholds, performance_profile(pooled, thresholds), color=colour, label=f"{agent} ({len(pooled)} runs)"
+        )
     ax.set(xlabel="success threshold tau", ylabel="fraction of runs with success > tau", ylim=(-0.02, 1.02))
     ax.legend(fontsize=8)
     ax.set_title(title, fontsize=9)

@@ -49,7 +49,8 @@ class Section:
         lines = [
             f"## {self.title}: {self.verdict}",
             "",
-            "| the paper says | per seed we measure | rule (95% intervals) | per-seed values; estimate [95% CI] | verdict |",
+            "| the paper says | per seed we measure | rule (95% intervals) | per-seed values; estimate [95% CI] "
+            "| verdict |",
             "|---|---|---|---|---|",
         ]
         for c in self.claims:

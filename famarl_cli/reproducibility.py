@@ -9,9 +9,9 @@ turns a last-bit difference into a full learning-rate step, so training runs div
 measure: one thread, MKL's conditional numerical reproducibility (``MKL_CBWR=COMPATIBLE``, the only value that
 works on both vendors' CPUs), ATen held at its AVX2 kernels, numpy's AVX-512 kernels off, and oneDNN and NNPACK
 off so that convolutions take ATen's own path. It costs CPU time (docs/verdicts.md has the measured cost); the
-default, ``native``, uses the fastest kernels of the machine. The environment must be in place before numpy and
-torch load, so :mod:`famarl_cli` applies it when it is first imported, and :func:`one_thread` refuses to go on
-when torch was loaded before it.
+default, ``native``, uses the fastest kernels of the machine. The environment must be in place before numpy loads
+and before torch runs its first operation (which fixes its kernels), so :mod:`famarl_cli` applies it when it is
+first imported, and :func:`one_thread` refuses to go on when torch's kernels were fixed before.
 """
 
 from __future__ import annotations

@@ -25,7 +25,7 @@ import numpy as np
 from famarl_cli.artifacts import atomic_path
 from famarl_cli.artifacts.runs import EVAL_FILE, LOG_FILE, read_evaluation, read_run_file, read_training_log
 from famarl_cli.errors import ArtifactError
-from famarl_cli.statistics import mean_interval, normalised_auc, steps_to_threshold
+from famarl_cli.statistics import RATE, mean_interval, normalised_auc, steps_to_threshold
 
 THRESHOLD = 0.8
 """Training success that counts as learned, for steps-to-threshold."""
@@ -130,7 +130,9 @@ def by_agent(groups: dict[str, Group]) -> dict[str, Group]:
 
 
 def _cell(values: np.ndarray, episodes: int | None = None, fmt: str = "{:.2f}") -> str:
-    return mean_interval(values, episodes).text(fmt) if len(values) > 1 else fmt.format(values.mean())
+    if len(values) < 2:
+        return fmt.format(values.mean())
+    return mean_interval(values, episodes, bounds=RATE).text(fmt)
 
 
 def reached(g: Group) -> str:

@@ -218,7 +218,14 @@ def evaluate_run(run: str, into: str, episodes: int, seed: int, rollouts: int, f
     """Evaluate the run folder ``run`` into the folder ``into``: ``eval.json`` (the policy acting with its mode,
     and under ``sampled`` the same numbers for the policy drawing its actions as in training), ``rollouts.png``
     (ContinuousWorld) and, with ``film``, one rendered episode. Returns what eval.json holds, less provenance."""
-    from famarl_cli.artifacts.runs import CHECKPOINT_FILE, EVAL_FILE, FILM_FILE, ROLLOUTS_FILE, STILLS_FILE, read_run_file
+    from famarl_cli.artifacts.runs import (
+        CHECKPOINT_FILE,
+        EVAL_FILE,
+        FILM_FILE,
+        ROLLOUTS_FILE,
+        STILLS_FILE,
+        read_run_file,
+    )
     from famarl_cli.plots import plot_rollouts, save_film
     from famarl_cli.rl.evaluation import evaluate, film_episode
     from famarl_cli.rl.training import load_agent

@@ -33,6 +33,13 @@ class Interval:
     def contains(self, value: float) -> bool:
         return self.low <= value <= self.high
 
+    def within(self, bounds: tuple[float, float] | None) -> Interval:
+        """Cut to the quantity's range (a rate's [0, 1]): a t interval does not know it, and cutting keeps its
+        coverage."""
+        if bounds is None:
+            return self
+        return Interval(self.estimate, max(self.low, bounds[0]), min(self.high, bounds[1]), self.level)
+
     def text(self, fmt: str = "{:.2f}") -> str:
         return f"{fmt.format(self.estimate)} [{fmt.format(self.low)}, {fmt.format(self.high)}]"
 
@@ -49,32 +56,41 @@ def floored_variance(values: Sequence[float], episodes: int | None = None) -> fl
     return variance
 
 
-def mean_interval(values: Sequence[float], episodes: int | None = None, level: float = LEVEL) -> Interval:
-    """Student t interval of the mean over seeds (variance floored for success rates). One seed gives an
-    unbounded interval: nothing is known of the spread."""
+RATE = (0.0, 1.0)
+"""The range of a success rate (and of other shares: AUC, MIG, F1)."""
+
+
+def mean_interval(
+    values: Sequence[float], episodes: int | None = None, level: float = LEVEL, bounds: tuple | None = None
+) -> Interval:
+    """Student t interval of the mean over seeds (variance floored for success rates, and cut to [0, 1] for them
+    or to ``bounds``). One seed gives an unbounded interval: nothing is known of the spread."""
     values = np.asarray(values, dtype=float)
     mean = float(values.mean())
+    bounds = bounds or (RATE if episodes else None)
     if len(values) < 2:
-        return Interval(mean, -np.inf, np.inf, level)
+        return Interval(mean, -np.inf, np.inf, level).within(bounds)
     half = stats.t.ppf(0.5 + level / 2, len(values) - 1) * np.sqrt(floored_variance(values, episodes) / len(values))
-    return Interval(mean, mean - half, mean + half, level)
+    return Interval(mean, mean - half, mean + half, level).within(bounds)
 
 
 def difference_interval(
     a: Sequence[float], b: Sequence[float], episodes: int | None = None, level: float = LEVEL
 ) -> Interval:
-    """Welch t interval of mean(a) - mean(b), each arm's variance floored for success rates."""
+    """Welch t interval of mean(a) - mean(b), each arm's variance floored for success rates (and the interval cut
+    to [-1, 1] for them)."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    bounds = (-1.0, 1.0) if episodes else None
     estimate = float(a.mean() - b.mean())
     if len(a) < 2 or len(b) < 2:
-        return Interval(estimate, -np.inf, np.inf, level)
+        return Interval(estimate, -np.inf, np.inf, level).within(bounds)
     va, vb = floored_variance(a, episodes) / len(a), floored_variance(b, episodes) / len(b)
     se = np.sqrt(va + vb)
     if se == 0:
         return Interval(estimate, estimate, estimate, level)
     df = (va + vb) ** 2 / (va**2 / (len(a) - 1) + vb**2 / (len(b) - 1))
     half = stats.t.ppf(0.5 + level / 2, df) * se
-    return Interval(estimate, estimate - half, estimate + half, level)
+    return Interval(estimate, estimate - half, estimate + half, level).within(bounds)
 
 
 def iqm(values: Sequence[float]) -> float:
@@ -98,9 +114,14 @@ def aggregate_interval(
     def pooled(*resampled: np.ndarray) -> float:
         return float(statistic(np.concatenate(resampled)))
 
+    return _stratified_bootstrap(samples, pooled, estimate, level, seed)
+
+
+def _stratified_bootstrap(samples: tuple, statistic, estimate: float, level: float, seed: int) -> Interval:
+    """Percentile interval of ``statistic(*samples)``, each sample resampled with replacement on its own."""
     result = stats.bootstrap(
         samples,
-        pooled,
+        statistic,
         vectorized=False,
         paired=False,
         method="percentile",
@@ -136,17 +157,7 @@ def probability_of_improvement(
     estimate = average(*xs, *ys)
     if min(len(s) for s in xs + ys) < 2:
         return Interval(estimate, -np.inf, np.inf, level)
-    result = stats.bootstrap(
-        (*xs, *ys),
-        average,
-        vectorized=False,
-        paired=False,
-        method="percentile",
-        confidence_level=level,
-        n_resamples=BOOTSTRAP_RESAMPLES,
-        rng=np.random.default_rng(seed),
-    )
-    return Interval(estimate, float(result.confidence_interval.low), float(result.confidence_interval.high), level)
+    return _stratified_bootstrap((*xs, *ys), average, estimate, level, seed)
 
 
 def performance_profile(scores: Sequence[float], thresholds: np.ndarray) -> np.ndarray:

@@ -110,7 +110,9 @@ def beats(
 
 def all_of(parts: Sequence[Judgement], rule: str) -> Judgement:
     return Judgement(
-        _combine([part.verdict for part in parts]), rule, tuple(estimate for part in parts for estimate in part.estimates)
+        _combine([part.verdict for part in parts]),
+        rule,
+        tuple(estimate for part in parts for estimate in part.estimates),
     )
 
 
@@ -134,8 +136,8 @@ def equivalent(groups: dict[str, Sequence[float]], margin: float, episodes: int 
         estimates.append(Estimate(f"{a} - {b}", interval, (), margin))
     verdict = _combine(verdicts)
     rule = (
-        f"every pairwise difference (Welch, {level:.1%}, Bonferroni over {len(pairs)}) inside (-{margin:g}, {margin:g}) "
-        f"reproduces; one wholly outside does not"
+        f"every pairwise difference (Welch, {level:.1%}, Bonferroni over {len(pairs)}) inside "
+        f"(-{margin:g}, {margin:g}) reproduces; one wholly outside does not"
     )
     return Judgement(verdict, rule, tuple(estimates))
 

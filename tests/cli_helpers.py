@@ -1,7 +1,11 @@
 """Running famarl commands in-process and checking how they fail."""
 
 import hashlib
+import os
 import re
+import subprocess
+import sys
+from pathlib import Path
 
 from typer.testing import CliRunner
 
@@ -29,3 +33,25 @@ def one_line_error(result, code, needle):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], result.stderr
     assert "Traceback" not in result.output
+
+
+def dvc_environment(root: Path) -> dict:
+    """The environment DVC runs in: this Python's famarl first on the PATH, no analytics, DVC's temporaries in
+    ``root``."""
+    return {
+        **os.environ,
+        "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
+        "DVC_NO_ANALYTICS": "1",
+        "DVC_SITE_CACHE_DIR": str(root / ".dvc-site"),
+        "MPLBACKEND": "Agg",
+    }
+
+
+def dvc(root: Path, *args: str) -> str:
+    """Run DVC in ``root`` with this environment's famarl on the PATH; fails the test if DVC fails."""
+    done = subprocess.run(
+        [sys.executable, "-m", "dvc", *args], cwd=root, env=dvc_environment(root), capture_output=True, text=True,
+        check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, f"dvc {' '.join(args)} failed:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
+    return done.stdout + done.stderr

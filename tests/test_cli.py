@@ -260,7 +260,7 @@ def test_train_and_evaluate_end_to_end(favae_file, tmp_path):
     assert result.exit_code == 0, result.output
     assert (tmp_path / "curves.png").stat().st_size > 0
     summary = json.loads((tmp_path / "curves.json").read_text())["labels"]
-    assert set(summary) == {"famarl (favae)", "ppo", "figar"}
+    assert set(summary) == {"famarl", "ppo", "figar"}
     assert summary["ppo"]["runs"] == 1 and summary["ppo"]["macro_length"]["mean"] == 1
     for agent in ("famarl", "ppo", "figar"):
         metrics = json.loads((tmp_path / agent / "eval.json").read_text())

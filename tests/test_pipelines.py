@@ -4,14 +4,12 @@
 from __future__ import annotations
 
 import json
-import os
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import yaml
+from cli_helpers import dvc
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -37,7 +35,13 @@ TINY = {
         "train": TINY_TRAIN,
         "evaluate": TINY_EVALUATE,
     },
-    "pipelines/beta/params.yaml": {"seeds": "0-1", "betas": "0.1", "favae": TINY_FAVAE, "train": TINY_TRAIN, "evaluate": TINY_EVALUATE},
+    "pipelines/beta/params.yaml": {
+        "seeds": "0-1",
+        "betas": "0.1",
+        "favae": TINY_FAVAE,
+        "train": TINY_TRAIN,
+        "evaluate": TINY_EVALUATE,
+    },
     "pipelines/demos-count/params.yaml": {
         "seeds": "0-1",
         "counts": "4",
@@ -89,35 +93,21 @@ def project(tmp_path_factory) -> Path:
     return root
 
 
-def dvc(root: Path, *args: str) -> str:
-    env = {
-        **os.environ,
-        "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
-        "DVC_NO_ANALYTICS": "1",
-        "DVC_SITE_CACHE_DIR": str(root / ".dvc-site"),
-        "MPLBACKEND": "Agg",
-    }
-    done = subprocess.run(
-        [sys.executable, "-m", "dvc", *args], cwd=root, env=env, capture_output=True, text=True, check=False
-    )
-    assert done.returncode == 0, f"dvc {' '.join(args)} failed:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
-    return done.stdout + done.stderr
-
-
 def test_every_pipeline_writes_its_report(project):
     headline = (project / "data/report/report.md").read_text()
     assert "## Maze: FaMARL vs PPO vs FiGAR" in headline
     assert "| FaMARL performs best |" in headline
-    for figure in ("maze-curves.png", "maze-rollouts-famarl.png", "maze-traversal.png"):
+    for figure in ("maze-curves.png", "maze-intervals.png", "maze-rollouts-famarl.png", "maze-traversal.png"):
         assert (project / "data/report" / figure).stat().st_size > 1000
     for name in EXPERIMENTS:
         text = (project / "data/report" / name / "report.md").read_text()
         assert text.startswith("# famarl report")
-        assert "| the paper says | we test | ours | verdict |" in text
+        assert "| the paper says | per seed we measure | rule (95% intervals) |" in text
         assert "Not run yet" not in text
         summary = json.loads((project / "data/report" / name / "summary.json").read_text())
         assert set(summary) == {name}
-        assert 0 <= summary[name]["claims_reproduced"] <= summary[name]["claims"]
+        counts = [summary[name][f"claims_{kind}"] for kind in ("reproduced", "not_reproduced", "inconclusive")]
+        assert sum(counts) == summary[name]["claims"] > 0
     scripts = (project / "data/report/scripts/report.md").read_text()
     for label in ("pushed-down-only", "down-and-up"):
         assert f"| famarl ({label}) |" in scripts
@@ -126,8 +116,14 @@ def test_every_pipeline_writes_its_report(project):
     robothand = (project / "data/report/robothand/report.md").read_text()
     assert "reaching:" in robothand and "ballplacing:" in robothand
     assert "no time penalty" in (project / "data/report/macro-length/report.md").read_text()
-    metrics = dvc(project, "metrics", "show")
-    assert "data/favae/pushed-down-only.metrics.json" in metrics
+    assert "data/report/summary.json" in dvc(project, "metrics", "show")
+    # Each replicate's macro actions: segments, C_last, FAVAE and traversal, all from its own seed.
+    for seed in (0, 1):
+        replicate = project / "data/maze/macros" / f"seed{seed}"
+        for name in ("segments.h5", "favae.calibration.json", "favae.pt", "favae.metrics.json", "traverse.json"):
+            assert (replicate / name).is_file()
+        provenance = json.loads((replicate / "favae.calibration.json").read_text())["provenance"]
+        assert provenance["seed"] == seed and provenance["platform"]["threads"] == 1
 
 
 def test_a_second_repro_does_nothing(project):
@@ -140,5 +136,11 @@ def test_a_changed_parameter_reruns_only_its_dependents(project):
     params["evaluate"]["episodes"] += 1
     (project / "params.yaml").write_text(yaml.safe_dump(params))
     ran = {line.split("'")[1] for line in dvc(project, "repro", "-P").splitlines() if line.startswith("Running stage")}
-    # The headline's evaluation, and every report that reads it; no training, nothing of the other pipelines.
-    assert ran == {"evaluate", "report", "pipelines/scripts/dvc.yaml:report"}
+    # The headline's evaluation, and every report that reads it; no training, nothing else of the other pipelines.
+    assert ran == {
+        "evaluate",
+        "report",
+        "pipelines/scripts/dvc.yaml:report",
+        "pipelines/beta/dvc.yaml:report",
+        "pipelines/demos-count/dvc.yaml:report",
+    }

@@ -1,4 +1,5 @@
-"""famarl report on hand-made evaluations: each claim's criterion, the verdicts, missing data and bad files."""
+"""famarl report on hand-made runs: each experiment's claims, their three-way verdicts, tables, figures, missing
+data and bad files."""
 
 from __future__ import annotations
 
@@ -6,12 +7,21 @@ import csv
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from famarl_cli import experiments as registry
 from famarl_cli.cli import app
 from famarl_cli.errors import ArtifactError
-from famarl_cli.report import MAZE, REACHING, REACHING_NO_PENALTY, write_report
+from famarl_cli.experiments import experiments
+from famarl_cli.experiments.common import MAZE
+from famarl_cli.experiments.macro_length import REACHING_NO_PENALTY
+from famarl_cli.experiments.robothand import BALL_PLACING, REACHING
+from famarl_cli.report import write_report
+from famarl_cli.verdicts import Verdict
+
+BUDGET = 10_000
 
 
 def make_run(
@@ -22,67 +32,89 @@ def make_run(
     agent: str,
     success: float,
     env: str = MAZE,
+    learned_at: float = 0.5,
     macro_lengths: tuple[float, ...] = (20.0, 20.0),
-    learned: float | None = None,
+    favae: Path | None = None,
 ) -> None:
-    """An evaluated run as the pipelines leave it: <experiment>/runs/<name>/train.csv (whose training success climbs
-    to ``learned``, by default the deterministic ``success``) and <experiment>/eval/<name>/eval.json."""
-    learned = success if learned is None else learned
+    """An evaluated run as a pipeline leaves it: <experiment>/runs/<name>/ (run.json, train.csv whose training
+    success jumps from 0 to ``success`` at ``learned_at`` of the budget) and <experiment>/eval/<name>/eval.json."""
     run = data / experiment / "runs" / name
     run.mkdir(parents=True)
+    spec = {"ppo": {"total_steps": BUDGET}, "favae": None if favae is None else str(favae)}
+    (run / "run.json").write_text(json.dumps({"schema": "famarl.run", "spec": spec, "wall_s": 10.0}))
+    steps = np.linspace(BUDGET / 20, BUDGET, 20)
+    lengths = np.interp(np.arange(20), np.linspace(0, 19, len(macro_lengths)), macro_lengths)
     with open(run / "train.csv", "w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(["env_steps", "episode_success", "episode_return", "macro_length"])
-        for i, length in enumerate(macro_lengths):
-            writer.writerow([(i + 1) * 1000, learned * (i + 1) / len(macro_lengths), -100 + i, length])
+        for step, length in zip(steps, lengths, strict=True):
+            writer.writerow([step, success if step > learned_at * BUDGET else 0.0, -100, length])
+    metrics = {"success_rate": success, "return_mean": -100.0, "macro_length": float(lengths[-1])}
     evaluation = {
+        **metrics,
+        "sampled": metrics,
+        "episodes": 100,
         "label": label,
         "agent": agent,
         "env": env,
         "seed": 0,
         "run": str(run),
-        "success_rate": success,
-        "return_mean": -100.0,
-        "macro_length": macro_lengths[-1],
-        "env_steps": 1000 * len(macro_lengths),
+        "env_steps": BUDGET,
         "train_wall_s": 10.0,
     }
     (data / experiment / "eval" / name).mkdir(parents=True)
     (data / experiment / "eval" / name / "eval.json").write_text(json.dumps(evaluation))
 
 
-def make_maze(data: Path, famarl: float, ppo: float, figar: float) -> None:
-    for seed in (0, 1):
-        make_run(data, "maze", f"famarl-seed{seed}", "famarl (pushed-down-only)", "famarl", famarl)
-        make_run(data, "maze", f"ppo-seed{seed}", "ppo", "ppo", ppo, macro_lengths=(1.0, 1.0))
-        make_run(data, "maze", f"figar-seed{seed}", "figar", "figar", figar)
+SEEDS = range(5)
+JITTER = (-0.02, 0.01, 0.0, 0.02, -0.01)
+
+
+def make_maze(data: Path, famarl: float, ppo: float, figar: float, spread: float = 1.0) -> None:
+    for seed, jitter in zip(SEEDS, JITTER, strict=True):
+        for agent, success, learned_at in (("famarl", famarl, 0.2), ("ppo", ppo, 0.6), ("figar", figar, 0.6)):
+            value = float(np.clip(success + spread * jitter, 0, 1))
+            make_run(data, "maze", f"{agent}-seed{seed}", agent, agent, value, learned_at=learned_at)
+
+
+def verdicts(section) -> dict[str, Verdict]:
+    return {claim.paper: claim.verdict for claim in section.claims}
 
 
 def test_the_papers_maze_result_reproduces_when_only_famarl_solves_it(tmp_path):
-    make_maze(tmp_path / "data", famarl=0.9, ppo=0.1, figar=0.2)
-    sections = write_report(["maze"], tmp_path / "data", tmp_path / "report", "test")
-    assert sections["maze"].verdict == "reproduces"
+    make_maze(tmp_path / "data", famarl=0.95, ppo=0.1, figar=0.2)
+    section = write_report(["maze"], tmp_path / "data", tmp_path / "report", "test")["maze"]
+    assert set(verdicts(section).values()) == {Verdict.REPRODUCES}
     text = (tmp_path / "report/report.md").read_text()
     assert "Fig. 4a, 4b): reproduces" in text
-    assert "**does not reproduce**" not in text
-    assert (tmp_path / "report/maze-curves.png").stat().st_size > 1000
-    summary = json.loads((tmp_path / "report/summary.json").read_text())
-    assert summary == {"maze": {"verdict": "reproduces", "claims_reproduced": 4, "claims": 4}}
+    assert "famarl: n=5: 0.93 0.96 0.95 0.97 0.94;" in text
+    for figure in ("maze-curves.png", "maze-intervals.png"):
+        assert (tmp_path / "report" / figure).stat().st_size > 1000
+    summary = json.loads((tmp_path / "report/summary.json").read_text())["maze"]
+    assert summary["claims"] == summary["claims_reproduced"] == 5
+    assert summary["verdicts"]["FaMARL performs best"] == "reproduces"
 
 
 def test_a_baseline_that_solves_the_maze_breaks_the_claims_about_it(tmp_path):
-    make_maze(tmp_path / "data", famarl=0.9, ppo=1.0, figar=0.3)
-    claims = write_report(["maze"], tmp_path / "data", tmp_path / "report", "test")["maze"].claims
-    held = {claim.paper: claim.holds for claim in claims}
-    assert held == {
-        "FaMARL with pushed-down-only macro actions completes the Maze": True,
-        "PPO with primitive actions fails to converge": False,
-        "FiGAR fails to converge": True,
-        "FaMARL performs best": False,
+    make_maze(tmp_path / "data", famarl=0.9, ppo=1.0, figar=0.2)
+    section = write_report(["maze"], tmp_path / "data", tmp_path / "report", "test")["maze"]
+    assert verdicts(section) == {
+        "FaMARL with pushed-down-only macro actions completes the Maze": Verdict.REPRODUCES,
+        "PPO with primitive actions fails to converge": Verdict.DOES_NOT,
+        "FiGAR fails to converge": Verdict.REPRODUCES,
+        "FaMARL performs best": Verdict.DOES_NOT,
+        "FaMARL learns fastest (the learning curves of Fig. 4a)": Verdict.REPRODUCES,
     }
-    text = (tmp_path / "report/report.md").read_text()
-    assert "partly reproduces (2 of 4 claims)" in text
-    assert "best: ppo (1.00)" in text
+    assert "3 of 5 reproduces, 2 of 5 does not reproduce" in (tmp_path / "report/report.md").read_text()
+
+
+def test_seeds_that_disagree_give_inconclusive_verdicts(tmp_path):
+    make_maze(tmp_path / "data", famarl=0.75, ppo=0.5, figar=0.1, spread=10.0)
+    section = write_report(["maze"], tmp_path / "data", tmp_path / "report", "test")["maze"]
+    found = verdicts(section)
+    assert found["FaMARL with pushed-down-only macro actions completes the Maze"] == Verdict.INCONCLUSIVE
+    assert found["PPO with primitive actions fails to converge"] == Verdict.INCONCLUSIVE
+    assert "**inconclusive**" in (tmp_path / "report/report.md").read_text()
 
 
 def test_experiments_without_data_are_listed_with_their_command(tmp_path):
@@ -95,31 +127,68 @@ def test_experiments_without_data_are_listed_with_their_command(tmp_path):
         write_report(["beta"], tmp_path / "data", tmp_path / "other", "test")
 
 
-def test_macro_length_claims_read_the_start_and_end_of_training(tmp_path):
+def test_macro_length_claims_read_the_start_and_end_of_each_seeds_training(tmp_path):
     data = tmp_path / "data"
-    shortening = (30.0,) * 10 + (20.0,) * 10
-    for seed in (0, 1):
-        make_run(data, "robothand", f"r{seed}", "famarl (pegging)", "famarl", 0.2, REACHING, shortening)
-        make_run(data, "macro-length", f"n{seed}", "famarl (pegging)", "famarl", 0.1, REACHING_NO_PENALTY, (30.0,) * 20)
+    for seed, jitter in zip(SEEDS, JITTER, strict=True):
+        shortening = (30.0,) * 10 + (20.0 + 10 * jitter,) * 10
+        make_run(data, "robothand", f"r{seed}", "famarl", "famarl", 0.2, REACHING, macro_lengths=shortening)
+        kept = (30.0,) * 10 + (30.0 + 10 * jitter,) * 10
+        make_run(data, "macro-length", f"n{seed}", "famarl", "famarl", 0.1, REACHING_NO_PENALTY, macro_lengths=kept)
     section = write_report(["macro-length"], data, tmp_path / "report", "test")["macro-length"]
-    assert [claim.ours for claim in section.claims] == ["0.67", "1.00"]
     assert section.verdict == "reproduces"
-    assert "| 30.0 -> 20.0 |" in (tmp_path / "report/report.md").read_text()
+    assert [round(e.interval.estimate, 2) for c in section.claims for e in c.judgement.estimates] == [0.67, 1.0]
 
 
-def test_beta_claims_use_each_favaes_mig(tmp_path):
+def test_beta_claims_use_each_seeds_favae(tmp_path):
     data = tmp_path / "data"
-    for beta, success, mig in ((0.1, 0.2, 0.05), (1, 0.9, 0.2), (50, 0.85, 0.3)):
-        favae = data / "beta" / "favae" / f"beta{beta}.pt"
-        favae.parent.mkdir(parents=True, exist_ok=True)
-        favae.with_suffix(".metrics.json").write_text(json.dumps({"mig": mig, "beta": beta}))
-        make_run(data, "beta", f"beta{beta}-seed0", f"beta {beta}", "famarl", success)
-        run = data / "beta" / "runs" / f"beta{beta}-seed0"
-        (run / "run.json").write_text(json.dumps({"schema": "famarl.run", "spec": {"favae": str(favae)}}))
+    for beta, success, mig in ((0.1, 0.2, 0.05), (1, 0.9, 0.2)):
+        for seed, jitter in zip(SEEDS, JITTER, strict=True):
+            favae = data / "beta" / "macros" / f"beta{beta}-seed{seed}" / "favae.pt"
+            favae.parent.mkdir(parents=True)
+            favae.with_suffix(".metrics.json").write_text(json.dumps({"mig": mig + jitter, "beta": beta}))
+            make_run(data, "beta", f"beta{beta}-seed{seed}", f"beta {beta}", "famarl", success + jitter, favae=favae)
     section = write_report(["beta"], data, tmp_path / "report", "test")["beta"]
-    assert [claim.holds for claim in section.claims] == [True, True, True]
+    assert set(verdicts(section).values()) == {Verdict.REPRODUCES}
+    assert "| beta 1 |" in (tmp_path / "report/report.md").read_text()
+    assert "beta 1 - beta 0.1: 0.15 [" in (tmp_path / "report/report.md").read_text()
+
+
+def test_robothand_aggregates_both_tasks(tmp_path):
+    data = tmp_path / "data"
+    for task in (REACHING, BALL_PLACING):
+        for seed, jitter in zip(SEEDS, JITTER, strict=True):
+            for agent, success in (("famarl", 0.9), ("ppo", 0.1), ("figar", 0.05)):
+                name = f"{task.split('-')[1]}-{agent}-seed{seed}"
+                make_run(data, "robothand", name, agent, agent, max(0.0, success + jitter), task)
+    section = write_report(["robothand"], data, tmp_path / "report", "test")["robothand"]
+    assert section.verdict == "reproduces"
+    assert verdicts(section)["FaMARL is the only algorithm that completes both tasks"] == Verdict.REPRODUCES
     text = (tmp_path / "report/report.md").read_text()
-    assert "beta 0.1: MIG 0.05, beta 1: MIG 0.20, beta 50: MIG 0.30" in text
+    assert "IQM of success over both tasks" in text and "P(famarl > ppo)" in text
+    assert (tmp_path / "report/robothand-profile.png").stat().st_size > 1000
+
+
+def test_traversal_claims_are_over_favae_seeds(tmp_path):
+    for seed in SEEDS:
+        folder = tmp_path / "data/traversal/macros" / f"seed{seed}"
+        folder.mkdir(parents=True)
+        (folder / "favae.metrics.json").write_text("{}")
+        strong = "(1,1)" if seed % 2 else "(1,2)"
+        effects = {f"({lad},{i})": 0.01 for lad in (1, 2, 3) for i in (1, 2)} | {strong: 1.5 + 0.1 * seed}
+        (folder / "traverse.json").write_text(json.dumps({"effects_m": effects}))
+    section = write_report(["traversal"], tmp_path / "data", tmp_path / "report", "test")["traversal"]
+    assert list(verdicts(section).values()) == [Verdict.REPRODUCES, Verdict.REPRODUCES, Verdict.DOES_NOT]
+    assert "| (1,1) |" in (tmp_path / "report/report.md").read_text()
+
+
+def test_an_experiment_plugs_in_without_editing_a_list(tmp_path, monkeypatch):
+    monkeypatch.setattr(registry, "_REGISTRY", dict(registry._REGISTRY))
+
+    @registry.experiment("extra", "pipelines/extra/dvc.yaml", order=99)
+    def extra(data, out):
+        return None
+
+    assert list(experiments())[-1] == "extra" and "maze" in experiments()
 
 
 def test_cli_refuses_unknown_experiments_and_bad_evaluations(tmp_path):
@@ -128,20 +197,9 @@ def test_cli_refuses_unknown_experiments_and_bad_evaluations(tmp_path):
     assert result.exit_code == 2 and "unknown experiment fig9" in result.output
     make_maze(tmp_path / "data", famarl=0.9, ppo=0.1, figar=0.2)
     broken = tmp_path / "data/maze/eval/ppo-seed0/eval.json"
-    broken.write_text(json.dumps({k: v for k, v in json.loads(broken.read_text()).items() if k != "env"}))
+    broken.write_text(json.dumps({k: v for k, v in json.loads(broken.read_text()).items() if k != "sampled"}))
     result = runner.invoke(app, ["report", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "r")])
     assert result.exit_code == 1
     assert result.output.strip().splitlines()[-1].startswith("error: ")
-    assert "has no 'env'" in result.output
+    assert "has no 'sampled'" in result.output
     assert not (tmp_path / "r/report.md").exists()
-
-
-def test_learning_claims_read_training_success_and_show_the_deterministic_one(tmp_path):
-    data = tmp_path / "data"
-    make_run(data, "maze", "famarl-seed0", "famarl (pushed-down-only)", "famarl", 0.9)
-    make_run(data, "maze", "ppo-seed0", "ppo", "ppo", 0.2)
-    make_run(data, "maze", "figar-seed0", "figar", "figar", 0.01, learned=0.87)
-    claims = {c.paper: c for c in write_report(["maze"], data, tmp_path / "report", "test")["maze"].claims}
-    assert not claims["FiGAR fails to converge"].holds
-    assert claims["FiGAR fails to converge"].ours == "0.87 (deterministic 0.01)"
-    assert "| figar | 1 | 2,000 | 0.87 | 0.01 |" in (tmp_path / "report/report.md").read_text()

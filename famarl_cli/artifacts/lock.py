@@ -13,6 +13,7 @@ import contextlib
 import errno
 import fcntl
 import os
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -22,18 +23,17 @@ LOCK_FILE = ".famarl.lock"
 
 
 @contextlib.contextmanager
-def claim_folder(folder: str | os.PathLike) -> Iterator[Path]:
+def claim_folder(folder: str | os.PathLike, wait_s: float = 0.0) -> Iterator[Path]:
     """Hold ``folder`` (created if missing, and removed again if it is left empty) for writing; raise UsageError
-    if another process holds it."""
+    if another process holds it for more than ``wait_s`` seconds."""
     folder = Path(folder)
-    created = not folder.exists()
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ArtifactError(f"cannot write {folder}: {exc.strerror or exc}") from exc
+    deadline = time.monotonic() + wait_s
     path = folder / LOCK_FILE
     while True:
+        # Made again on every try: a holder that created the folder removes it when it leaves it empty.
+        created = not folder.exists()
         try:
+            folder.mkdir(parents=True, exist_ok=True)
             fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         except OSError as exc:
             raise ArtifactError(f"cannot write {folder}: {exc.strerror or exc}") from exc
@@ -42,11 +42,14 @@ def claim_folder(folder: str | os.PathLike) -> Iterator[Path]:
         except OSError as exc:
             holder = os.read(fd, 64).decode(errors="replace").strip() or "unknown"
             os.close(fd)
+            if exc.errno not in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                raise ArtifactError(f"cannot lock {folder}: {exc.strerror or exc}") from exc
+            if time.monotonic() < deadline:
+                time.sleep(0.1)
+                continue
             if created:
                 with contextlib.suppress(OSError):
                     folder.rmdir()
-            if exc.errno not in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
-                raise ArtifactError(f"cannot lock {folder}: {exc.strerror or exc}") from exc
             raise UsageError(
                 f"{folder} is being written by another famarl process (pid {holder}); wait for it to finish, or "
                 "choose another folder"

@@ -93,12 +93,25 @@ def read_evaluation(path: str | os.PathLike) -> dict:
     path = Path(path)
     values = _read_json(path, f"{path}: no such evaluation (has famarl evaluate run?)")
     check(isinstance(values, dict), path, "is not an evaluation")
-    keys = ("label", "agent", "env", "seed", "run", "episodes", "success_rate", "return_mean", "macro_length", "sampled")
+    keys = (
+        "label",
+        "agent",
+        "env",
+        "seed",
+        "run",
+        "episodes",
+        "success_rate",
+        "return_mean",
+        "macro_length",
+        "sampled",
+    )
     for key in keys:
         check(key in values, path, f"has no {key!r} (written by an older famarl evaluate? run it again)")
     check(isinstance(values["sampled"], dict) and "success_rate" in values["sampled"], path, "has no sampled success")
     for key in ("success_rate", "return_mean", "macro_length"):
-        check(np.isfinite(values[key]) and np.isfinite(values["sampled"].get(key, 0.0)), path, f"has a non-finite {key!r}")
+        check(
+            np.isfinite(values[key]) and np.isfinite(values["sampled"].get(key, 0.0)), path, f"has a non-finite {key!r}"
+        )
     return values
 
 

@@ -24,6 +24,8 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    # Help texts are plain: "[default: ...]" and "famarl[ray]" must not be read as rich markup and vanish.
+    rich_markup_mode=None,
 )
 console = Console(stderr=True)
 _debug = False

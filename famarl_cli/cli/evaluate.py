@@ -68,8 +68,15 @@ def evaluate(
 
     from famarl_cli.artifacts import write_json
     from famarl_cli.artifacts.base import prepare_output
-    from famarl_cli.artifacts.runs import EVAL_FILE, FILM_FILE, ROLLOUTS_FILE, STILLS_FILE, expand_run_folders
-    from famarl_cli.artifacts.runs import read_run_file, read_training_log
+    from famarl_cli.artifacts.runs import (
+        EVAL_FILE,
+        FILM_FILE,
+        ROLLOUTS_FILE,
+        STILLS_FILE,
+        expand_run_folders,
+        read_run_file,
+        read_training_log,
+    )
     from famarl_cli.plots import plot_learning_curves
     from famarl_cli.rl.evaluation import summarise
     from famarl_cli.sweep.executors import make_executor

@@ -21,7 +21,7 @@ def report(
         typer.Option(
             "--experiment",
             "-e",
-            help="Report only this experiment; repeat for several.  [default: every experiment (famarl_cli/experiments)]",
+            help="Report only this experiment; repeat for several.  [default: every one in famarl_cli/experiments]",
         ),
     ] = None,
     data: Annotated[Path, typer.Option(help="Where the pipelines wrote.", file_okay=False)] = Path("data"),

@@ -17,7 +17,7 @@ from famarl_cli.errors import FamarlError, UsageError
 @app.command(no_args_is_help=True)
 @reports_errors
 def sweep(
-    command: Annotated[str, typer.Argument(help="The command to sweep: train or macros.", show_default=False)],
+    command: Annotated[str, typer.Argument(help="The command to sweep: train, macros or demos.", show_default=False)],
     options: Annotated[
         list[str] | None,
         typer.Argument(
@@ -133,7 +133,9 @@ class SweepDisplay:
     def __call__(self, state) -> None:
         finished = state.count("done") + state.count("skipped") + state.count("failed")
         counts = ", ".join(
-            f"{state.count(status)} {status}" for status in ("done", "running", "queued", "failed") if state.count(status)
+            f"{state.count(status)} {status}"
+            for status in ("done", "running", "queued", "failed")
+            if state.count(status)
         )
         if self.overall is None:
             self.overall = self.progress.add_task("runs", total=len(state.jobs))
@@ -178,4 +180,3 @@ def _number(value) -> str:
     if isinstance(value, float):
         return "-" if value != value else f"{value:.3g}"
     return f"{value:,}" if isinstance(value, int) else str(value)
-

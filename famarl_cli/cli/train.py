@@ -94,6 +94,7 @@ def train(
     ] = None,
 ) -> None:
     """Train an agent with PPO; writes run.json, checkpoint.pt and train.csv into the run folder."""
+    options = dict(locals())
     from famarl_cli.artifacts.lock import claim_folder
     from famarl_cli.artifacts.runs import CHECKPOINT_FILE, EVAL_FILE, LOG_FILE, ROLLOUTS_FILE, RUN_FILE
     from famarl_cli.rl.training import Run
@@ -101,22 +102,13 @@ def train(
     torch_on_one_thread()
     out = out or default_run_dir(env, agent, favae, seed)
     # A new run is built (its options and files checked) before the folder is claimed, so bad input writes nothing.
-    fresh = None
-    if not resume:
-        fresh = Run.start(
-            run_spec(
-                env, agent, favae, steps, seed, n_envs, n_steps, epochs, minibatches, lr, gamma, gae_lambda, clip,
-                ent_coef, macro_discount, latent_bound, max_repeat, normalize, clip_value, label,
-            )
-        )  # fmt: skip
+    fresh = None if resume else Run.start(run_spec(options))
     with claim_folder(out):
         if fresh is None:
             run = Run.resume(out, steps)
         else:
             if (out / RUN_FILE).exists() and not overwrite:
-                raise UsageError(
-                    f"{out} already holds a run; add --resume to continue it or --overwrite to replace it"
-                )
+                raise UsageError(f"{out} already holds a run; add --resume to continue it or --overwrite to replace it")
             run = fresh
             # Only once the new run has started: a bad option must not cost the user the old run.
             for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE):
@@ -124,68 +116,48 @@ def train(
         _train(run, out, checkpoint_every)
 
 
-def run_spec(
-    env: str,
-    agent: Agent,
-    favae: Path,
-    steps: int | None,
-    seed: int,
-    n_envs: int,
-    n_steps: int | None,
-    epochs: int,
-    minibatches: int,
-    lr: float,
-    gamma: float,
-    gae_lambda: float,
-    clip: float,
-    ent_coef: float,
-    macro_discount: MacroDiscount,
-    latent_bound: float,
-    max_repeat: int,
-    normalize: bool,
-    clip_value: bool,
-    label: str | None,
-    **_,
-):
+def run_spec(options: dict):
     """The RunSpec that ``famarl train``'s options describe (shared with ``famarl sweep train``)."""
     from famarl_cli.rl.ppo import PPOConfig
     from famarl_cli.rl.training import RunSpec, default_label
 
+    o = options  # the command's parameters by name
+    agent = o["agent"]
     try:
         ppo = PPOConfig(
-            total_steps=steps or DEFAULT_STEPS,
-            n_envs=n_envs,
-            n_steps=n_steps or DECISIONS_PER_ROLLOUT[agent],
-            epochs=epochs,
-            minibatches=minibatches,
-            learning_rate=lr,
-            gamma=gamma,
-            gae_lambda=gae_lambda,
-            clip=clip,
-            clip_value=clip_value,
-            ent_coef=ent_coef,
-            macro_discount=str(macro_discount),
-            normalize_obs=normalize,
-            scale_rewards=normalize,
+            total_steps=o["steps"] or DEFAULT_STEPS,
+            n_envs=o["n_envs"],
+            n_steps=o["n_steps"] or DECISIONS_PER_ROLLOUT[agent],
+            epochs=o["epochs"],
+            minibatches=o["minibatches"],
+            learning_rate=o["lr"],
+            gamma=o["gamma"],
+            gae_lambda=o["gae_lambda"],
+            clip=o["clip"],
+            clip_value=o["clip_value"],
+            ent_coef=o["ent_coef"],
+            macro_discount=str(o["macro_discount"]),
+            normalize_obs=o["normalize"],
+            scale_rewards=o["normalize"],
         )
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
     return RunSpec(
-        env_id=env,
+        env_id=o["env"],
         agent=agent,
-        seed=seed,
+        seed=o["seed"],
         ppo=ppo,
-        latent_bound=latent_bound,
-        max_repeat=max_repeat,
-        favae=str(favae) if agent == Agent.FAMARL else None,
-        label=label or default_label(agent, favae),
+        latent_bound=o["latent_bound"],
+        max_repeat=o["max_repeat"],
+        favae=str(o["favae"]) if agent == Agent.FAMARL else None,
+        label=o["label"] or default_label(agent, o["favae"]),
     )
 
 
 @sweepable("train", owned=("--out", "--resume", "--overwrite"))
 def train_job(params: dict) -> JobRecipe:
     """``famarl sweep train``: each run of the sweep is what ``famarl train`` with the same options would do."""
-    spec = run_spec(**params)
+    spec = run_spec(params)
     return JobRecipe(
         runner="famarl_cli.rl.training:run_job",
         config={"spec": spec.to_dict(), "checkpoint_every": params["checkpoint_every"]},

@@ -17,7 +17,7 @@ from famarl_cli.experiments.common import (
     success_measure,
 )
 from famarl_cli.results import Group, gather, group, results_table
-from famarl_cli.statistics import mean_interval
+from famarl_cli.statistics import RATE, mean_interval
 from famarl_cli.verdicts import Claim, all_of, beats, bonferroni_level, fails, not_run, solves
 
 MIG_DELTA = 0.05
@@ -79,6 +79,6 @@ def beta(data: Path, out: Path):
                 all_of(judgements, f"{words}{tau:g} at every such beta ({level:.1%} each, Bonferroni)"),
             )
         )
-    table = results_table(groups, {"MIG [95% CI]": lambda g: mean_interval(mig[g.label]).text("{:.3f}")})
+    table = results_table(groups, {"MIG [95% CI]": lambda g: mean_interval(mig[g.label], bounds=RATE).text("{:.3f}")})
     figures = [curves(groups, out / "beta-curves.png", "FaMARL on the Maze, FAVAE fitted at each beta")]
     return Section("beta of the FAVAE (paper Fig. 6a)", claims, [table], figures)

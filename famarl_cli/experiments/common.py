@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from famarl_cli.results import Group, macros_folders, read_json
-from famarl_cli.statistics import LEVEL, mean_interval
+from famarl_cli.statistics import LEVEL, RATE, mean_interval
 from famarl_cli.verdicts import Claim, best, fails, not_run, solves
 
 MAZE = "famarl/ContinuousWorld-Maze-v0"
@@ -64,7 +64,11 @@ def favae_table(folder: Path) -> str | None:
     if not folders:
         return None
     metrics = [read_json(f / "favae.metrics.json", "FAVAE metrics") for f in folders]
-    segments = [read_json(f / "segments.metrics.json", "segmentation metrics") for f in folders if (f / "segments.metrics.json").is_file()]
+    segments = [
+        read_json(f / "segments.metrics.json", "segmentation metrics")
+        for f in folders
+        if (f / "segments.metrics.json").is_file()
+    ]
     rows = {
         "MIG": [m["mig"] for m in metrics],
         "length accuracy": [m["length_accuracy"] for m in metrics],
@@ -75,12 +79,19 @@ def favae_table(folder: Path) -> str | None:
     if segments:
         rows["segments"] = [s["segments"] for s in segments]
         rows["boundary F1 (±2 steps)"] = [s["boundaries_within_2"]["f1"] for s in segments]
-    lines = [f"FAVAE replicates ({folder}), n = {len(folders)}:", "", "| score | mean [95% CI] | per seed |", "|---|---|---|"]
+    lines = [
+        f"FAVAE replicates ({folder}), n = {len(folders)}:",
+        "",
+        "| score | mean [95% CI] | per seed |",
+        "|---|---|---|",
+    ]
+    shares = ("MIG", "length accuracy", "boundary F1 (±2 steps)")
     for name, values in rows.items():
         values = np.asarray(values, dtype=float)
         fmt = "{:.4f}" if name == "reconstruction MSE" else "{:.3f}" if values.max() < 10 else "{:.0f}"
         per_seed = " ".join(fmt.format(v) for v in values)
-        lines.append(f"| {name} | {mean_interval(values).text(fmt)} | {per_seed} |")
+        interval = mean_interval(values, bounds=RATE if name in shares else (0.0, np.inf))
+        lines.append(f"| {name} | {interval.text(fmt)} | {per_seed} |")
     return "\n".join(lines)
 
 

@@ -64,7 +64,8 @@ def traversal(data: Path, out: Path):
         "|---|---|---|",
     ]
     for i, name in enumerate(names):
-        lines.append(f"| {name} | {mean_interval(matrix[:, i]).text()} | {int((strongest == i).sum())} |")
+        effect = mean_interval(matrix[:, i], bounds=(0.0, np.inf)).text()
+        lines.append(f"| {name} | {effect} | {int((strongest == i).sum())} |")
     figure = copy_figure(folders[0] / "traverse.png", out / "traversal.png")
     return Section(
         "Latent traversal, down-and-up (paper Fig. 5)", claims, ["\n".join(lines)], [figure] if figure else []

@@ -193,4 +193,8 @@ def run_job(config: dict, folder: Path, context) -> dict:
         before_save=context.check_lease,
     )
     summary = run.trainer.episodes.summary()
-    return {"env_steps": run.trainer.env_steps, "success": summary["episode_success"], "return": summary["episode_return"]}
+    return {
+        "env_steps": run.trainer.env_steps,
+        "success": summary["episode_success"],
+        "return": summary["episode_return"],
+    }

@@ -108,7 +108,11 @@ def prepare(out: Path, jobs: list[Job]) -> tuple[SweepState, dict[str, str]]:
             folder.mkdir(parents=True, exist_ok=True)
             write_json(folder / JOB_FILE, _record(job, keys[job.name], complete=False))
         states.append(JobState(job, action, status="skipped" if action == Action.SKIP else "queued"))
-    manifest = {"schema": "famarl.sweep", "schema_version": 1, "jobs": {j.name: {"key": keys[j.name], **j.point} for j in jobs}}
+    manifest = {
+        "schema": "famarl.sweep",
+        "schema_version": 1,
+        "jobs": {j.name: {"key": keys[j.name], **j.point} for j in jobs},
+    }
     write_json(out / MANIFEST, manifest)
     return SweepState(states, [folder.name for folder in plan.delete]), keys
 

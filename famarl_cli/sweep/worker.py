@@ -4,7 +4,7 @@ The driver writes a fresh *lease token* into the job folder (``.lease``) before 
 attempt the same token. A runner calls :meth:`JobContext.check_lease` before it writes a checkpoint: an attempt
 whose token is no longer the folder's (a zombie on a node the driver gave up on, whose retry now owns the folder)
 stops there instead of racing the retry. The attempt also holds the folder's lock (:mod:`famarl_cli.artifacts.lock`),
-so no second process on the same machine can write into it.
+so no second process on the same machine can write into it; a retry waits for a zombie to let go.
 """
 
 from __future__ import annotations
@@ -21,6 +21,9 @@ from famarl_cli.errors import FamarlError
 LEASE_FILE = ".lease"
 PROGRESS_FILE = ".progress"
 PROGRESS_EVERY_S = 0.5
+FOLDER_WAIT_S = 300.0
+"""How long an attempt waits for its folder's lock: an older attempt that lost its lease (a zombie) still holds
+it until its next checkpoint, where it finds the newer token and stops."""
 
 
 class LeaseLost(FamarlError):
@@ -86,6 +89,6 @@ def execute(runner: str, config: dict, folder: str, token: str, resume: bool, cw
     path = Path(folder)
     context = JobContext(path, token, resume)
     context.check_lease()
-    with claim_folder(path):
+    with claim_folder(path, FOLDER_WAIT_S):
         context.progress(0, 1, force=True)
         return function(config, path, context) or {}

@@ -1,0 +1,63 @@
+"""Job runners for the sweep tests, imported by name in the workers (tests/ is on their path)."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+
+
+def echo(config: dict, folder: Path, context) -> dict:
+    """Returns its config and whether it met another job: it signs in at ``rendezvous``, waits up to ``wait``
+    seconds for a second job to sign in too, and signs out as it leaves (two jobs can only meet when they run at
+    the same time). Having met, it stays a little, so that the other sees it too."""
+    met = False
+    if "rendezvous" in config:
+        place = Path(config["rendezvous"])
+        place.mkdir(exist_ok=True)
+        (place / str(config["n"])).write_text("")
+        deadline = time.time() + config["wait"]
+        while not (met := len(list(place.iterdir())) >= 2) and time.time() < deadline:
+            time.sleep(0.05)
+        if met:
+            time.sleep(2)
+        (place / str(config["n"])).unlink()
+    (folder / "out.json").write_text(json.dumps(config))
+    return {**config, "pid": os.getpid(), "met": met}
+
+
+def boom(config: dict, folder: Path, context) -> dict:
+    raise ValueError(f"bad data in job {config['n']}")
+
+
+def die(config: dict, folder: Path, context) -> dict:
+    os._exit(3)
+
+
+def train_recording_resumes(config: dict, folder: Path, context) -> dict:
+    """famarl's train job; a resumed attempt first records the env steps it resumes from in resumed_from.txt."""
+    from famarl_cli.artifacts.runs import read_run_file
+    from famarl_cli.rl.training import run_job
+
+    if context.resume:
+        (folder / "resumed_from.txt").write_text(str(read_run_file(folder)["env_steps"]))
+    return run_job(config, folder, context)
+
+
+def train_dying_after_first_checkpoint(config: dict, folder: Path, context) -> dict:
+    """famarl's train job, whose first attempt's process dies (os._exit) right after its first checkpoint; the
+    resumed attempt records where it resumed from and finishes."""
+    if context.resume:
+        return train_recording_resumes(config, folder, context)
+    saves = []
+    check = context.check_lease
+
+    def check_then_die() -> None:
+        if saves:  # the second save: the first checkpoint is on disk
+            os._exit(3)
+        saves.append(True)
+        check()
+
+    context.check_lease = check_then_die
+    return train_recording_resumes(config, folder, context)

@@ -1,0 +1,108 @@
+"""Each statistic against a case computed by hand (or by an independent implementation where one exists)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from famarl_cli.statistics import (
+    aggregate_interval,
+    difference_interval,
+    floored_variance,
+    iqm,
+    mean_interval,
+    normalised_auc,
+    performance_profile,
+    probability_of_improvement,
+    steps_to_threshold,
+)
+
+
+def test_t_interval_of_a_mean_by_hand():
+    # mean 0.9, s = 0.1, n = 3: half width = t(0.975, 2) * 0.1 / sqrt(3) = 4.302653 * 0.057735 = 0.248414
+    interval = mean_interval([0.8, 0.9, 1.0])
+    assert interval.estimate == pytest.approx(0.9)
+    assert (interval.low, interval.high) == pytest.approx((0.651586, 1.148414), abs=1e-6)
+
+
+def test_one_seed_knows_nothing_of_the_spread():
+    interval = mean_interval([0.7])
+    assert interval.low == -np.inf and interval.high == np.inf
+
+
+def test_binomial_floor_gives_seeds_at_one_a_nonzero_width():
+    # 3 seeds at 1.00 over K = 100 episodes: p = (300 + 1/2) / 301, floor p (1 - p) / 100
+    p = 300.5 / 301
+    assert floored_variance([1.0, 1.0, 1.0], episodes=100) == pytest.approx(p * (1 - p) / 100)
+    assert floored_variance([1.0, 1.0, 1.0]) == 0.0
+    interval = mean_interval([1.0, 1.0, 1.0], episodes=100)
+    assert interval.low == pytest.approx(1 - stats.t.ppf(0.975, 2) * np.sqrt(p * (1 - p) / 100 / 3))
+    assert interval.high == 1.0  # a rate's interval is cut to [0, 1]
+    # A spread larger than the floor is kept.
+    assert floored_variance([0.2, 0.8], episodes=100) == pytest.approx(np.var([0.2, 0.8], ddof=1))
+
+
+def test_welch_interval_matches_an_independent_implementation():
+    a, b = [0.91, 0.85, 0.97, 0.88, 0.93], [0.62, 0.99, 0.40, 0.75]
+    ours = difference_interval(a, b)
+    theirs = stats.ttest_ind(a, b, equal_var=False).confidence_interval(0.95)
+    assert ours.estimate == pytest.approx(np.mean(a) - np.mean(b))
+    assert (ours.low, ours.high) == pytest.approx((theirs.low, theirs.high))
+
+
+def test_welch_interval_by_hand():
+    # a: mean 2, var 1, n 3; b: mean 5, var 20/3, n 4. se^2 = 1/3 + 5/3 = 2;
+    # df = 4 / ((1/3)^2 / 2 + (5/3)^2 / 3) = 4 / (1/18 + 25/27) = 4.0754717
+    interval = difference_interval([1, 2, 3], [2, 4, 6, 8])
+    half = stats.t.ppf(0.975, 4.0754717) * np.sqrt(2)
+    assert (interval.low, interval.high) == pytest.approx((-3 - half, -3 + half))
+
+
+def test_iqm_is_the_mean_of_the_middle_half():
+    assert iqm([1, 2, 3, 4, 5, 6, 7, 8]) == pytest.approx(4.5)  # mean of 3, 4, 5, 6
+    assert iqm([0, 0, 0, 100]) == pytest.approx(0.0)
+
+
+def test_probability_of_improvement_by_hand():
+    # x = (1, 2) against y = (0, 2): 1>0, 1<2, 2>0, 2=2 -> (1 + 0 + 1 + 1/2) / 4
+    interval = probability_of_improvement([[1.0, 2.0]], [[0.0, 2.0]])
+    assert interval.estimate == pytest.approx(0.625)
+    # Averaged over tasks: a second task where x always wins.
+    assert probability_of_improvement([[1.0, 2.0], [5.0, 6.0]], [[0.0, 2.0], [1.0, 1.0]]).estimate == pytest.approx(
+        (0.625 + 1.0) / 2
+    )
+
+
+def test_stratified_bootstrap_resamples_each_task_alone():
+    # Task 2 is constant, so every resample's IQM over the pooled runs moves only with task 1.
+    rng = np.random.default_rng(0)
+    task1, task2 = rng.uniform(0, 1, 10), np.full(10, 0.5)
+    interval = aggregate_interval([task1, task2])
+    assert interval.estimate == pytest.approx(iqm(np.concatenate([task1, task2])))
+    assert interval.low < interval.estimate < interval.high
+    constant = aggregate_interval([np.ones(5), np.ones(5)])
+    assert (constant.low, constant.estimate, constant.high) == (1.0, 1.0, 1.0)
+
+
+def test_performance_profile_counts_runs_above_each_threshold():
+    assert performance_profile([0.1, 0.5, 0.9], np.array([0.0, 0.5, 0.95])) == pytest.approx([1.0, 1 / 3, 0.0])
+
+
+def test_auc_of_learning_curves():
+    steps = np.array([0.0, 500.0, 1000.0])
+    assert normalised_auc(steps, np.array([1.0, 1.0, 1.0]), 1000) == pytest.approx(1.0)
+    assert normalised_auc(steps, np.array([0.0, 0.0, 0.0]), 1000) == pytest.approx(0.0)
+    # A ramp from 0 to 1 over the budget has area 1/2; a curve known only from 500 on counts 0 before.
+    assert normalised_auc(steps, np.array([0.0, 0.5, 1.0]), 1000) == pytest.approx(0.5)
+    late = normalised_auc(np.array([500.0, 1000.0]), np.array([1.0, 1.0]), 1000)
+    assert late == pytest.approx(0.5, abs=0.01)
+    assert normalised_auc(steps, np.array([np.nan, np.nan, np.nan]), 1000) == 0.0
+
+
+def test_steps_to_threshold_smooths_and_censors():
+    steps = np.arange(1, 8) * 100.0
+    assert steps_to_threshold(steps, np.array([0, 0, 1, 1, 1, 1, 1.0]), 0.8, window=1) == 300.0
+    # A single spike does not count once smoothed over 3 updates.
+    assert steps_to_threshold(steps, np.array([0, 1, 0, 0, 1, 1, 1.0]), 0.8, window=3) == 700.0
+    assert steps_to_threshold(steps, np.zeros(7), 0.8) is None

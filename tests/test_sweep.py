@@ -1,0 +1,361 @@
+"""famarl sweep: the plan and its keys, reconciling a folder with it, the executor contract (serial, local pool,
+Ray), retries and exact resumes, and one writer per run folder."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import torch
+from cli_helpers import famarl, one_line_error
+
+from famarl_cli.artifacts.lock import claim_folder
+from famarl_cli.cli.sweep import plan
+from famarl_cli.errors import UsageError
+from famarl_cli.sweep import plan as plans
+from famarl_cli.sweep.driver import run_sweep
+from famarl_cli.sweep.executors import LocalExecutor, SerialExecutor, make_executor
+from famarl_cli.sweep.plan import JOB_FILE, Action, Axis, Job, default_name, expand, parse_values, reconcile
+
+TESTS = Path(__file__).resolve().parent
+TINY_PPO = ["--agent", "ppo", "--n-envs", "2", "--n-steps", "64", "--minibatches", "2", "--epochs", "2"]
+"""128 env steps per update."""
+
+
+def test_axis_values_ranges_and_lists():
+    assert parse_values("0-3") == ("0", "1", "2", "3")
+    assert parse_values("0-2,10") == ("0", "1", "2", "10")
+    assert parse_values("famarl, ppo") == ("famarl", "ppo")
+    assert Axis.parse("beta=0.1,1") == Axis("beta", ("0.1", "1"))
+    for bad in ("3-1", "", "1,1"):
+        with pytest.raises(UsageError):
+            parse_values(bad)
+    with pytest.raises(UsageError, match="NAME=V1"):
+        Axis.parse("no equals sign")
+    points = expand([Axis("seed", ("0", "1")), Axis("agent", ("ppo", "figar"))])
+    assert points == [
+        {"seed": "0", "agent": "ppo"},
+        {"seed": "0", "agent": "figar"},
+        {"seed": "1", "agent": "ppo"},
+        {"seed": "1", "agent": "figar"},
+    ]
+    assert default_name({"seed": "3", "agent": "ppo"}) == "ppo-seed3"
+    assert default_name({"seed": "0", "beta": "0.1"}) == "beta0.1-seed0"
+
+
+def test_plan_fills_templates_and_gives_each_axis_to_the_option_of_its_name(tmp_path):
+    jobs = plan("train", ["--env", "famarl/ContinuousWorld-Maze-v0", "--label", "{agent}!", *TINY_PPO[2:]], "0-1",
+                ["agent=ppo,figar"], None)  # fmt: skip
+    assert [job.name for job in jobs] == ["ppo-seed0", "figar-seed0", "ppo-seed1", "figar-seed1"]
+    specs = [job.config["spec"] for job in jobs]
+    assert [(s["agent"], s["seed"], s["label"]) for s in specs] == [
+        ("ppo", 0, "ppo!"),
+        ("figar", 0, "figar!"),
+        ("ppo", 1, "ppo!"),
+        ("figar", 1, "figar!"),
+    ]
+    with pytest.raises(UsageError, match="--out is set by the sweep"):
+        plan("train", ["--out", str(tmp_path)], "0", [], None)
+    with pytest.raises(UsageError, match="'dqn' is not one of"):
+        plan("train", ["--agent", "dqn"], "0", [], None)
+    with pytest.raises(UsageError, match="cannot sweep 'report'"):
+        plan("report", [], "0", [], None)
+    with pytest.raises(UsageError, match="not an axis"):
+        plan("train", ["--label", "{typo}"], "0", [], None)
+
+
+def test_job_key_is_stable_under_reordering_and_changes_with_config_code_and_inputs(tmp_path, monkeypatch):
+    one = plan("train", [*TINY_PPO, "--steps", "1000"], "0", [], None)[0]
+    reordered = ["--steps", "1000", "--epochs", "2", "--minibatches", "2", "--n-steps", "64", "--n-envs", "2"]
+    assert plan("train", [*reordered, "--agent", "ppo"], "0", [], None)[0].key == one.key
+    assert plan("train", [*TINY_PPO, "--steps", "2000"], "0", [], None)[0].key != one.key
+    key = one.key
+    monkeypatch.setattr(plans, "__version__", "99")
+    assert one.key != key
+    monkeypatch.undo()
+    monkeypatch.setattr(plans, "code_fingerprint", lambda: "other code")
+    assert one.key != key
+    monkeypatch.undo()
+    assert one.key == key
+    source = tmp_path / "input.txt"
+    source.write_text("a")
+    keyed = Job("j", "x:y", {}, (str(source),))
+    first = keyed.key
+    source.write_text("b")
+    assert keyed.key != first
+
+
+def _record(folder: Path, key: str, complete: bool) -> None:
+    folder.mkdir(parents=True)
+    (folder / JOB_FILE).write_text(json.dumps({"schema": "famarl.job", "key": key, "complete": complete}))
+
+
+def test_reconcile_table(tmp_path):
+    jobs = [Job(name, "x:y", {}, resumable=name != "fixed") for name in ("done", "stopped", "fixed", "changed", "new")]
+    keys = {job.name: f"key-{job.name}" for job in jobs}
+    _record(tmp_path / "done", "key-done", complete=True)
+    _record(tmp_path / "stopped", "key-stopped", complete=False)
+    _record(tmp_path / "fixed", "key-fixed", complete=False)
+    _record(tmp_path / "changed", "an older key", complete=True)
+    _record(tmp_path / "dropped", "key-dropped", complete=True)
+    (tmp_path / ".hidden-temporary").write_text("")
+    result = reconcile(tmp_path, jobs, keys)
+    assert result.actions == {
+        "done": Action.SKIP,
+        "stopped": Action.RESUME,
+        "fixed": Action.RUN,  # cannot resume: run again from scratch
+        "changed": Action.RUN,
+        "new": Action.RUN,
+    }
+    assert result.delete == [tmp_path / "dropped"]
+    (tmp_path / "notes.txt").write_text("mine")
+    with pytest.raises(UsageError, match="notes.txt, which is not a job folder"):
+        reconcile(tmp_path, jobs, keys)
+
+
+def _echo_jobs(n: int, rendezvous: Path | None = None, wait: float = 0.0) -> list[Job]:
+    meet = {} if rendezvous is None else {"rendezvous": str(rendezvous), "wait": wait}
+    return [Job(f"j{i}", "sweep_jobs:echo", {"n": i, **meet}) for i in range(n)]
+
+
+@pytest.fixture(scope="module")
+def ray_cluster():
+    """A Ray cluster of a head (no CPUs) and two 1-CPU nodes, whose workers can import tests/sweep_jobs."""
+    ray = pytest.importorskip("ray")
+    from ray.cluster_utils import Cluster
+
+    old = os.environ.get("PYTHONPATH")
+    os.environ["PYTHONPATH"] = os.pathsep.join(filter(None, [str(TESTS), old]))
+    # Health checks every 0.5 s, so that a killed node is declared dead in about a second (default: about 15 s).
+    fast = {"health_check_period_ms": 500, "health_check_timeout_ms": 500, "health_check_failure_threshold": 2}
+    cluster = Cluster(initialize_head=True, head_node_args={"num_cpus": 0, "_system_config": fast})
+    nodes = [cluster.add_node(num_cpus=1) for _ in range(2)]
+    cluster.wait_for_nodes()
+    yield cluster, nodes
+    ray.shutdown()
+    cluster.shutdown()
+    if old is None:
+        os.environ.pop("PYTHONPATH", None)
+    else:
+        os.environ["PYTHONPATH"] = old
+
+
+def _executor(kind: str, request):
+    if kind == "serial":
+        return SerialExecutor()
+    if kind == "local":
+        return LocalExecutor(2)
+    cluster, _ = request.getfixturevalue("ray_cluster")
+    return make_executor(ray_address=cluster.address)
+
+
+@pytest.mark.parametrize("kind", ["serial", "local", "ray"])
+def test_executor_contract(kind, tmp_path, request, monkeypatch):
+    monkeypatch.syspath_prepend(str(TESTS))
+    monkeypatch.setenv("PYTHONPATH", str(TESTS))
+    # The first two jobs wait for each other: long enough to meet if the executor runs two at once (a worker may be
+    # slow to start on a busy machine), briefly when it cannot.
+    jobs = _echo_jobs(2, tmp_path / "rendezvous", 3 if kind == "serial" else 120)
+    jobs += [Job("j2", "sweep_jobs:echo", {"n": 2}), Job("bad", "sweep_jobs:boom", {"n": 9})]
+    with _executor(kind, request) as executor:
+        state = run_sweep(tmp_path, jobs, executor)
+    by_name = {s.job.name: s for s in state.jobs}
+    # Results map to their specs, and a failing job surfaces after the others finished, without a retry.
+    for i in range(3):
+        assert by_name[f"j{i}"].status == "done" and by_name[f"j{i}"].result["n"] == i
+        assert json.loads((tmp_path / f"j{i}" / "out.json").read_text())["n"] == i
+        assert json.loads((tmp_path / f"j{i}" / JOB_FILE).read_text())["complete"] is True
+        assert not (tmp_path / f"j{i}" / ".lease").exists() and not (tmp_path / f"j{i}" / ".progress").exists()
+    assert [s.job.name for s in state.failed] == ["bad"]
+    assert by_name["bad"].attempts == 0 and "ValueError: bad data in job 9" in by_name["bad"].error
+    assert json.loads((tmp_path / "bad" / JOB_FILE).read_text())["complete"] is False
+    # Two workers really overlap (and one does not).
+    assert [by_name[f"j{i}"].result["met"] for i in (0, 1)] == [kind != "serial"] * 2
+
+
+def _tiny_train_jobs(runner: str, seeds: str, steps: int = 1280) -> list[Job]:
+    jobs = plan("train", [*TINY_PPO, "--steps", str(steps), "--checkpoint-every", "2"], seeds, [], None)
+    return [Job(j.name, runner, j.config, j.inputs, j.resumable, j.point) for j in jobs]
+
+
+def _weights_and_log(folder: Path) -> tuple[dict, str]:
+    payload = torch.load(folder / "checkpoint.pt", weights_only=True)
+    return payload["trainer"]["policy"], (folder / "train.csv").read_text()
+
+
+@pytest.fixture(scope="module")
+def straight_runs(tmp_path_factory):
+    """Seeds 0 and 1 of the tiny PPO sweep, run without interruption."""
+    out = tmp_path_factory.mktemp("straight")
+    with SerialExecutor() as executor:
+        state = run_sweep(out, _tiny_train_jobs("famarl_cli.rl.training:run_job", "0-1"), executor)
+    assert not state.failed
+    return out
+
+
+def _assert_same_runs(out: Path, straight: Path, names) -> None:
+    for name in names:
+        weights, log = _weights_and_log(out / name)
+        expected_weights, expected_log = _weights_and_log(straight / name)
+        assert log == expected_log
+        assert all(torch.equal(weights[k], expected_weights[k]) for k in expected_weights)
+
+
+@pytest.mark.parametrize("kind", ["local", "ray"])
+def test_a_dead_worker_is_resubmitted_and_resumes_exactly(kind, tmp_path, request, monkeypatch, straight_runs):
+    monkeypatch.syspath_prepend(str(TESTS))
+    monkeypatch.setenv("PYTHONPATH", str(TESTS))
+    jobs = _tiny_train_jobs("sweep_jobs:train_dying_after_first_checkpoint", "0-1")
+    with _executor(kind, request) as executor:
+        state = run_sweep(tmp_path, jobs, executor)
+    assert not state.failed
+    for job_state in state.jobs:
+        assert job_state.status == "done" and job_state.attempts == 2
+        assert int((tmp_path / job_state.job.name / "resumed_from.txt").read_text()) > 0
+    _assert_same_runs(tmp_path, straight_runs, ["seed0", "seed1"])
+
+
+def test_a_job_whose_worker_keeps_dying_fails_after_its_attempts(tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(TESTS))
+    with LocalExecutor(1) as executor:
+        state = run_sweep(tmp_path, [Job("dies", "sweep_jobs:die", {}), *_echo_jobs(1)], executor, max_attempts=2)
+    by_name = {s.job.name: s for s in state.jobs}
+    assert by_name["dies"].status == "failed" and by_name["dies"].attempts == 2
+    assert "died in each of 2 attempts" in by_name["dies"].error
+    assert by_name["j0"].status == "done"
+
+
+def _node_running(nodes, pid: int):
+    """The cluster node whose raylet started the process ``pid``."""
+    import psutil
+
+    ancestors = {p.pid for p in psutil.Process(pid).parents()}
+    return next(node for node in nodes if node.all_processes["raylet"][0].process.pid in ancestors)
+
+
+def test_a_killed_node_loses_at_most_a_checkpoint_interval_and_the_results_match_the_local_path(
+    tmp_path, ray_cluster, monkeypatch
+):
+    import threading
+
+    monkeypatch.syspath_prepend(str(TESTS))
+    cluster, nodes = ray_cluster
+    interval = 128 * 5
+    jobs = plan("train", [*TINY_PPO, "--steps", "25600", "--checkpoint-every", "5"], "0-1", [], None)
+    jobs = [Job(j.name, "sweep_jobs:train_recording_resumes", j.config, j.inputs, j.resumable) for j in jobs]
+    with SerialExecutor() as executor:
+        assert not run_sweep(tmp_path / "local", jobs, executor).failed
+    out, outcome = tmp_path / "ray", {}
+    with make_executor(ray_address=cluster.address) as executor:
+        sweep = threading.Thread(target=lambda: outcome.update(state=run_sweep(out, jobs, executor)))
+        sweep.start()
+        run = out / "seed0"
+        deadline = time.time() + 300
+        while time.time() < deadline and not ((run / "run.json").exists() and (run / ".famarl.lock").exists()):
+            time.sleep(0.02)
+        checkpointed = json.loads((run / "run.json").read_text())["env_steps"]
+        reached = json.loads((run / ".progress").read_text())["done"]
+        victim = _node_running(nodes, int((run / ".famarl.lock").read_text()))
+        cluster.remove_node(victim)
+        nodes.remove(victim)
+        nodes.append(cluster.add_node(num_cpus=1))
+        sweep.join(timeout=600)
+    state = outcome["state"]
+    assert not state.failed, [s.error for s in state.failed]
+    attempts = {s.job.name: s.attempts for s in state.jobs}
+    assert attempts["seed0"] == 2, attempts
+    resumed_from = int((run / "resumed_from.txt").read_text())
+    assert 0 < checkpointed <= resumed_from and reached - resumed_from <= interval
+    _assert_same_runs(out, tmp_path / "local", ["seed0", "seed1"])
+
+
+def test_kill_9_of_a_sweep_then_again_ends_exactly_like_an_uninterrupted_one(tmp_path, straight_runs):
+    out = tmp_path / "runs"
+    command = [sys.executable, "-m", "famarl_cli", "sweep", "train", "--seeds", "0-1", "--jobs", "2", "--out", str(out),
+               "--", *TINY_PPO, "--steps", "1280", "--checkpoint-every", "2"]  # fmt: skip
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.time() + 120
+    while not all((out / f"seed{s}" / "checkpoint.pt").exists() for s in (0, 1)) and time.time() < deadline:
+        time.sleep(0.05)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    assert not all(json.loads((out / f"seed{s}" / JOB_FILE).read_text())["complete"] for s in (0, 1))
+    again = subprocess.run(command, capture_output=True, text=True, check=False)
+    assert again.returncode == 0, again.stderr
+    _assert_same_runs(out, straight_runs, ["seed0", "seed1"])
+
+
+def test_a_sweep_skips_complete_runs_adds_new_ones_and_deletes_dropped_ones(tmp_path, straight_runs):
+    out = tmp_path / "runs"
+    shutil.copytree(straight_runs, out)
+    before = {s: (out / f"seed{s}" / "checkpoint.pt").stat().st_mtime_ns for s in (0, 1)}
+    result = famarl("sweep", "train", "--seeds", "1-2", "--jobs", "1", "--out", out, "--", *TINY_PPO, "--steps",
+                    1280, "--checkpoint-every", 2)  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert sorted(p.name for p in out.iterdir()) == ["seed1", "seed2", "sweep.json"]
+    assert (out / "seed1" / "checkpoint.pt").stat().st_mtime_ns == before[1]
+    assert "skipped" in result.output and "deleted, no longer in the plan: seed0" in result.output
+    assert json.loads((out / "seed2" / JOB_FILE).read_text())["complete"] is True
+
+
+def test_a_failing_run_fails_the_command_after_the_others(tmp_path, favae_file):
+    bad = tmp_path / "bad.pt"
+    bad.write_bytes(b"not a checkpoint")
+    favaes = tmp_path / "favaes"
+    (favaes / "0").mkdir(parents=True)
+    (favaes / "1").mkdir()
+    shutil.copy(favae_file, favaes / "0" / "favae.pt")
+    shutil.copy(bad, favaes / "1" / "favae.pt")
+    result = famarl("sweep", "train", "--seeds", "0-1", "--jobs", "1", "--out", tmp_path / "runs", "--", *TINY_PPO[2:],
+                    "--favae", f"{favaes}/{{seed}}/favae.pt", "--steps", 300)  # fmt: skip
+    assert result.exit_code == 1
+    assert "1 of 2 runs failed (first: seed1: ArtifactError" in result.stderr
+    assert json.loads((tmp_path / "runs" / "seed0" / JOB_FILE).read_text())["complete"] is True
+
+
+def test_one_writer_per_run_folder(tmp_path):
+    folder = tmp_path / "run"
+    with claim_folder(folder):
+        one_line_error(famarl("train", *TINY_PPO, "--steps", 300, "--out", folder), 2, "being written by another")
+        with pytest.raises(UsageError, match="being written by another famarl process"):
+            with claim_folder(folder):
+                pass
+    assert not (folder / ".famarl.lock").exists()
+
+
+def test_a_retry_waits_for_a_zombie_to_let_go_of_the_folder(tmp_path):
+    import threading
+
+    folder = tmp_path / "run"
+    held, release = threading.Event(), threading.Event()
+
+    def zombie() -> None:
+        with claim_folder(folder):
+            held.set()
+            release.wait(10)
+
+    thread = threading.Thread(target=zombie)
+    thread.start()
+    held.wait(10)
+    threading.Timer(0.5, release.set).start()
+    started = time.monotonic()
+    with claim_folder(folder, wait_s=10):
+        assert time.monotonic() - started >= 0.4
+    thread.join()
+
+
+def test_two_trainers_started_together_get_the_folder_once(tmp_path):
+    folder = tmp_path / "run"
+    command = [sys.executable, "-m", "famarl_cli", "train", *TINY_PPO, "--steps", "2000", "--out", str(folder)]
+    processes = [subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for _ in (0, 1)]
+    outcomes = [(p.wait(), p.stderr.read()) for p in processes]
+    assert sorted(code for code, _ in outcomes) == [0, 2], outcomes
+    refused = next(err for code, err in outcomes if code == 2)
+    assert "being written by another famarl process" in refused or "already holds a run" in refused
