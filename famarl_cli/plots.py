@@ -214,28 +214,27 @@ def plot_intervals(claims: list, path: str | os.PathLike, title: str) -> None:
     """Per claim, each interval its verdict read (estimate and 95% interval, coloured by the verdict) beside the
     threshold it was compared with (a black tick)."""
     rows = [(claim, estimate) for claim in claims for estimate in claim.judgement.estimates]
-    fig = Figure(figsize=(9, 0.45 * max(len(rows), 1) + 1.2))
+    fig = Figure(figsize=(10, 0.55 * max(len(rows), 1) + 1.2), layout="constrained")
     ax = fig.subplots()
     for y, (claim, estimate) in enumerate(rows):
         interval, colour = estimate.interval, VERDICT_COLOURS[claim.verdict.value]
         low, high = (v if np.isfinite(v) else interval.estimate for v in (interval.low, interval.high))
         ax.plot([low, high], [y, y], color=colour, linewidth=3, solid_capstyle="butt")
-        ax.plot([interval.estimate], [y], "o", color="black", markersize=4)
+        ax.plot([interval.estimate], [y], "o", color=colour, markeredgecolor="black", markersize=5)
         if estimate.reference is not None:
             ax.plot([estimate.reference], [y], "|", color="black", markersize=14)
-    labels = [f"{_short(claim.paper)}: {estimate.name}" for claim, estimate in rows]
+    labels = [f"{_short(claim.paper)}\n{estimate.name}" for claim, estimate in rows]
     ax.set_yticks(range(len(rows)), labels, fontsize=7)
     ax.invert_yaxis()
     ax.grid(axis="x", alpha=0.3)
     handles = [Line2D([], [], color=c, linewidth=3, label=v) for v, c in VERDICT_COLOURS.items()]
     handles.append(Line2D([], [], color="black", marker="|", linestyle="", markersize=10, label="threshold"))
-    ax.legend(handles=handles, fontsize=7, loc="best")
+    fig.legend(handles=handles, fontsize=7, loc="outside lower center", ncols=len(handles), frameon=False)
     ax.set_title(f"{title}: estimate and 95% interval per claim", fontsize=9)
-    fig.tight_layout()
     _save(fig, path)
 
 
-def _short(text: str, width: int = 48) -> str:
+def _short(text: str, width: int = 56) -> str:
     return text if len(text) <= width else text[: width - 1] + "…"
 
 

@@ -36,28 +36,30 @@ def die(config: dict, folder: Path, context) -> dict:
 
 
 def train_recording_resumes(config: dict, folder: Path, context) -> dict:
-    """famarl's train job; a resumed attempt first records the env steps it resumes from in resumed_from.txt."""
+    """famarl's train job; an attempt that resumes from a checkpoint first records its env steps in
+    resumed_from.txt."""
     from famarl_cli.artifacts.runs import read_run_file
     from famarl_cli.rl.training import run_job
 
-    if context.resume:
+    if context.resume and (folder / "run.json").exists():
         (folder / "resumed_from.txt").write_text(str(read_run_file(folder)["env_steps"]))
     return run_job(config, folder, context)
 
 
 def train_dying_after_first_checkpoint(config: dict, folder: Path, context) -> dict:
-    """famarl's train job, whose first attempt's process dies (os._exit) right after its first checkpoint; the
-    resumed attempt records where it resumed from and finishes."""
-    if context.resume:
-        return train_recording_resumes(config, folder, context)
-    saves = []
-    check = context.check_lease
+    """famarl's train job, whose process dies (os._exit) right after the run's first checkpoint, once; later
+    attempts record where they resumed from and finish. (In a local pool, the other runs' workers die with it.)"""
+    marker = folder / "died.txt"
+    if not marker.exists():
+        saves = []
+        check = context.check_lease
 
-    def check_then_die() -> None:
-        if saves:  # the second save: the first checkpoint is on disk
-            os._exit(3)
-        saves.append(True)
-        check()
+        def check_then_die() -> None:
+            if saves:  # the second save: the first checkpoint is on disk
+                marker.write_text("")
+                os._exit(3)
+            saves.append(True)
+            check()
 
-    context.check_lease = check_then_die
+        context.check_lease = check_then_die
     return train_recording_resumes(config, folder, context)

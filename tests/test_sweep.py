@@ -215,9 +215,10 @@ def test_a_dead_worker_is_resubmitted_and_resumes_exactly(kind, tmp_path, reques
     jobs = _tiny_train_jobs("sweep_jobs:train_dying_after_first_checkpoint", "0-1")
     with _executor(kind, request) as executor:
         state = run_sweep(tmp_path, jobs, executor)
-    assert not state.failed
+    assert not state.failed, [s.error for s in state.failed]
     for job_state in state.jobs:
-        assert job_state.status == "done" and job_state.attempts == 2
+        # Its own death, and in a local pool perhaps the other run's, which takes every worker with it.
+        assert job_state.status == "done" and 2 <= job_state.attempts <= 3
         assert int((tmp_path / job_state.job.name / "resumed_from.txt").read_text()) > 0
     _assert_same_runs(tmp_path, straight_runs, ["seed0", "seed1"])
 
@@ -246,6 +247,7 @@ def test_a_killed_node_loses_at_most_a_checkpoint_interval_and_the_results_match
     import threading
 
     monkeypatch.syspath_prepend(str(TESTS))
+    monkeypatch.setenv("PYTHONPATH", str(TESTS))  # for the workers of the node added below
     cluster, nodes = ray_cluster
     interval = 128 * 5
     jobs = plan("train", [*TINY_PPO, "--steps", "25600", "--checkpoint-every", "5"], "0-1", [], None)

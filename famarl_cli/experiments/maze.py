@@ -6,7 +6,7 @@ from pathlib import Path
 
 from famarl_cli.experiments import experiment
 from famarl_cli.experiments.common import MAZE, best_claim, curves, fails_claim, favae_table, solves_claim
-from famarl_cli.results import by_agent, copy_figure, gather, group, results_table
+from famarl_cli.results import by_agent, copy_figure, gather, group, macros_folders, results_table
 
 
 @experiment("maze", "dvc.yaml", order=1)
@@ -34,7 +34,9 @@ def maze(data: Path, out: Path):
     figures = [curves(present, out / "maze-curves.png", "Maze")]
     if famarl is not None:
         figures.append(copy_figure(famarl.runs[0].folder / ROLLOUTS_FILE, out / "maze-rollouts-famarl.png"))
-    figures.append(copy_figure(data / "maze" / "macros" / "seed0" / "traverse.png", out / "maze-traversal.png"))
+    replicates = macros_folders(data / "maze" / "macros")
+    if replicates:
+        figures.append(copy_figure(replicates[0] / "traverse.png", out / "maze-traversal.png"))
     return Section(
         "Maze: FaMARL vs PPO vs FiGAR (paper Fig. 4a, 4b)", claims, tables, [f for f in figures if f is not None]
     )
