@@ -30,9 +30,6 @@ class Interval:
     high: float
     level: float = LEVEL
 
-    def contains(self, value: float) -> bool:
-        return self.low <= value <= self.high
-
     def within(self, bounds: tuple[float, float] | None) -> Interval:
         """Cut to the quantity's range (a rate's [0, 1]): a t interval does not know it, and cutting keeps its
         coverage."""

@@ -332,6 +332,14 @@ def test_one_writer_per_run_folder(tmp_path):
     assert not (folder / ".famarl.lock").exists()
 
 
+def test_a_second_sweep_into_the_same_folder_is_refused(tmp_path):
+    with claim_folder(tmp_path / "runs"):
+        result = famarl("sweep", "train", "--out", tmp_path / "runs", "--", *TINY_PPO, "--steps", 300)
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    last = result.stderr.strip().splitlines()[-1]
+    assert last.startswith("error: ") and "being written by another famarl process" in last
+
+
 def test_a_retry_waits_for_a_zombie_to_let_go_of_the_folder(tmp_path):
     import threading
 

@@ -57,7 +57,7 @@ def traversal(data: Path, out: Path):
         ),
     ]
     lines = [
-        f"Effect of each variable (ladder, index) over {len(folders)} FAVAE seeds: mean [95% CI] (m), and in how many "
+        f"Effect of each variable (ladder, index) over {len(folders)} FAVAE seeds: mean [95% CI] (m), and in how many\n"
         "seeds it is the strongest.",
         "",
         "| variable | effect (m) | strongest in |",

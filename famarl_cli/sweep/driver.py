@@ -12,7 +12,6 @@ jobs whose worker died, and mark jobs complete. The same for every executor.
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import time
@@ -23,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from famarl_cli.artifacts.base import write_json
+from famarl_cli.artifacts.lock import claim_folder
 from famarl_cli.sweep.executors import Executor
 from famarl_cli.sweep.plan import (
     JOB_FILE,
@@ -124,8 +124,15 @@ def run_sweep(
     max_attempts: int = MAX_ATTEMPTS,
     on_update: Callable[[SweepState], None] | None = None,
 ) -> SweepState:
-    """Run every job of the plan that is not complete in ``out``; returns the final state (check ``failed``)."""
-    out, cwd = out.resolve(), os.getcwd()
+    """Run every job of the plan that is not complete in ``out``; returns the final state (check ``failed``).
+    The sweep holds ``out`` while it runs: a second sweep into the same folder is refused."""
+    out = out.resolve()
+    with claim_folder(out):
+        return _run(out, jobs, executor, max_attempts, on_update)
+
+
+def _run(out: Path, jobs: list[Job], executor: Executor, max_attempts: int, on_update) -> SweepState:
+    cwd = os.getcwd()
     state, keys = prepare(out, jobs)
     running: dict[Future, JobState] = {}
 
@@ -209,7 +216,3 @@ def _complete(out: Path, job_state: JobState, keys: dict[str, str]) -> None:
     write_json(folder / JOB_FILE, _record(job_state.job, keys[job_state.job.name], complete=True))
     job_state.status, job_state.finished = "done", time.monotonic()
     job_state.done = job_state.total = max(job_state.total, 1.0)
-
-
-def read_manifest(out: Path) -> dict:
-    return json.loads((out / MANIFEST).read_text())
