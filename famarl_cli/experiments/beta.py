@@ -14,6 +14,7 @@ from famarl_cli.experiments.common import (
     SOLVED,
     curves,
     favae_metrics_of,
+    headline_famarl_runs,
     success_measure,
 )
 from famarl_cli.results import Group, gather, group, results_table
@@ -38,12 +39,12 @@ def beta(data: Path, out: Path):
     groups = list(group(gather([data / "beta" / "eval"]), MAZE).values())
     if not groups:
         return None
-    headline = [run for g in group(gather([data / "maze" / "eval"]), MAZE, "famarl").values() for run in g.runs]
+    headline = headline_famarl_runs(data)
     if headline:
-        default_beta = favae_metrics_of(Group("", headline[:1]))[0]["beta"]
+        default_beta = favae_metrics_of(headline[:1])[0]["beta"]
         groups.append(Group(f"beta {default_beta:g}", headline))
     groups.sort(key=lambda g: _beta(g.label))
-    mig = {g.label: np.array([m["mig"] for m in favae_metrics_of(g)]) for g in groups}
+    mig = {g.label: np.array([m["mig"] for m in favae_metrics_of(g.runs)]) for g in groups}
     low = [g for g in groups if _beta(g.label) < LOW]
     high = [g for g in groups if _beta(g.label) >= LOW]
     claims = []

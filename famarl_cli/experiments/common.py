@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from famarl_cli.results import Group, macros_folders, read_json
+from famarl_cli.results import Group, RunResult, gather, group, macros_folders, read_json
 from famarl_cli.statistics import LEVEL, RATE, mean_interval
 from famarl_cli.verdicts import Claim, best, fails, not_run, solves
 
@@ -95,12 +95,18 @@ def favae_table(folder: Path) -> str | None:
     return "\n".join(lines)
 
 
-def favae_metrics_of(g: Group) -> list[dict]:
-    """Per seed, the metrics of the FAVAE that seed's run decoded with."""
+def favae_metrics_of(runs: list[RunResult]) -> list[dict]:
+    """Per run, the metrics of the FAVAE it decoded with."""
     from famarl_cli.artifacts.runs import read_run_file
 
-    paths = [Path(read_run_file(run.evaluation["run"])["spec"]["favae"]).with_suffix(".metrics.json") for run in g.runs]
+    paths = [Path(read_run_file(run.evaluation["run"])["spec"]["favae"]).with_suffix(".metrics.json") for run in runs]
     return [read_json(path, "FAVAE metrics") for path in paths]
+
+
+def headline_famarl_runs(data: Path) -> list[RunResult]:
+    """The default pipeline's FaMARL runs on the Maze: the experiments that vary one of its settings (script, beta,
+    number of demos) reuse them as that setting's variant instead of running it again."""
+    return [run for g in group(gather([data / "maze" / "eval"]), MAZE, "famarl").values() for run in g.runs]
 
 
 def curves(groups: list[Group], path: Path, title: str, panels: tuple[str, ...] | None = None) -> str:

@@ -6,7 +6,7 @@ import re
 from pathlib import Path
 
 from famarl_cli.experiments import experiment
-from famarl_cli.experiments.common import EQUIVALENCE_MARGIN, MAZE, curves, success_measure
+from famarl_cli.experiments.common import EQUIVALENCE_MARGIN, MAZE, curves, headline_famarl_runs, success_measure
 from famarl_cli.results import Group, gather, group, results_table
 from famarl_cli.verdicts import Claim, equivalent
 
@@ -26,7 +26,7 @@ def demos_count(data: Path, out: Path):
     groups = list(group(gather([data / "demos-count" / "eval"]), MAZE).values())
     if not groups:
         return None
-    headline = [run for g in group(gather([data / "maze" / "eval"]), MAZE, "famarl").values() for run in g.runs]
+    headline = headline_famarl_runs(data)
     if headline:
         groups.append(Group(f"{HEADLINE_DEMOS} demos", headline))
     groups.sort(key=lambda g: _count(g.label))

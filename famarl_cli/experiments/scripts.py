@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from famarl_cli.experiments import experiment
-from famarl_cli.experiments.common import MAZE, curves, fails_claim, solves_claim
+from famarl_cli.experiments.common import MAZE, curves, fails_claim, headline_famarl_runs, solves_claim
 from famarl_cli.results import Group, gather, group, results_table
 from famarl_cli.verdicts import bonferroni_level
 
@@ -22,10 +22,9 @@ def scripts(data: Path, out: Path):
     if not groups:
         return None
     named = {label.removeprefix("famarl (").removesuffix(")"): g for label, g in groups.items()}
-    headline = group(gather([data / "maze" / "eval"]), MAZE, "famarl")
+    headline = headline_famarl_runs(data)
     if headline:
-        runs = [run for g in headline.values() for run in g.runs]
-        named[HEADLINE_SCRIPT] = Group(f"famarl ({HEADLINE_SCRIPT})", runs)
+        named[HEADLINE_SCRIPT] = Group(f"famarl ({HEADLINE_SCRIPT})", headline)
     # Four claims about the same family of runs: each at the Bonferroni level, so that all hold together.
     level = bonferroni_level(1 + len(OTHERS))
     claims = [solves_claim("PushedDownOnly macro actions complete the Maze", named.get(HEADLINE_SCRIPT), level)]
