@@ -4,7 +4,8 @@ and the figures.
 Each experiment lives in its own module of :mod:`famarl_cli.experiments`, with its claims, tables and figures; it
 reads what its pipeline (``dvc.yaml`` at the root, or ``pipelines/<name>/``) left under ``data/``. A claim's
 verdict comes from 95% intervals over seeds (:mod:`famarl_cli.verdicts`); its row shows the per-seed values, n,
-the interval and the rule. The figures are PNG files (``dvc plots show`` needs the internet).
+the interval and the rule. The figures are PNG files; the learning curves are also a CSV that the pipelines
+declare as DVC plots (``dvc plots show``, ``dvc plots diff``).
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from pathlib import Path
 from famarl_cli.artifacts import atomic_path
 from famarl_cli.artifacts.base import write_json
 from famarl_cli.errors import ArtifactError
+from famarl_cli.results import Group, headline, write_curves
 from famarl_cli.verdicts import Claim, Verdict
 
 
@@ -26,6 +28,8 @@ class Section:
     claims: list[Claim]
     tables: list[str] = field(default_factory=list)
     figures: list[str] = field(default_factory=list)
+    groups: list[Group] = field(default_factory=list)
+    """The runs behind it: their learning curves go to ``<name>-curves.csv``, their numbers to summary.json."""
 
     def count(self, verdict: Verdict) -> int:
         return sum(claim.verdict == verdict for claim in self.claims)
@@ -69,13 +73,15 @@ class Section:
             "claims_not_reproduced": self.count(Verdict.DOES_NOT),
             "claims_inconclusive": self.count(Verdict.INCONCLUSIVE),
             "verdicts": {c.paper: c.verdict.value for c in self.claims},
+            **({"headline": headline(self.groups)} if self.groups else {}),
         }
 
 
 def write_report(names: list[str], data: Path, out: Path, version: str) -> dict[str, Section]:
-    """Build the named experiments' sections from ``data`` into ``out``: report.md, the figures and summary.json
-    (each claim's verdict, for ``dvc metrics show``). Experiments without data are listed with the command that
-    makes them; it is an error when none of them has data."""
+    """Build the named experiments' sections from ``data`` into ``out``: report.md, the figures, summary.json
+    (each claim's verdict and the headline numbers, for ``dvc metrics show`` and ``dvc exp show``) and, for
+    experiments with runs, ``<name>-curves.csv`` (their learning curves, for ``dvc plots show``). Experiments
+    without data are listed with the command that makes them; it is an error when none of them has data."""
     from famarl_cli.experiments import experiments
     from famarl_cli.plots import plot_intervals
 
@@ -91,6 +97,8 @@ def write_report(names: list[str], data: Path, out: Path, version: str) -> dict[
         path = out / f"{name}-intervals.png"
         plot_intervals(section.claims, path, section.title)
         section.figures.insert(0, path.name)
+        if section.groups:
+            write_curves(section.groups, out / f"{name}-curves.csv")
     parts = [
         f"# famarl report\n\nfamarl {version}; numbers from `{data}`. Every verdict is reproduces, does not reproduce "
         "or inconclusive, from 95% intervals over seeds with the rule beside it (docs/verdicts.md).\n"

@@ -15,6 +15,7 @@ A pipeline leaves, per run, a run folder (``run.json``, ``train.csv``) and an ev
 
 from __future__ import annotations
 
+import csv
 import json
 import shutil
 from dataclasses import dataclass
@@ -174,6 +175,46 @@ def results_table(groups: list[Group], extra: dict | None = None) -> str:
         ]
         lines.append(f"| {g.label} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
+
+
+CURVES = {"success": "episode_success", "return": "episode_return", "macro_length": "macro_length"}
+"""The training-log columns of a curves file (last 100 episodes' success and return; the macro length chosen)."""
+
+
+def series_name(g: Group, groups: list[Group]) -> str:
+    """A group's name in curves and headline numbers: its label, with its env where ``groups`` span several."""
+    envs = {run.evaluation["env"] for other in groups for run in other.runs}
+    return g.label if len(envs) < 2 else f"{g.label} ({g.runs[0].evaluation['env'].split('/')[-1]})"
+
+
+def write_curves(groups: list[Group], path: Path) -> None:
+    """Every run's learning curve in one long CSV: ``series, run, seed, env_steps`` and the :data:`CURVES`
+    columns, one row per update. The pipelines' DVC plots draw it, one line per run coloured by series."""
+    with atomic_path(path) as temp, temp.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["series", "run", "seed", "env_steps", *CURVES])
+        for g in groups:
+            for run in g.runs:
+                name, seed = Path(run.evaluation["run"]).name, run.evaluation["seed"]
+                columns = [run.log["env_steps"].astype(int)] + [run.log[key] for key in CURVES.values()]
+                for row in zip(*columns, strict=True):
+                    writer.writerow([series_name(g, groups), name, seed, row[0], *(f"{v:.4g}" for v in row[1:])])
+
+
+def headline(groups: list[Group]) -> dict[str, dict[str, float]]:
+    """Per series, the numbers ``dvc exp show`` lists: n, success (sampled) with its 95% interval, AUC, return."""
+    numbers = {}
+    for g in groups:
+        success = mean_interval(g.values("success"), g.episodes)
+        numbers[series_name(g, groups)] = {
+            "n": len(g.runs),
+            "success": round(success.estimate, 3),
+            "success_low": round(success.low, 3),
+            "success_high": round(success.high, 3),
+            "auc": round(float(g.values("auc").mean()), 3),
+            "return": round(float(g.values("return_mean").mean()), 1),
+        }
+    return numbers
 
 
 def copy_figure(source: Path, target: Path) -> str | None:

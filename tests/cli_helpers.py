@@ -1,6 +1,7 @@
 """Running famarl commands in-process and checking how they fail."""
 
 import hashlib
+import json
 import os
 import re
 import subprocess
@@ -47,11 +48,21 @@ def dvc_environment(root: Path) -> dict:
     }
 
 
-def dvc(root: Path, *args: str) -> str:
-    """Run DVC in ``root`` with this environment's famarl on the PATH; fails the test if DVC fails."""
+def _run_dvc(root: Path, args: tuple[str, ...]) -> subprocess.CompletedProcess:
     done = subprocess.run(
         [sys.executable, "-m", "dvc", *args], cwd=root, env=dvc_environment(root), capture_output=True, text=True,
         check=False,
     )  # fmt: skip
     assert done.returncode == 0, f"dvc {' '.join(args)} failed:\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
+    return done
+
+
+def dvc(root: Path, *args: str) -> str:
+    """Run DVC in ``root`` with this environment's famarl on the PATH; fails the test if DVC fails."""
+    done = _run_dvc(root, args)
     return done.stdout + done.stderr
+
+
+def dvc_json(root: Path, *args: str):
+    """What a DVC command given ``--json`` prints (its warnings on stderr left out)."""
+    return json.loads(_run_dvc(root, (*args, "--json")).stdout)

@@ -331,3 +331,30 @@ def test_train_and_evaluate_bad_inputs(tmp_path, favae_file, segments_file):
     one_line_error(famarl("evaluate", "--run", tmp_path / "no-runs"), 1, "not a run folder")
     (out / "checkpoint.pt").write_bytes(b"broken")
     one_line_error(famarl("evaluate", "--run", out), 1, "not a readable checkpoint")
+
+
+def test_train_writes_its_log_as_tensorboard_scalars_under_cleanrl_names(tmp_path):
+    pytest.importorskip("tensorboard")
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    run, board = tmp_path / "run", tmp_path / "board"
+    options = ("--agent", "ppo", "--steps", 4096, "--n-envs", 4, "--n-steps", 128, "--minibatches", 4)
+    result = famarl("train", *options, "--out", run, "--tensorboard", board)
+    assert result.exit_code == 0, result.output
+    events = EventAccumulator(str(board))
+    events.Reload()
+    log = np.genfromtxt(run / "train.csv", delimiter=",", names=True)
+    for tag, column in (("losses/value_loss", "value_loss"), ("charts/learning_rate", "learning_rate")):
+        scalars = events.Scalars(tag)
+        assert [s.step for s in scalars] == log["env_steps"].astype(int).tolist()
+        np.testing.assert_allclose([s.value for s in scalars], log[column], rtol=1e-6)
+    assert {"charts/episodic_return", "charts/success_rate", "losses/approx_kl"} <= set(events.Tags()["scalars"])
+
+
+def test_tensorboard_without_its_extra_is_a_one_line_error_that_writes_nothing(tmp_path, monkeypatch):
+    monkeypatch.setitem(__import__("sys").modules, "torch.utils.tensorboard", None)
+    result = famarl(
+        "train", "--agent", "ppo", "--steps", 1000, "--out", tmp_path / "run", "--tensorboard", tmp_path / "tb"
+    )
+    one_line_error(result, 2, "pip install 'famarl[tensorboard]'")
+    assert not (tmp_path / "run").exists() and not (tmp_path / "tb").exists()

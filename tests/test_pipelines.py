@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from cli_helpers import dvc
+from cli_helpers import dvc, dvc_json
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -89,6 +89,7 @@ def project(tmp_path_factory) -> Path:
         _override(values, overrides, name)
         (root / name).write_text(yaml.safe_dump(values))
     dvc(root, "init", "--no-scm")
+    shutil.copytree(ROOT / ".dvc" / "plots", root / ".dvc" / "plots")  # the learning-curves template
     dvc(root, "repro", "-P")
     return root
 
@@ -124,6 +125,26 @@ def test_every_pipeline_writes_its_report(project):
             assert (replicate / name).is_file()
         provenance = json.loads((replicate / "favae.calibration.json").read_text())["provenance"]
         assert provenance["seed"] == seed and provenance["platform"]["threads"] == 1
+
+
+def test_learning_curves_are_dvc_plots_and_headline_numbers_are_metrics(project):
+    shown = dvc_json(project, "plots", "show")
+    assert not shown.get("errors"), shown.get("errors")
+    maze = shown["data"]["Maze, training success (last 100 episodes)"][0]["content"]
+    assert maze["encoding"]["color"]["field"] == "series" and maze["encoding"]["y"]["field"] == "success"
+    rows = maze["data"]["values"]
+    assert {row["run"] for row in rows} == {
+        f"{agent}-seed{seed}" for agent in ("famarl", "ppo", "figar") for seed in (0, 1)
+    }
+    assert {row["series"] for row in rows} == {"famarl", "ppo", "figar"}
+    assert all(0 <= float(row["success"]) <= 1 for row in rows if row["success"] != "nan")
+    titles = " / ".join(shown["data"])
+    for title in ("Scripts", "beta", "Demos count", "RobotHand", "Macro length"):
+        assert f"{title}, training success" in titles
+    metrics = dvc_json(project, "metrics", "show")[""]["data"]
+    famarl = metrics["data/report/summary.json"]["data"]["maze"]["headline"]["famarl"]
+    assert famarl["n"] == 2 and famarl["success_low"] <= famarl["success"] <= famarl["success_high"]
+    assert "headline" in metrics["data/report/robothand/summary.json"]["data"]["robothand"]
 
 
 def test_a_second_repro_does_nothing(project):

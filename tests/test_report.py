@@ -93,6 +93,15 @@ def test_the_papers_maze_result_reproduces_when_only_famarl_solves_it(tmp_path):
     summary = json.loads((tmp_path / "report/summary.json").read_text())["maze"]
     assert summary["claims"] == summary["claims_reproduced"] == 5
     assert summary["verdicts"]["FaMARL performs best"] == "reproduces"
+    famarl = summary["headline"]["famarl"]
+    assert famarl["n"] == 5 and famarl["success"] == pytest.approx(0.95, abs=1e-3)
+    assert famarl["success_low"] < 0.95 < famarl["success_high"] and famarl["auc"] > summary["headline"]["ppo"]["auc"]
+    with open(tmp_path / "report/maze-curves.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert len(rows) == 15 * 20 and {row["series"] for row in rows} == {"famarl", "ppo", "figar"}
+    first = [row for row in rows if row["run"] == "famarl-seed0"]
+    assert [float(row["env_steps"]) for row in first] == pytest.approx(np.linspace(BUDGET / 20, BUDGET, 20))
+    assert [float(row["success"]) for row in first][-1] == pytest.approx(0.93)
 
 
 def test_a_baseline_that_solves_the_maze_breaks_the_claims_about_it(tmp_path):
@@ -166,6 +175,10 @@ def test_robothand_aggregates_both_tasks(tmp_path):
     text = (tmp_path / "report/report.md").read_text()
     assert "IQM of success over both tasks" in text and "P(famarl > ppo)" in text
     assert (tmp_path / "report/robothand-profile.png").stat().st_size > 1000
+    # two tasks' runs of one agent are two series, by the env's name, in the curves and the headline numbers
+    headline = json.loads((tmp_path / "report/summary.json").read_text())["robothand"]["headline"]
+    assert headline["famarl (RobotHand-Reaching-v0)"]["n"] == headline["ppo (RobotHand-BallPlacing-v0)"]["n"] == 5
+    assert len(headline) == 6
 
 
 def test_traversal_claims_are_over_favae_seeds(tmp_path):

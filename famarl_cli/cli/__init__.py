@@ -89,15 +89,17 @@ class Sweepable:
     """From the command's parsed options to the job."""
     owned: tuple[str, ...]
     """Options the sweep sets itself (the output folder), which the command's options must not give."""
+    refused: dict[str, str]
+    """Options of the command that a sweep does not offer, and why."""
 
 
 SWEEPABLE: dict[str, Sweepable] = {}
 """Commands that ``famarl sweep`` can run many of; each registers itself with :func:`sweepable`."""
 
 
-def sweepable(command: str, owned: tuple[str, ...] = ()):
+def sweepable(command: str, owned: tuple[str, ...] = (), refused: dict[str, str] | None = None):
     def register(make: Callable[[dict], JobRecipe]) -> Callable[[dict], JobRecipe]:
-        SWEEPABLE[command] = Sweepable(make, owned)
+        SWEEPABLE[command] = Sweepable(make, owned, refused or {})
         return make
 
     return register

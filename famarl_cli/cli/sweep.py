@@ -98,6 +98,9 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
     for option in sweepable.owned:
         if _given(option, options):
             raise UsageError(f"{option} is set by the sweep (its --out holds every run); leave it out of the options")
+    for option, why in sweepable.refused.items():
+        if _given(option, options):
+            raise UsageError(f"{option} is not available in a sweep: {why}")
     axes = [Axis("seed", parse_values(seeds)), *(Axis.parse(text) for text in over)]
     jobs = []
     for point in expand(axes):

@@ -92,6 +92,14 @@ def train(
     label: Annotated[
         str | None, typer.Option(help="Name of this kind of run in plots.  [default: agent (favae name)]")
     ] = None,
+    tensorboard: Annotated[
+        Path | None,
+        typer.Option(
+            help="Also write the training log as TensorBoard scalars (CleanRL's names) into this folder; needs the "
+            "tensorboard extra.",
+            file_okay=False,
+        ),
+    ] = None,
 ) -> None:
     """Train an agent with PPO; writes run.json, checkpoint.pt and train.csv into the run folder."""
     options = dict(locals())
@@ -103,6 +111,11 @@ def train(
     out = out or default_run_dir(env, agent, favae, seed)
     # A new run is built (its options and files checked) before the folder is claimed, so bad input writes nothing.
     fresh = None if resume else Run.start(run_spec(options))
+    board = None
+    if tensorboard is not None:
+        from famarl_cli.rl.tensorboard import TensorBoardLog
+
+        board = TensorBoardLog(tensorboard)
     with claim_folder(out):
         if fresh is None:
             run = Run.resume(out, steps)
@@ -113,7 +126,11 @@ def train(
             # Only once the new run has started: a bad option must not cost the user the old run.
             for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE):
                 (out / name).unlink(missing_ok=True)
-        _train(run, out, checkpoint_every)
+        try:
+            _train(run, out, checkpoint_every, board)
+        finally:
+            if board is not None:
+                board.close()
 
 
 def run_spec(options: dict):
@@ -154,7 +171,11 @@ def run_spec(options: dict):
     )
 
 
-@sweepable("train", owned=("--out", "--resume", "--overwrite"))
+@sweepable(
+    "train",
+    owned=("--out", "--resume", "--overwrite"),
+    refused={"--tensorboard": "every run's train.csv is in its folder, and the pipelines draw them as DVC plots"},
+)
 def train_job(params: dict) -> JobRecipe:
     """``famarl sweep train``: each run of the sweep is what ``famarl train`` with the same options would do."""
     spec = run_spec(params)
@@ -166,7 +187,7 @@ def train_job(params: dict) -> JobRecipe:
     )
 
 
-def _train(run, out: Path, checkpoint_every: int) -> None:
+def _train(run, out: Path, checkpoint_every: int, board=None) -> None:
     from famarl_cli.artifacts.runs import CHECKPOINT_FILE, LOG_FILE, RUN_FILE
 
     trainer = run.trainer
@@ -180,6 +201,8 @@ def _train(run, out: Path, checkpoint_every: int) -> None:
                 description=f"{run.spec.label}: return {row['episode_return']:.1f} "
                 f"success {row['episode_success']:.0%}",
             )
+            if board is not None:
+                board(row)
 
         run.train(out, checkpoint_every, show)
 

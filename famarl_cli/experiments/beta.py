@@ -82,4 +82,4 @@ def beta(data: Path, out: Path):
         )
     table = results_table(groups, {"MIG [95% CI]": lambda g: mean_interval(mig[g.label], bounds=RATE).text("{:.3f}")})
     figures = [curves(groups, out / "beta-curves.png", "FaMARL on the Maze, FAVAE fitted at each beta")]
-    return Section("beta of the FAVAE (paper Fig. 6a)", claims, [table], figures)
+    return Section("beta of the FAVAE (paper Fig. 6a)", claims, [table], figures, groups)

@@ -38,4 +38,4 @@ def demos_count(data: Path, out: Path):
         )
     ]
     figures = [curves(groups, out / "demos-count-curves.png", "FaMARL on the Maze, FAVAE from N expert episodes")]
-    return Section("Number of expert trajectories (paper Fig. 6b)", claims, [results_table(groups)], figures)
+    return Section("Number of expert trajectories (paper Fig. 6b)", claims, [results_table(groups)], figures, groups)

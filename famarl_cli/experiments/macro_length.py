@@ -50,4 +50,4 @@ def macro_length(data: Path, out: Path):
     figures = [
         curves(groups, out / "macro-length.png", "FaMARL on Reaching: macro length over training", ("macro_length",))
     ]
-    return Section("Macro length with and without time penalty (paper Fig. 8)", claims, [table], figures)
+    return Section("Macro length with and without time penalty (paper Fig. 8)", claims, [table], figures, groups)

@@ -38,5 +38,9 @@ def maze(data: Path, out: Path):
     if replicates:
         figures.append(copy_figure(replicates[0] / "traverse.png", out / "maze-traversal.png"))
     return Section(
-        "Maze: FaMARL vs PPO vs FiGAR (paper Fig. 4a, 4b)", claims, tables, [f for f in figures if f is not None]
+        "Maze: FaMARL vs PPO vs FiGAR (paper Fig. 4a, 4b)",
+        claims,
+        tables,
+        [f for f in figures if f is not None],
+        present,
     )

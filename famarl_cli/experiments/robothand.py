@@ -60,4 +60,5 @@ def robothand(data: Path, out: Path):
             still = copy_figure(g.runs[0].folder / STILLS_FILE, out / f"{name}.png")
             figures += [still] if still else []
             copy_figure(g.runs[0].folder / FILM_FILE, out / f"{name}.gif")
-    return Section("RobotHand Reaching and BallPlacing (paper Fig. 7)", claims, tables, figures)
+    every = [g for by in tasks.values() for g in by.values()]
+    return Section("RobotHand Reaching and BallPlacing (paper Fig. 7)", claims, tables, figures, every)

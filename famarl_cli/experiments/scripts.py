@@ -33,4 +33,4 @@ def scripts(data: Path, out: Path):
     ]
     ordered = sorted(named.values(), key=lambda g: -g.values("success").mean())
     figures = [curves(ordered, out / "scripts-curves.png", "FaMARL on the Maze with each script's macro actions")]
-    return Section("Macro actions from each script (paper Fig. 4a)", claims, [results_table(ordered)], figures)
+    return Section("Macro actions from each script (paper Fig. 4a)", claims, [results_table(ordered)], figures, ordered)

@@ -7,7 +7,11 @@ FiGAR's repeated actions), all executed through the same open-loop path and budg
 - :mod:`~famarl_cli.rl.policy`: the actor-critic networks and their distributions;
 - :mod:`~famarl_cli.rl.normalization`: running observation and reward statistics;
 - :mod:`~famarl_cli.rl.ppo`: GAE, the clipped update and the training loop;
-- :mod:`~famarl_cli.rl.evaluation`: deterministic rollouts and their metrics.
+- :mod:`~famarl_cli.rl.evaluation`: deterministic rollouts and their metrics;
+- :mod:`~famarl_cli.rl.tensorboard`: the training log as TensorBoard scalars (optional).
+
+:mod:`famarl_cli.wrappers` offers the same action modes, run by the same executor, as gymnasium wrappers for other
+agents.
 """
 
 from enum import StrEnum

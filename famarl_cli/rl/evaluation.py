@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import gymnasium as gym
 import numpy as np
 
 from famarl_cli.envs.batched import ContinuousWorldBatch
@@ -114,23 +115,22 @@ class Film:
 
 def film_episode(agent: TrainedAgent, seed: int) -> Film:
     """Render one deterministic episode of ``agent`` (its first frame is the reset state)."""
-    batch = GymBatch(agent.spec.env_id, 1, seed, render_mode="rgb_array")
+    batch = GymBatch([gym.make(agent.spec.env_id, render_mode="rgb_array")], seed, autoreset=False)
     env = batch.envs[0]
     act = FrozenActor(agent, batch)
-    obs, _ = env.reset(seed=seed)
-    frames, decisions, success, done, decision = [env.render()], [], False, False, 0
-    while not done:
-        actions, length = act(np.ravel(obs)[None])
-        for k in range(int(length[0])):
-            obs, _, terminated, truncated, info = env.step(actions[0, k])
-            frames.append(env.render())
-            decisions.append(decision)
-            done = terminated or truncated
-            success = bool(info.get("success", terminated))
-            if done:
-                break
+    batch.reset()
+    frames, decisions, decision = [env.render()], [], 0
+
+    def film(active: np.ndarray, reached: np.ndarray) -> None:
+        frames.append(env.render())
+        decisions.append(decision)
+
+    while True:
+        actions, length = act(batch.obs)
+        result = run_open_loop(batch, batch.obs, actions, length, on_step=film)
+        if result.terminated[0] or result.truncated[0]:
+            return Film(frames, decisions, bool(result.success[0]), float(env.metadata["render_fps"]))
         decision += 1
-    return Film(frames, decisions, success, float(env.metadata["render_fps"]))
 
 
 SUMMARISED = ("success_rate", "return_mean", "episode_length", "decisions", "macro_length", "train_wall_s")

@@ -42,23 +42,49 @@ class BatchedEnv(Protocol):
 
 
 class GymBatch:
-    """``n_envs`` copies of a gymnasium environment stepped in a loop; only active ones move."""
+    """Gymnasium environments stepped in a loop; only active ones move.
 
-    def __init__(self, env_id: str, n_envs: int, seed: int, **make_kwargs) -> None:
-        self.envs = [gym.make(env_id, **make_kwargs) for _ in range(n_envs)]
-        space = self.envs[0].action_space
-        obs_space = self.envs[0].observation_space
-        if not isinstance(space, gym.spaces.Box) or not isinstance(obs_space, gym.spaces.Box):
-            raise UsageError(f"{env_id}: famarl trains on Box observation and action spaces only")
-        self.n_envs = n_envs
-        self.seed = seed
-        self.observation_size = int(np.prod(obs_space.shape))
+    Observations are flattened with ``gymnasium.spaces.flatten`` (a Dict observation becomes its entries'
+    flattened values, in the space's key order), so any observation space with a flat form trains. The last raw
+    observation of each environment stays in ``raw_obs`` for callers that hand it on unflattened.
+
+    ``autoreset=False`` leaves an ended episode as it is (the caller resets): the single-environment form under
+    :class:`~famarl_cli.wrappers.MacroActionWrapper`.
+    """
+
+    def __init__(self, envs: list[gym.Env], seed: int, autoreset: bool = True) -> None:
+        space, obs_space = envs[0].action_space, envs[0].observation_space
+        name = envs[0].spec.id if envs[0].spec is not None else type(envs[0].unwrapped).__name__
+        if not isinstance(space, gym.spaces.Box):
+            raise UsageError(f"{name}: famarl needs a Box action space, not {space}")
+        try:
+            self.observation_size = int(gym.spaces.flatdim(obs_space))
+        except ValueError as exc:
+            raise UsageError(f"{name}: its observation space {obs_space} has no flat form ({exc})") from exc
+        self.envs, self.n_envs, self.seed, self.autoreset = envs, len(envs), seed, autoreset
+        self.observation_space = obs_space
         self.action_bounds = (space.low.astype(np.float64), space.high.astype(np.float64))
-        self.obs = np.zeros((n_envs, self.observation_size), np.float32)
+        self.obs = np.zeros((self.n_envs, self.observation_size), np.float32)
+        self.raw_obs: list = [None] * self.n_envs
+        self.last_info: list[dict] = [{} for _ in envs]
+
+    @staticmethod
+    def make(env_id: str, n_envs: int, seed: int, **make_kwargs) -> GymBatch:
+        return GymBatch([gym.make(env_id, **make_kwargs) for _ in range(n_envs)], seed)
+
+    def _observe(self, i: int, obs) -> None:
+        self.raw_obs[i] = obs
+        self.obs[i] = gym.spaces.flatten(self.observation_space, obs)
+
+    def reset_one(self, i: int, **reset_kwargs) -> tuple:
+        """Reset environment ``i`` with gymnasium's own arguments; its raw observation and info."""
+        obs, info = self.envs[i].reset(**reset_kwargs)
+        self._observe(i, obs)
+        return obs, info
 
     def reset(self) -> np.ndarray:
-        for i, env in enumerate(self.envs):
-            self.obs[i] = np.ravel(env.reset(seed=self.seed + i)[0])
+        for i in range(self.n_envs):
+            self.reset_one(i, seed=self.seed + i)
         return self.obs.copy()
 
     def step(self, actions: np.ndarray, active: np.ndarray | None = None):
@@ -69,12 +95,13 @@ class GymBatch:
         success = np.zeros(self.n_envs, dtype=bool)
         final_obs = self.obs.copy()
         for i in np.flatnonzero(active):
-            obs, rewards[i], terminated[i], truncated[i], step_info = self.envs[i].step(actions[i])
-            success[i] = step_info.get("success", terminated[i])
+            obs, rewards[i], terminated[i], truncated[i], self.last_info[i] = self.envs[i].step(actions[i])
+            success[i] = self.last_info[i].get("success", terminated[i])
+            self._observe(i, obs)
             if terminated[i] or truncated[i]:
-                final_obs[i] = np.ravel(obs)
-                obs, _ = self.envs[i].reset()
-            self.obs[i] = np.ravel(obs)
+                final_obs[i] = self.obs[i]
+                if self.autoreset:
+                    self.reset_one(i)
         info = {"final_obs": final_obs, "success": success} if (terminated | truncated).any() else {}
         return self.obs.copy(), rewards, terminated, truncated, info
 
@@ -93,7 +120,7 @@ def make_batch(env_id: str, n_envs: int, seed: int) -> BatchedEnv:
     if env_id in CONTINUOUS_WORLD_TASKS:
         return ContinuousWorldBatch(CONTINUOUS_WORLD_TASKS[env_id], n_envs=n_envs, seed=seed)
     try:
-        return GymBatch(env_id, n_envs, seed)
+        return GymBatch.make(env_id, n_envs, seed)
     except gym.error.Error as exc:
         known = ", ".join(sorted(CONTINUOUS_WORLD_TASKS))
         raise UsageError(f"unknown environment {env_id!r} ({exc}); famarl's own: {known}") from exc
