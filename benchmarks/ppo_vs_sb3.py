@@ -46,9 +46,33 @@ def ours(steps: int, seed: int) -> dict:
     return {"env_steps": trainer.env_steps, "seconds": seconds, "curve": curve}
 
 
+def sb3_ppo(env, n_steps: int, minibatch: int, seed: int):
+    """Stable-Baselines3's PPO with our PPO's settings (``famarl train``'s defaults but the rollout's shape)."""
+    from stable_baselines3 import PPO
+
+    return PPO(
+        "MlpPolicy",
+        env,
+        n_steps=n_steps,
+        batch_size=minibatch,
+        n_epochs=EPOCHS,
+        learning_rate=lambda progress: 3e-4 * progress,
+        gamma=0.99,
+        gae_lambda=0.95,
+        clip_range=0.2,
+        clip_range_vf=0.2,
+        ent_coef=0.0,
+        vf_coef=0.5,
+        max_grad_norm=0.5,
+        policy_kwargs={"net_arch": {"pi": [64, 64], "vf": [64, 64]}, "activation_fn": torch.nn.Tanh},
+        seed=seed,
+        device="cpu",
+        verbose=0,
+    )
+
+
 def stable_baselines3(steps: int, seed: int) -> dict:
     import gymnasium as gym
-    from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize
 
@@ -67,25 +91,7 @@ def stable_baselines3(steps: int, seed: int) -> dict:
         def _on_step(self) -> bool:
             return True
 
-    model = PPO(
-        "MlpPolicy",
-        env,
-        n_steps=N_STEPS,
-        batch_size=MINIBATCH,
-        n_epochs=EPOCHS,
-        learning_rate=lambda progress: 3e-4 * progress,
-        gamma=0.99,
-        gae_lambda=0.95,
-        clip_range=0.2,
-        clip_range_vf=0.2,
-        ent_coef=0.0,
-        vf_coef=0.5,
-        max_grad_norm=0.5,
-        policy_kwargs={"net_arch": {"pi": [64, 64], "vf": [64, 64]}, "activation_fn": torch.nn.Tanh},
-        seed=seed,
-        device="cpu",
-        verbose=0,
-    )
+    model = sb3_ppo(env, N_STEPS, MINIBATCH, seed)
     _, seconds = timed(lambda: model.learn(total_timesteps=steps, callback=Curve()))
     return {"env_steps": int(model.num_timesteps), "seconds": seconds, "curve": curve}
 

@@ -27,6 +27,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 from common import RESULTS, write_result
+from ppo_vs_sb3 import sb3_ppo
 
 from famarl_cli.envs import ENV_IDS
 from famarl_cli.results import read_json
@@ -34,12 +35,11 @@ from famarl_cli.statistics import mean_interval
 from famarl_cli.sweep.plan import parse_values
 from famarl_cli.wrappers import MacroActionWrapper
 
-N_ENVS, N_STEPS, MINIBATCH, EPOCHS = 16, 64, 128, 10
+N_ENVS, N_STEPS, MINIBATCH = 16, 64, 128
 EVAL_EPISODES, EVAL_SEED = 100, 100
 
 
 def sb3_run(favae: Path, steps: int, seed: int) -> dict:
-    from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize
 
@@ -66,26 +66,13 @@ def sb3_run(favae: Path, steps: int, seed: int) -> dict:
         def _on_rollout_end(self) -> None:
             self.curve.append((self.env_steps, float(np.mean(self.recent)) if self.recent else float("nan")))
 
+        def _on_training_end(self) -> None:
+            # learning stopped by the budget ends inside a rollout, whose end is not called
+            if not self.curve or self.curve[-1][0] != self.env_steps:
+                self._on_rollout_end()
+
     budget = Budget()
-    model = PPO(
-        "MlpPolicy",
-        env,
-        n_steps=N_STEPS,
-        batch_size=MINIBATCH,
-        n_epochs=EPOCHS,
-        learning_rate=lambda progress: 3e-4 * progress,
-        gamma=0.99,
-        gae_lambda=0.95,
-        clip_range=0.2,
-        clip_range_vf=0.2,
-        ent_coef=0.0,
-        vf_coef=0.5,
-        max_grad_norm=0.5,
-        policy_kwargs={"net_arch": {"pi": [64, 64], "vf": [64, 64]}, "activation_fn": torch.nn.Tanh},
-        seed=seed,
-        device="cpu",
-        verbose=0,
-    )
+    model = sb3_ppo(env, N_STEPS, MINIBATCH, seed)
     start = time.perf_counter()
     # SB3's budget is in decisions; the callback ends learning at the env-step budget long before this one.
     model.learn(total_timesteps=steps, callback=budget)
@@ -144,6 +131,11 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(1)
     seeds = [int(s) for s in parse_values(args.seeds)]
+    missing = [
+        seed for seed in seeds if not (args.data / "maze" / "eval" / f"famarl-seed{seed}" / "eval.json").is_file()
+    ]
+    if missing:
+        parser.error(f"no default-pipeline FaMARL run for seeds {missing} under {args.data}: run `dvc repro` first")
     sb3, mine = [], []
     for seed in seeds:
         sb3.append(sb3_run(args.data / "maze" / "macros" / f"seed{seed}" / "favae.pt", args.steps, seed))
