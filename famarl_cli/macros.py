@@ -49,6 +49,8 @@ class MacrosConfig:
     epochs: int = 1500
     ladders: int = 3
     latent_dim: int = 2
+    head: str = "flatten"
+    capacity: str = "measured"
     values: list[float] = field(default_factory=lambda: [-3.0, -1.0, 1.0, 3.0])
 
     def __post_init__(self) -> None:
@@ -109,6 +111,7 @@ def learn_macros(
             config.latent_dim,
             training,
             None if report is None else (lambda row: report(row["epoch"] + 1)),
+            config.head,
         )
     if not favae.with_suffix(".metrics.json").is_file():
         report = progress("fit", config.epochs)
@@ -121,6 +124,8 @@ def learn_macros(
             config.latent_dim,
             training,
             None if report is None else (lambda _, row: report(row["epoch"] + 1)),
+            config.head,
+            config.capacity,
         )
     if not (folder / TRAVERSAL).with_suffix(".json").is_file():
         stages.traverse(favae, folder / TRAVERSAL, config.values)

@@ -98,7 +98,7 @@ def segment(
     return Segmented(segments, metrics, written)
 
 
-def favae_setup(segments: Path, ladders: int, latent_dim: int):
+def favae_setup(segments: Path, ladders: int, latent_dim: int, head: str = "flatten"):
     """The segments and the FAVAE config they call for (L and D come from the segments file)."""
     from famarl_cli.favae.model import FavaeConfig
 
@@ -109,6 +109,7 @@ def favae_setup(segments: Path, ladders: int, latent_dim: int):
             length=loaded.max_length,
             latent_dims=(latent_dim,) * ladders,
             channels=tuple(min(32 * 2**i, 64) for i in range(ladders)),
+            head=head,
         )
     except ValueError as exc:
         raise UsageError(f"{exc}; re-run famarl segment with a --length divisible by {2**ladders}") from exc
@@ -116,7 +117,13 @@ def favae_setup(segments: Path, ladders: int, latent_dim: int):
 
 
 def calibrate(
-    segments: Path, out: Path, ladders: int, latent_dim: int, params, on_epoch: Callable[[dict], None] | None = None
+    segments: Path,
+    out: Path,
+    ladders: int,
+    latent_dim: int,
+    params,
+    on_epoch: Callable[[dict], None] | None = None,
+    head: str = "flatten",
 ) -> tuple[list[float], list[dict]]:
     """The C_last pre-run on ``segments``, written to ``out`` (JSON); returns C_last and the pre-run's log.
     ``params`` is a TrainingParams."""
@@ -124,7 +131,7 @@ def calibrate(
     from famarl_cli.favae.training import calibrate as run_calibration
 
     out = prepare_output(out)
-    loaded, config = favae_setup(segments, ladders, latent_dim)
+    loaded, config = favae_setup(segments, ladders, latent_dim, head)
     c_last, log = run_calibration(loaded.padded, config, params, on_epoch)
     options = {**asdict(params), "config": config.to_dict()}
     write_calibration(out, c_last, config, provenance("famarl favae calibrate", options, params.seed, [segments]))
@@ -148,15 +155,18 @@ def fit(
     latent_dim: int,
     params,
     on_epoch: Callable[[str, dict], None] | None = None,
+    head: str = "flatten",
+    capacity: str = "measured",
 ) -> Fitted:
     """Fit FAVAE on ``segments`` (after the C_last pre-run, written beside ``out``, unless ``calibration`` is
     given) and score it; writes the checkpoint ``out``, ``.log.csv`` and ``.metrics.json``. ``on_epoch`` gets the
-    phase ("calibrate" or "fit") and the epoch's log row."""
+    phase ("calibrate" or "fit") and the epoch's log row. ``capacity`` says how the pre-run's C_last becomes the
+    capacities the fit anneals to (:func:`famarl_cli.favae.training.allocate_capacity`)."""
     from famarl_cli.favae.checkpoint import read_calibration, save_favae
-    from famarl_cli.favae.training import evaluate_fit, train_favae, training_summary
+    from famarl_cli.favae.training import allocate_capacity, evaluate_fit, train_favae, training_summary
 
     out = prepare_output(out)
-    loaded, config = favae_setup(segments, ladders, latent_dim)
+    loaded, config = favae_setup(segments, ladders, latent_dim, head)
     inputs, log = [segments], []
 
     def phase(name: str):
@@ -167,19 +177,24 @@ def fit(
         inputs.append(calibration)
     else:
         c_last, calibration_log = calibrate(
-            segments, out.with_suffix(".calibration.json"), ladders, latent_dim, params, phase("calibrate")
+            segments, out.with_suffix(".calibration.json"), ladders, latent_dim, params, phase("calibrate"), head
         )
         log += [{"phase": "calibrate", **row} for row in calibration_log]
-    model, fit_log = train_favae(loaded.padded, config, beta, c_last, params, phase("fit"))
+    capacities = allocate_capacity(c_last, capacity)
+    model, fit_log = train_favae(loaded.padded, config, beta, capacities, params, phase("fit"))
     log += [{"phase": "fit", **row} for row in fit_log]
     scores = evaluate_fit(model, loaded.padded, loaded.length, loaded.factors)
-    training = training_summary(params, beta, c_last)
+    training = {**training_summary(params, beta, c_last), "capacity": capacity, "capacities": capacities}
     options = {**training, "ladders": ladders, "latent_dim": latent_dim}
-    save_favae(out, model, training, provenance("famarl favae fit", options, params.seed, inputs))
+    # the information each latent carries travels with the model: famarl traverse names an empty ladder by it
+    summary = {**training, "kl_per_dim": scores["kl_per_dim"]}
+    save_favae(out, model, summary, provenance("famarl favae fit", options, params.seed, inputs))
     metrics = {
         **scores,
         "beta": beta,
         "c_last": c_last,
+        "capacity": capacity,
+        "capacities": capacities,
         "final_kl_per_ladder": [fit_log[-1][f"kl_{i + 1}"] for i in range(config.ladders)],
         "segments": len(loaded.length),
         "factor_names": list(loaded.factor_names),
@@ -190,9 +205,17 @@ def fit(
     return Fitted(metrics, c_last, [out, out.with_suffix(".log.csv"), out.with_suffix(".metrics.json")])
 
 
-def traverse(model: Path, out: Path, values: list[float], ladder: int | None = None, index: int | None = None):
-    """Traverse the FAVAE in ``model``; writes ``out`` (HDF5), ``.png`` and ``.json`` (effect per variable, m).
-    Returns the Traversal."""
+def traverse(
+    model: Path,
+    out: Path,
+    values: list[float],
+    ladder: int | None = None,
+    index: int | None = None,
+    draw: str = "run",
+):
+    """Traverse the FAVAE in ``model``; writes ``out`` (HDF5), ``.png`` and ``.json`` (effect per variable, m, and
+    the information each carries, nats, where the checkpoint records it). Returns the Traversal and that
+    information per traversed variable (None for checkpoints that do not record it)."""
     from famarl_cli.artifacts.traversal import write_traversal
     from famarl_cli.favae.checkpoint import load_favae
     from famarl_cli.plots import plot_traversal
@@ -200,14 +223,19 @@ def traverse(model: Path, out: Path, values: list[float], ladder: int | None = N
     from famarl_cli.traversal import variables_of
 
     out = prepare_output(out)
-    favae, _ = load_favae(model)
-    result = run_traversal(favae, variables_of(favae, ladder, index), values)
-    options = {"ladder": ladder, "index": index, "values": values}
+    favae, payload = load_favae(model)
+    result = run_traversal(favae, variables_of(favae, ladder, index), values, draw)
+    kl = payload.get("training", {}).get("kl_per_dim")
+    offsets = np.concatenate([[0], np.cumsum(favae.config.latent_dims)])
+    information = None if kl is None else [float(kl[offsets[lad - 1] + i - 1]) for lad, i in result.variables.tolist()]
+    options = {"ladder": ladder, "index": index, "values": values, "draw": draw}
     write_traversal(out, result, provenance("famarl traverse", options, None, [model]))
     plot_traversal(result, out.with_suffix(".png"), f"{model.name}: latent traversal over {format_values(values)}")
     effects = {f"({lad},{i})": float(e) for (lad, i), e in zip(result.variables.tolist(), result.effects, strict=True)}
-    write_json(out.with_suffix(".json"), {"effects_m": effects, "values": values})
-    return result
+    names = [f"({lad},{i})" for lad, i in result.variables.tolist()]
+    kl_json = None if information is None else dict(zip(names, information, strict=True))
+    write_json(out.with_suffix(".json"), {"effects_m": effects, "kl_nats": kl_json, "values": values})
+    return result, information
 
 
 def format_values(values: list[float]) -> str:

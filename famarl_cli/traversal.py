@@ -23,6 +23,9 @@ from famarl_cli.envs import continuous_world, robot_hand
 from famarl_cli.errors import UsageError
 from famarl_cli.favae.model import Favae
 
+EMPTY_LADDER_NATS = 0.1
+"""A ladder whose variables together carry less information than this (their posteriors' KL from the prior,
+averaged over the training segments) is empty: an active latent carries several nats."""
 TRAVERSAL_MAP_SIZE = 10.0
 """Side (m) of the empty map traversals run in: twice Base's largest map."""
 
@@ -56,7 +59,14 @@ def variables_of(model: Favae, ladder: int | None, index: int | None) -> list[tu
     return [(lad, i) for lad in ladders for i in ([index] if index else range(1, dims[lad - 1] + 1))]
 
 
-def traverse(model: Favae, variables: list[tuple[int, int]], values: list[float]) -> Traversal:
+DRAWS = ("run", "values")
+"""How a decoded sequence becomes a path: ``run`` it as actions in the environment that takes their size, or draw
+its first two dimensions as positions (``values``: sequences that are themselves paths, like 2D Reaching's)."""
+
+
+def traverse(model: Favae, variables: list[tuple[int, int]], values: list[float], draw: str = "run") -> Traversal:
+    if draw not in DRAWS:
+        raise UsageError(f"draw must be one of {DRAWS}, got {draw!r}")
     if len(values) < 2:
         raise UsageError(f"give at least two values to traverse, got {values}")
     offsets = np.concatenate([[0], np.cumsum(model.config.latent_dims)])
@@ -65,7 +75,7 @@ def traverse(model: Favae, variables: list[tuple[int, int]], values: list[float]
         z[v, :, offsets[ladder - 1] + index - 1] = values
     flat = z.reshape(-1, z.shape[-1])
     actions, lengths = model.decode_macro_actions(flat)
-    paths = run_macro_actions(actions, lengths)
+    paths = run_macro_actions(actions, lengths) if draw == "run" else sequence_paths(actions, lengths)
     shape = (len(variables), len(values))
     paths = paths.reshape(*shape, *paths.shape[1:])
     gaps = np.linalg.norm(paths[:, 1:] - paths[:, :-1], axis=-1)  # (V, K - 1, L + 1)
@@ -77,6 +87,18 @@ def traverse(model: Favae, variables: list[tuple[int, int]], values: list[float]
         paths=paths,
         effects=gaps.mean(axis=(1, 2)),
     )
+
+
+def sequence_paths(sequences: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """(n, L + 1, 2) paths whose points are the sequences' first two dimensions, the first repeated at the start
+    (where a run's path has its starting point) and the last held past each length."""
+    if sequences.shape[-1] < 2:
+        raise UsageError("drawing sequences as paths needs at least two dimensions")
+    points = sequences[..., :2]
+    steps = np.arange(points.shape[1])
+    held = np.minimum(steps[None, :], (lengths - 1)[:, None])
+    points = np.take_along_axis(points, held[..., None], axis=1)
+    return np.concatenate([points[:, :1], points], axis=1)
 
 
 def run_macro_actions(actions: np.ndarray, lengths: np.ndarray) -> np.ndarray:

@@ -358,3 +358,27 @@ def test_tensorboard_without_its_extra_is_a_one_line_error_that_writes_nothing(t
     )
     one_line_error(result, 2, "pip install 'famarl[tensorboard]'")
     assert not (tmp_path / "run").exists() and not (tmp_path / "tb").exists()
+
+
+def test_favae_fit_gives_the_pre_runs_capacity_to_the_deepest_ladder_or_pools_its_heads(segments_file, tmp_path):
+    from famarl_cli.favae.checkpoint import load_favae
+
+    deepest = tmp_path / "deepest.pt"
+    result = famarl(
+        "favae", "fit", "--segments", segments_file, "--epochs", 2, "--capacity", "deepest", "--out", deepest
+    )
+    assert result.exit_code == 0, result.output
+    metrics = json.loads(deepest.with_suffix(".metrics.json").read_text())
+    assert metrics["capacity"] == "deepest"
+    assert metrics["capacities"] == pytest.approx([0.0, 0.0, sum(metrics["c_last"])])
+    assert len(load_favae(deepest)[1]["training"]["kl_per_dim"]) == 6
+    pooled = tmp_path / "pooled.pt"
+    result = famarl("favae", "fit", "--segments", segments_file, "--epochs", 2, "--head", "pool", "--out", pooled)
+    assert result.exit_code == 0, result.output
+    assert load_favae(pooled)[0].config.head == "pool"
+    # a pre-run is a measurement of one design: another head's calibration is refused
+    refused = famarl(
+        "favae", "fit", "--segments", segments_file, "--epochs", 2, "--calibration",
+        deepest.with_suffix(".calibration.json"), "--head", "pool", "--out", tmp_path / "x.pt",
+    )  # fmt: skip
+    one_line_error(refused, 1, "was calibrated for another model")

@@ -129,6 +129,7 @@ from famarl_cli.cli import (  # noqa: E402, F401
     macros,
     report,
     segment,
+    sequences,
     sweep,
     train,
     traverse,

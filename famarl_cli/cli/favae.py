@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
@@ -22,6 +23,36 @@ LaddersOption = Annotated[int, typer.Option(min=1, help="Number of ladders (late
 LatentDimOption = Annotated[int, typer.Option(min=1, help="Latent variables per ladder.")]
 EpochsOption = Annotated[int, typer.Option(min=1, help="Training epochs (of each phase).")]
 SeedOption = Annotated[int, typer.Option(help="Seed of the initialisation, batches and sampling.")]
+
+
+class Head(StrEnum):
+    """FavaeConfig.head's choices, here so that the CLI starts without torch."""
+
+    FLATTEN = "flatten"
+    POOL = "pool"
+
+
+class Capacity(StrEnum):
+    """allocate_capacity's choices."""
+
+    MEASURED = "measured"
+    DEEPEST = "deepest"
+    HALF = "half"
+
+
+HeadOption = Annotated[
+    Head,
+    typer.Option(
+        help="What each ladder's head reads: flatten (its whole feature map) or pool (the map's mean over time)."
+    ),
+]
+CapacityOption = Annotated[
+    Capacity,
+    typer.Option(
+        help="The fit's capacity per ladder: measured (the pre-run's C_last), deepest (their sum, all in the deepest "
+        "ladder) or half (half of each shallower ladder's moved to the deepest); docs/favae.md."
+    ),
+]
 DEFAULT_SEGMENTS = Path("data/segments/pushed-down-only.h5")
 
 
@@ -46,6 +77,7 @@ def favae_calibrate(
     latent_dim: LatentDimOption = 2,
     epochs: EpochsOption = 1500,
     seed: SeedOption = 0,
+    head: HeadOption = Head.FLATTEN,
 ) -> None:
     """The C_last pre-run: fit with beta = 0.1 and C = 0; each ladder's final KL becomes its C_last."""
     from famarl_cli import stages
@@ -62,6 +94,7 @@ def favae_calibrate(
             latent_dim,
             TrainingParams(epochs=epochs, seed=seed),
             _epoch_reporter(progress, task, "C_last pre-run"),
+            str(head),
         )
     Console().print(f"C_last per ladder: {', '.join(f'{c:.3f}' for c in c_last)}  -> {out}")
 
@@ -83,6 +116,8 @@ def favae_fit(
     latent_dim: LatentDimOption = 2,
     epochs: EpochsOption = 1500,
     seed: SeedOption = 0,
+    head: HeadOption = Head.FLATTEN,
+    capacity: CapacityOption = Capacity.MEASURED,
 ) -> None:
     """Fit FAVAE on segments (after the C_last pre-run unless --calibration is given) and score it."""
     from famarl_cli import stages
@@ -105,15 +140,22 @@ def favae_fit(
             latent_dim,
             TrainingParams(epochs=epochs, seed=seed),
             lambda phase, row: reporters[phase](row),
+            str(head),
+            str(capacity),
         )
     scores, c_last = fitted.scores, fitted.c_last
     table = Table(title=f"FAVAE on {segments} (beta {beta:g})", show_header=False)
     table.add_row("C_last per ladder", ", ".join(f"{c:.3f}" for c in c_last))
+    if capacity != "measured":
+        table.add_row(f"capacities ({capacity})", ", ".join(f"{c:.3f}" for c in scores["capacities"]))
     table.add_row("KL per ladder", ", ".join(f"{k:.3f}" for k in scores["kl_per_ladder"]))
     table.add_row("reconstruction MSE", f"{scores['reconstruction_mse']:.5f} per real action value")
     table.add_row(
         "length", f"{scores['length_accuracy']:.1%} exact, mean error {scores['length_mean_abs_error']:.2f} steps"
     )
-    table.add_row("MIG", f"{scores['mig']:.3f} ({scores['mig_bins']} bins)")
+    low, high = scores["mig_interval"]
+    table.add_row(
+        "MIG", f"{scores['mig']:.3f} [{low:.3f}, {high:.3f}] (95% bootstrap over segments; {scores['mig_bins']} bins)"
+    )
     table.add_row("written", ", ".join(map(str, fitted.written)))
     Console().print(table)

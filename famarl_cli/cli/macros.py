@@ -10,6 +10,7 @@ from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.cli import JobRecipe, app, progress_bar, reports_errors, sweepable, torch_on_one_thread
+from famarl_cli.cli.favae import Capacity, Head
 
 
 @app.command()
@@ -38,6 +39,10 @@ def macros(
     epochs: Annotated[int, typer.Option(min=1, help="Epochs of the pre-run and of the fit.")] = 1500,
     ladders: Annotated[int, typer.Option(min=1, help="FAVAE ladders.")] = 3,
     latent_dim: Annotated[int, typer.Option(min=1, help="Latent variables per ladder.")] = 2,
+    head: Annotated[Head, typer.Option(help="FAVAE heads (famarl favae fit --head).")] = Head.FLATTEN,
+    capacity: Annotated[
+        Capacity, typer.Option(help="FAVAE capacities (famarl favae fit --capacity).")
+    ] = Capacity.MEASURED,
     values: Annotated[str, typer.Option(help="Traversal values; write --values=-3,-1,1,3.")] = "-3,-1,1,3",
 ) -> None:
     """Everything the method learns before RL, for one seed, into one folder: segments, C_last, FAVAE, traversal.
@@ -88,6 +93,8 @@ def _config(params: dict):
         epochs=params["epochs"],
         ladders=params["ladders"],
         latent_dim=params["latent_dim"],
+        head=str(params["head"]),
+        capacity=str(params["capacity"]),
         values=parse_values(params["values"]),
     )
 

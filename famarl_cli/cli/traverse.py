@@ -27,20 +27,43 @@ def traverse(
         Path | None,
         typer.Option(help="Traversal HDF5.  [default: data/traverse/<model name>[-ladder<L>[-index<I>]].h5]"),
     ] = None,
+    draw: Annotated[
+        str,
+        typer.Option(
+            help="run: run the decoded macro actions in the environment that takes their size; values: draw the "
+            "decoded sequences' first two dimensions as positions (sequences that are paths, e.g. 2D Reaching)."
+        ),
+    ] = "run",
 ) -> None:
     """Decode sweeps of single latent variables and draw the paths their macro actions take (paper Fig. 5)."""
     from famarl_cli import stages
-    from famarl_cli.traversal import parse_values
+    from famarl_cli.traversal import EMPTY_LADDER_NATS, parse_values
 
     torch_on_one_thread()
     name = model.stem + (f"-ladder{ladder}" if ladder else "") + (f"-index{index}" if index else "")
     out = out or Path("data/traverse") / f"{name}.h5"
-    result = stages.traverse(model, out, parse_values(values), ladder, index)
+    result, information = stages.traverse(model, out, parse_values(values), ladder, index, draw)
     table = Table(title=f"traversal of {model}", show_header=True)
     table.add_column("(ladder, index)")
     table.add_column("effect (m)", justify="right")
+    table.add_column("information (nats)", justify="right")
     table.add_column("decoded lengths")
-    for (lad, i), effect, lengths in zip(result.variables.tolist(), result.effects, result.lengths, strict=True):
-        table.add_row(f"({lad},{i})", f"{effect:.3f}", " ".join(map(str, lengths)))
+    kl = information or [None] * len(result.effects)
+    for (lad, i), effect, nats, lengths in zip(
+        result.variables.tolist(), result.effects, kl, result.lengths, strict=True
+    ):
+        table.add_row(
+            f"({lad},{i})", f"{effect:.3f}", "?" if nats is None else f"{nats:.3f}", " ".join(map(str, lengths))
+        )
     Console().print(table)
+    if information is not None:
+        by_ladder: dict[int, float] = {}
+        for (lad, _), nats in zip(result.variables.tolist(), information, strict=True):
+            by_ladder[lad] = by_ladder.get(lad, 0.0) + nats
+        for lad, nats in by_ladder.items():
+            if nats < EMPTY_LADDER_NATS:
+                Console().print(
+                    f"ladder {lad} is empty: its variables carry {nats:.3f} nats of the training data (under "
+                    f"{EMPTY_LADDER_NATS:g}), so traversing them changes almost nothing"
+                )
     Console().print(f"written {out}, {out.with_suffix('.png')}, {out.with_suffix('.json')}")

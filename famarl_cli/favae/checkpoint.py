@@ -65,8 +65,12 @@ def read_calibration(path: str | os.PathLike, config: FavaeConfig) -> list[float
         path,
         f"c_last must hold {config.ladders} numbers (one per ladder), got {c_last!r}",
     )
+    try:
+        calibrated = FavaeConfig.from_dict(data.get("config") or {})
+    except (TypeError, ValueError):
+        calibrated = None
     check(
-        data.get("config") == config.to_dict(),
+        calibrated == config,
         path,
         f"was calibrated for another model ({data.get('config')}), not {config.to_dict()}",
     )

@@ -16,8 +16,13 @@ Input ``x``: (B, D + 2, L), the actions of a macro action zero-padded to L steps
                         t1 = MLP([t2, z1]) ─► reshape (c3, L/8) ─► 3 x transposed conv s2 ─► (D+2, L)
     output: D action channels (linear) and 2 on/off logits per step
 
-Deeper ladders read deeper convolution features, so they see longer stretches of the sequence and tend to take
-the factors that shape the whole macro action (direction, distance), leaving local detail to shallow ladders.
+What each ladder sees: a feature at depth 1, 2, 3 sees 3, 7, 15 steps of the input (kernel 3, stride 2). With
+``head="flatten"`` (the default) every head reads its whole feature map, so every ladder sees the whole macro
+action, placed in time; the shallowest, with the finest map and the largest head, is the easiest place to put
+information, and on our demos it takes it (docs/favae.md: the deepest ladder stays empty). With ``head="pool"`` a
+head reads its features' mean over time: a ladder then sees only stretches as long as its receptive field,
+averaged, and loses where in the sequence things happen. In the decoder z3 passes through all three top-down
+MLPs and z1 through one; every latent reaches the output through the same transposed convolutions.
 """
 
 from __future__ import annotations
@@ -29,6 +34,8 @@ import torch
 from torch import nn
 
 from famarl_cli.macro_actions import cut_lengths
+
+HEADS = ("flatten", "pool")
 
 
 @dataclass(frozen=True)
@@ -42,8 +49,14 @@ class FavaeConfig:
     channels: tuple[int, ...] = (32, 64, 64)
     """Convolution channels at each depth (one per ladder)."""
     hidden: int = 64
+    head: str = "flatten"
+    """What each ladder's head reads of its convolution features: ``flatten``, the whole map (every ladder sees
+    the whole sequence, placed in time), or ``pool``, their mean over time (a ladder sees only what its
+    receptive field sees, averaged: local detail for shallow ladders, longer stretches for deep ones)."""
 
     def __post_init__(self) -> None:
+        if self.head not in HEADS:
+            raise ValueError(f"head must be one of {HEADS}, got {self.head!r}")
         if len(self.latent_dims) != len(self.channels):
             raise ValueError(f"{len(self.latent_dims)} ladders need as many channel sizes, got {self.channels}")
         if self.length % 2 ** len(self.channels):
@@ -93,8 +106,9 @@ class Favae(nn.Module):
             for a, b in zip(widths[:-1], widths[1:], strict=True)
         )
         steps = [config.length // 2 ** (depth + 1) for depth in range(config.ladders)]
+        pooled = config.head == "pool"
         self.heads = nn.ModuleList(
-            _mlp(c * s, config.hidden, 2 * z)
+            _mlp(c if pooled else c * s, config.hidden, 2 * z)
             for c, s, z in zip(config.channels, steps, config.latent_dims, strict=True)
         )
         # Top-down: the deepest ladder starts alone; each shallower one joins the path by concatenation.
@@ -115,7 +129,8 @@ class Favae(nn.Module):
         h = x
         for conv, head in zip(self.convs, self.heads, strict=True):
             h = conv(h)
-            mu, logvar = head(h.flatten(1)).chunk(2, dim=1)
+            features = h.mean(dim=2) if self.config.head == "pool" else h.flatten(1)
+            mu, logvar = head(features).chunk(2, dim=1)
             mus.append(mu)
             logvars.append(logvar.clamp(-10.0, 10.0))
         return mus, logvars

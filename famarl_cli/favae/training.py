@@ -12,10 +12,31 @@ from famarl_cli.errors import UsageError
 from famarl_cli.favae.loss import capacity, favae_loss, kl_per_dim
 from famarl_cli.favae.model import Favae, FavaeConfig, to_input
 from famarl_cli.macro_actions import cut_lengths
-from famarl_cli.metrics import mig
+from famarl_cli.metrics import mig_interval
 
 CALIBRATION_BETA = 0.1
 """The paper's beta for the pre-run that measures C_last (with C = 0)."""
+
+
+CAPACITY_ALLOCATIONS = ("measured", "deepest", "half")
+
+
+def allocate_capacity(c_last: list[float], allocation: str) -> list[float]:
+    """The capacities C_last,l the fit anneals to, from the pre-run's measured ones.
+
+    ``measured``: each ladder keeps the KL the pre-run gave it (the paper's recipe). ``deepest``: the pre-run's total
+    goes to the deepest ladder and the others get 0, so the information the data needs is pushed into the ladder
+    meant for the factors that shape the whole sequence (the FAVAE authors' tuned capacities for 2D Reaching are
+    of this form: 0, 0, 0.99). ``half``: half of each shallower ladder's capacity moves to the deepest.
+    """
+    if allocation == "measured":
+        return list(c_last)
+    if allocation == "deepest":
+        return [0.0] * (len(c_last) - 1) + [float(sum(c_last))]
+    if allocation == "half":
+        moved = [c / 2 for c in c_last[:-1]]
+        return moved + [float(c_last[-1] + sum(moved))]
+    raise UsageError(f"capacity allocation must be one of {CAPACITY_ALLOCATIONS}, got {allocation!r}")
 
 
 @dataclass(frozen=True)
@@ -90,7 +111,8 @@ def evaluate_fit(model: Favae, padded: np.ndarray, lengths: np.ndarray, factors:
     - reconstruction: mean squared error per real action step and dimension;
     - length: how often the decoded macro action is cut at the true length, and the mean absolute error;
     - KL per latent dimension (which latents carry information) and per ladder;
-    - MIG of the posterior means against the experts' per-segment factors.
+    - MIG of the posterior means against the experts' per-segment factors, with bootstrap intervals over the
+      segments (:func:`famarl_cli.metrics.mig_interval`).
     """
     output = model(to_input(padded), sample=False)
     decoded = output.reconstruction.numpy().transpose(0, 2, 1)
@@ -101,7 +123,7 @@ def evaluate_fit(model: Favae, padded: np.ndarray, lengths: np.ndarray, factors:
     logvar = torch.cat(output.logvars, dim=1)
     kl_dims = kl_per_dim(mu, logvar).mean(dim=0).numpy()
     splits = np.cumsum(model.config.latent_dims)[:-1]
-    score = mig(mu.numpy(), factors)
+    score = mig_interval(mu.numpy(), factors)
     return {
         "reconstruction_mse": float((squared * on).sum() / (on.sum() * (padded.shape[2] - 2))),
         "length_accuracy": float(np.mean(decoded_lengths == lengths)),
@@ -109,8 +131,11 @@ def evaluate_fit(model: Favae, padded: np.ndarray, lengths: np.ndarray, factors:
         "kl_per_dim": [float(k) for k in kl_dims],
         "kl_per_ladder": [float(k.sum()) for k in np.split(kl_dims, splits)],
         "mig": score["mig"],
+        "mig_interval": score["interval"],
         "mig_per_factor": score["per_factor"],
+        "mig_per_factor_interval": score["per_factor_interval"],
         "mig_bins": score["bins"],
+        "mig_segments_for_half_width": score["samples_for_half_width"],
     }
 
 
