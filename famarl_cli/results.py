@@ -181,10 +181,12 @@ CURVES = {"success": "episode_success", "return": "episode_return", "macro_lengt
 """The training-log columns of a curves file (last 100 episodes' success and return; the macro length chosen)."""
 
 
-def series_name(g: Group, groups: list[Group]) -> str:
-    """A group's name in curves and headline numbers: its label, with its env where ``groups`` span several."""
-    envs = {run.evaluation["env"] for other in groups for run in other.runs}
-    return g.label if len(envs) < 2 else f"{g.label} ({g.runs[0].evaluation['env'].split('/')[-1]})"
+def series_names(groups: list[Group]) -> list[str]:
+    """Each group's name in curves and headline numbers: its label, with its env where ``groups`` span several."""
+    envs = {run.evaluation["env"] for g in groups for run in g.runs}
+    if len(envs) < 2:
+        return [g.label for g in groups]
+    return [f"{g.label} ({g.runs[0].evaluation['env'].split('/')[-1]})" for g in groups]
 
 
 def write_curves(groups: list[Group], path: Path) -> None:
@@ -193,20 +195,20 @@ def write_curves(groups: list[Group], path: Path) -> None:
     with atomic_path(path) as temp, temp.open("w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(["series", "run", "seed", "env_steps", *CURVES])
-        for g in groups:
+        for series, g in zip(series_names(groups), groups, strict=True):
             for run in g.runs:
                 name, seed = Path(run.evaluation["run"]).name, run.evaluation["seed"]
                 columns = [run.log["env_steps"].astype(int)] + [run.log[key] for key in CURVES.values()]
                 for row in zip(*columns, strict=True):
-                    writer.writerow([series_name(g, groups), name, seed, row[0], *(f"{v:.4g}" for v in row[1:])])
+                    writer.writerow([series, name, seed, row[0], *(f"{v:.4g}" for v in row[1:])])
 
 
 def headline(groups: list[Group]) -> dict[str, dict[str, float]]:
     """Per series, the numbers ``dvc exp show`` lists: n, success (sampled) with its 95% interval, AUC, return."""
     numbers = {}
-    for g in groups:
+    for series, g in zip(series_names(groups), groups, strict=True):
         success = mean_interval(g.values("success"), g.episodes)
-        numbers[series_name(g, groups)] = {
+        numbers[series] = {
             "n": len(g.runs),
             "success": round(success.estimate, 3),
             "success_low": round(success.low, 3),

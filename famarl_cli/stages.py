@@ -225,14 +225,14 @@ def traverse(
     out = prepare_output(out)
     favae, payload = load_favae(model)
     result = run_traversal(favae, variables_of(favae, ladder, index), values, draw)
+    variables = result.variables.tolist()
     kl = payload.get("training", {}).get("kl_per_dim")
-    offsets = np.concatenate([[0], np.cumsum(favae.config.latent_dims)])
-    information = None if kl is None else [float(kl[offsets[lad - 1] + i - 1]) for lad, i in result.variables.tolist()]
+    information = None if kl is None else [float(kl[favae.config.latent_index(*v)]) for v in variables]
     options = {"ladder": ladder, "index": index, "values": values, "draw": draw}
     write_traversal(out, result, provenance("famarl traverse", options, None, [model]))
     plot_traversal(result, out.with_suffix(".png"), f"{model.name}: latent traversal over {format_values(values)}")
-    effects = {f"({lad},{i})": float(e) for (lad, i), e in zip(result.variables.tolist(), result.effects, strict=True)}
-    names = [f"({lad},{i})" for lad, i in result.variables.tolist()]
+    names = [f"({lad},{i})" for lad, i in variables]
+    effects = dict(zip(names, map(float, result.effects), strict=True))
     kl_json = None if information is None else dict(zip(names, information, strict=True))
     write_json(out.with_suffix(".json"), {"effects_m": effects, "kl_nats": kl_json, "values": values})
     return result, information

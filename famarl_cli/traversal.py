@@ -69,10 +69,9 @@ def traverse(model: Favae, variables: list[tuple[int, int]], values: list[float]
         raise UsageError(f"draw must be one of {DRAWS}, got {draw!r}")
     if len(values) < 2:
         raise UsageError(f"give at least two values to traverse, got {values}")
-    offsets = np.concatenate([[0], np.cumsum(model.config.latent_dims)])
     z = np.zeros((len(variables), len(values), model.config.latent_size), dtype=np.float32)
     for v, (ladder, index) in enumerate(variables):
-        z[v, :, offsets[ladder - 1] + index - 1] = values
+        z[v, :, model.config.latent_index(ladder, index)] = values
     flat = z.reshape(-1, z.shape[-1])
     actions, lengths = model.decode_macro_actions(flat)
     paths = run_macro_actions(actions, lengths) if draw == "run" else sequence_paths(actions, lengths)
@@ -87,6 +86,15 @@ def traverse(model: Favae, variables: list[tuple[int, int]], values: list[float]
         paths=paths,
         effects=gaps.mean(axis=(1, 2)),
     )
+
+
+def empty_ladders(variables: list[tuple[int, int]], information: list[float]) -> dict[int, float]:
+    """The ladders among ``variables`` whose traversed variables together carry under :data:`EMPTY_LADDER_NATS`,
+    with the nats they carry (``information`` is each variable's, in the order of ``variables``)."""
+    by_ladder: dict[int, float] = {}
+    for (ladder, _), nats in zip(variables, information, strict=True):
+        by_ladder[ladder] = by_ladder.get(ladder, 0.0) + nats
+    return {ladder: nats for ladder, nats in by_ladder.items() if nats < EMPTY_LADDER_NATS}
 
 
 def sequence_paths(sequences: np.ndarray, lengths: np.ndarray) -> np.ndarray:

@@ -22,6 +22,7 @@ Observations are the wrapped environment's own, unchanged.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from typing import Literal
 
 import gymnasium
@@ -36,17 +37,24 @@ Reward = Literal["discounted", "sum"]
 
 
 class OpenLoopWrapper(gymnasium.Wrapper):
-    """A decision is an open-loop action sequence made by ``mode`` from the agent's action; subclasses say how
-    their action space maps to the mode's input ``(u, repeat index)``."""
+    """A decision is an open-loop action sequence made by an action mode from the agent's action; ``make_mode``
+    builds that mode from the environment's action bounds, and subclasses say how their action space maps to the
+    mode's input ``(u, repeat index)``."""
 
-    def __init__(self, env: gymnasium.Env, mode, reward: Reward = "discounted", gamma: float = 0.99) -> None:
+    def __init__(
+        self,
+        env: gymnasium.Env,
+        make_mode: Callable[[np.ndarray, np.ndarray], object],
+        reward: Reward = "discounted",
+        gamma: float = 0.99,
+    ) -> None:
         super().__init__(env)
         if reward not in ("discounted", "sum"):
             raise ValueError(f"reward must be 'discounted' or 'sum', got {reward!r}")
         if not 0.0 < gamma <= 1.0:
             raise ValueError(f"gamma must be in (0, 1], got {gamma}")
         self._batch = GymBatch([env], seed=0, autoreset=False)
-        self._mode = mode
+        self._mode = make_mode(*self._batch.action_bounds)
         self.reward_kind, self.gamma = reward, gamma
 
     def _mode_input(self, action) -> tuple[np.ndarray, np.ndarray]:
@@ -92,8 +100,7 @@ class MacroActionWrapper(OpenLoopWrapper, gymnasium.utils.RecordConstructorArgs)
             self, favae_path=str(favae_path), reward=reward, gamma=gamma, bound=bound
         )
         favae = load_favae(favae_path)[0]
-        low, high = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
-        super().__init__(env, LatentMacroActions(favae, low, high, bound), reward, gamma)
+        super().__init__(env, lambda low, high: LatentMacroActions(favae, low, high, bound), reward, gamma)
         self.favae = favae
         self.action_space = gymnasium.spaces.Box(-bound, bound, (favae.config.latent_size,), np.float32)
 
@@ -111,8 +118,7 @@ class RepeatedActionWrapper(OpenLoopWrapper, gymnasium.utils.RecordConstructorAr
         self, env: gymnasium.Env, max_repeat: int = 32, reward: Reward = "discounted", gamma: float = 0.99
     ) -> None:
         gymnasium.utils.RecordConstructorArgs.__init__(self, max_repeat=max_repeat, reward=reward, gamma=gamma)
-        low, high = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
-        super().__init__(env, RepeatedActions(low, high, max_repeat), reward, gamma)
+        super().__init__(env, lambda low, high: RepeatedActions(low, high, max_repeat), reward, gamma)
         self.action_space = gymnasium.spaces.Tuple((env.action_space, gymnasium.spaces.Discrete(max_repeat)))
 
     def _mode_input(self, action) -> tuple[np.ndarray, np.ndarray]:

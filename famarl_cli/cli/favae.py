@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
@@ -12,6 +11,7 @@ from rich.progress import Progress
 from rich.table import Table
 
 from famarl_cli.cli import app, progress_bar, reports_errors, torch_on_one_thread
+from famarl_cli.favae import Capacity, Head
 
 favae_app = typer.Typer(
     help="Fit FAVAE, the sequence VAE whose latents become the macro-action space.", no_args_is_help=True
@@ -23,21 +23,6 @@ LaddersOption = Annotated[int, typer.Option(min=1, help="Number of ladders (late
 LatentDimOption = Annotated[int, typer.Option(min=1, help="Latent variables per ladder.")]
 EpochsOption = Annotated[int, typer.Option(min=1, help="Training epochs (of each phase).")]
 SeedOption = Annotated[int, typer.Option(help="Seed of the initialisation, batches and sampling.")]
-
-
-class Head(StrEnum):
-    """FavaeConfig.head's choices, here so that the CLI starts without torch."""
-
-    FLATTEN = "flatten"
-    POOL = "pool"
-
-
-class Capacity(StrEnum):
-    """allocate_capacity's choices."""
-
-    MEASURED = "measured"
-    DEEPEST = "deepest"
-    HALF = "half"
 
 
 HeadOption = Annotated[

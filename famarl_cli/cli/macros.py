@@ -10,7 +10,7 @@ from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.cli import JobRecipe, app, progress_bar, reports_errors, sweepable, torch_on_one_thread
-from famarl_cli.cli.favae import Capacity, Head
+from famarl_cli.favae import Capacity, Head
 
 
 @app.command()

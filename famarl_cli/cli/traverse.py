@@ -37,7 +37,7 @@ def traverse(
 ) -> None:
     """Decode sweeps of single latent variables and draw the paths their macro actions take (paper Fig. 5)."""
     from famarl_cli import stages
-    from famarl_cli.traversal import EMPTY_LADDER_NATS, parse_values
+    from famarl_cli.traversal import EMPTY_LADDER_NATS, empty_ladders, parse_values
 
     torch_on_one_thread()
     name = model.stem + (f"-ladder{ladder}" if ladder else "") + (f"-index{index}" if index else "")
@@ -56,14 +56,10 @@ def traverse(
             f"({lad},{i})", f"{effect:.3f}", "?" if nats is None else f"{nats:.3f}", " ".join(map(str, lengths))
         )
     Console().print(table)
-    if information is not None:
-        by_ladder: dict[int, float] = {}
-        for (lad, _), nats in zip(result.variables.tolist(), information, strict=True):
-            by_ladder[lad] = by_ladder.get(lad, 0.0) + nats
-        for lad, nats in by_ladder.items():
-            if nats < EMPTY_LADDER_NATS:
-                Console().print(
-                    f"ladder {lad} is empty: its variables carry {nats:.3f} nats of the training data (under "
-                    f"{EMPTY_LADDER_NATS:g}), so traversing them changes almost nothing"
-                )
+    empty = {} if information is None else empty_ladders(result.variables.tolist(), information)
+    for lad, nats in empty.items():
+        Console().print(
+            f"ladder {lad} is empty: its variables carry {nats:.3f} nats of the training data (under "
+            f"{EMPTY_LADDER_NATS:g}), so traversing them changes almost nothing"
+        )
     Console().print(f"written {out}, {out.with_suffix('.png')}, {out.with_suffix('.json')}")

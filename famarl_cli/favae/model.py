@@ -33,9 +33,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from famarl_cli.favae import Head
 from famarl_cli.macro_actions import cut_lengths
-
-HEADS = ("flatten", "pool")
 
 
 @dataclass(frozen=True)
@@ -55,8 +54,8 @@ class FavaeConfig:
     receptive field sees, averaged: local detail for shallow ladders, longer stretches for deep ones)."""
 
     def __post_init__(self) -> None:
-        if self.head not in HEADS:
-            raise ValueError(f"head must be one of {HEADS}, got {self.head!r}")
+        if self.head not in tuple(Head):
+            raise ValueError(f"head must be one of {tuple(map(str, Head))}, got {self.head!r}")
         if len(self.latent_dims) != len(self.channels):
             raise ValueError(f"{len(self.latent_dims)} ladders need as many channel sizes, got {self.channels}")
         if self.length % 2 ** len(self.channels):
@@ -69,6 +68,10 @@ class FavaeConfig:
     @property
     def latent_size(self) -> int:
         return sum(self.latent_dims)
+
+    def latent_index(self, ladder: int, index: int) -> int:
+        """Position in the concatenated latent of variable (ladder, index), both counted from 1 as in the paper."""
+        return sum(self.latent_dims[: ladder - 1]) + index - 1
 
     def to_dict(self) -> dict:
         return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(self).items()}
@@ -106,7 +109,7 @@ class Favae(nn.Module):
             for a, b in zip(widths[:-1], widths[1:], strict=True)
         )
         steps = [config.length // 2 ** (depth + 1) for depth in range(config.ladders)]
-        pooled = config.head == "pool"
+        pooled = config.head == Head.POOL
         self.heads = nn.ModuleList(
             _mlp(c if pooled else c * s, config.hidden, 2 * z)
             for c, s, z in zip(config.channels, steps, config.latent_dims, strict=True)
@@ -129,7 +132,7 @@ class Favae(nn.Module):
         h = x
         for conv, head in zip(self.convs, self.heads, strict=True):
             h = conv(h)
-            features = h.mean(dim=2) if self.config.head == "pool" else h.flatten(1)
+            features = h.mean(dim=2) if self.config.head == Head.POOL else h.flatten(1)
             mu, logvar = head(features).chunk(2, dim=1)
             mus.append(mu)
             logvars.append(logvar.clamp(-10.0, 10.0))

@@ -9,6 +9,7 @@ import numpy as np
 import torch
 
 from famarl_cli.errors import UsageError
+from famarl_cli.favae import Capacity
 from famarl_cli.favae.loss import capacity, favae_loss, kl_per_dim
 from famarl_cli.favae.model import Favae, FavaeConfig, to_input
 from famarl_cli.macro_actions import cut_lengths
@@ -16,9 +17,6 @@ from famarl_cli.metrics import mig_interval
 
 CALIBRATION_BETA = 0.1
 """The paper's beta for the pre-run that measures C_last (with C = 0)."""
-
-
-CAPACITY_ALLOCATIONS = ("measured", "deepest", "half")
 
 
 def allocate_capacity(c_last: list[float], allocation: str) -> list[float]:
@@ -29,14 +27,14 @@ def allocate_capacity(c_last: list[float], allocation: str) -> list[float]:
     meant for the factors that shape the whole sequence (the FAVAE authors' tuned capacities for 2D Reaching are
     of this form: 0, 0, 0.99). ``half``: half of each shallower ladder's capacity moves to the deepest.
     """
-    if allocation == "measured":
+    if allocation == Capacity.MEASURED:
         return list(c_last)
-    if allocation == "deepest":
+    if allocation == Capacity.DEEPEST:
         return [0.0] * (len(c_last) - 1) + [float(sum(c_last))]
-    if allocation == "half":
+    if allocation == Capacity.HALF:
         moved = [c / 2 for c in c_last[:-1]]
         return moved + [float(c_last[-1] + sum(moved))]
-    raise UsageError(f"capacity allocation must be one of {CAPACITY_ALLOCATIONS}, got {allocation!r}")
+    raise UsageError(f"capacity allocation must be one of {tuple(map(str, Capacity))}, got {allocation!r}")
 
 
 @dataclass(frozen=True)
