@@ -127,7 +127,9 @@ def plot_traversal(traversal: Traversal, path: str | os.PathLike, title: str = "
 
 
 def plot_rollouts(traces: list, path: str | os.PathLike, title: str) -> None:
-    """Evaluation episodes on their maps, each decision's stretch of path in its own colour (paper Fig. 4b)."""
+    """Evaluation episodes on their maps, the stretch of path of each decision that ran a sequence (a macro action,
+    a repeated action) in its own colour (paper Fig. 4b), and each single primitive step in black with a dot, so
+    a hybrid's two kinds of decision stand apart."""
     from famarl_cli.envs.continuous_world import ENTRANCE_WIDTH, GOAL_RADIUS
 
     fig = Figure(figsize=(3.2 * len(traces), 3.6))
@@ -140,16 +142,20 @@ def plot_rollouts(traces: list, path: str | os.PathLike, title: str) -> None:
             ax.plot([0, x - ENTRANCE_WIDTH / 2], [y, y], color="0.3", lw=2.5)
             ax.plot([x + ENTRANCE_WIDTH / 2, size], [y, y], color="0.3", lw=2.5)
         ax.add_patch(Circle(layout.goal[0], GOAL_RADIUS, color="tab:red", alpha=0.4))
-        for decision in np.unique(trace.decision):
+        decisions = np.unique(trace.decision)
+        macros = {int(trace.decision[step]) for step in np.flatnonzero(trace.macro)}
+        for decision in decisions:
             steps = np.flatnonzero(trace.decision == decision)
             stretch = trace.positions[steps[0] : steps[-1] + 2]
-            ax.plot(stretch[:, 0], stretch[:, 1], color=colours[decision % len(colours)], lw=1.8)
+            if decision in macros or len(steps) > 1:
+                ax.plot(stretch[:, 0], stretch[:, 1], color=colours[decision % len(colours)], lw=1.8)
+            else:
+                ax.plot(stretch[:, 0], stretch[:, 1], color="black", lw=0.8, marker=".", ms=2)
         ax.plot(*trace.positions[0], "o", color="tab:blue", ms=5)
         ax.set(xlim=(0, size), ylim=(0, size), aspect="equal", xticks=[], yticks=[])
         outcome = "reached" if trace.success else "missed"
-        ax.set_title(
-            f"{outcome} in {len(trace.decision)} steps, {len(np.unique(trace.decision))} decisions", fontsize=8
-        )
+        kinds = f" ({len(macros)} macro)" if 0 < len(macros) < len(decisions) else ""
+        ax.set_title(f"{outcome} in {len(trace.decision)} steps, {len(decisions)} decisions{kinds}", fontsize=8)
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     _save(fig, path)
@@ -159,14 +165,18 @@ LEARNING_PANELS = {
     "episode_success": ("success rate (last 100 episodes)", (-0.02, 1.02)),
     "episode_return": ("episode return (last 100 episodes)", None),
     "macro_length": ("mean macro length chosen (steps, per rollout)", None),
+    "macro_share": ("share of decisions that are macro actions", (-0.02, 1.02)),
+    "macro_step_share": ("share of env steps run in macro actions", (-0.02, 1.02)),
 }
+DEFAULT_PANELS = ("episode_success", "episode_return", "macro_length")
+"""The panels every agent's log has (the macro shares are the hybrid's)."""
 """The columns of ``train.csv`` a learning-curve panel can show, with their axis label and limits."""
 
 
 def plot_learning_curves(
     curves: dict[str, list[dict[str, np.ndarray]]],
     path: str | os.PathLike,
-    panels: tuple[str, ...] = tuple(LEARNING_PANELS),
+    panels: tuple[str, ...] = DEFAULT_PANELS,
     title: str = "training curves",
 ) -> None:
     """Success rate, return and mean macro length (or the chosen ``panels``) against environment steps: per label,

@@ -19,6 +19,9 @@ from famarl_cli.errors import ArtifactError
 from famarl_cli.results import Group, headline, write_curves
 from famarl_cli.verdicts import Claim, Verdict
 
+GOAL_WORDS = {Verdict.REPRODUCES: "met", Verdict.DOES_NOT: "missed", Verdict.INCONCLUSIVE: "inconclusive"}
+"""How a section of goals (not the paper's claims) words the three verdicts."""
+
 
 @dataclass
 class Section:
@@ -30,6 +33,11 @@ class Section:
     figures: list[str] = field(default_factory=list)
     groups: list[Group] = field(default_factory=list)
     """The runs behind it: their learning curves go to ``<name>-curves.csv``, their numbers to summary.json."""
+    goals: bool = False
+    """Its claims are our goals beyond the paper (met, missed, inconclusive) rather than the paper's claims."""
+
+    def word(self, verdict: Verdict) -> str:
+        return GOAL_WORDS[verdict] if self.goals else verdict.value
 
     def count(self, verdict: Verdict) -> int:
         return sum(claim.verdict == verdict for claim in self.claims)
@@ -43,22 +51,23 @@ class Section:
     def verdict(self) -> str:
         n = len(self.claims)
         counts = {v: self.count(v) for v in Verdict}
-        if counts[Verdict.REPRODUCES] == n:
+        if not self.goals and counts[Verdict.REPRODUCES] == n:
             return "reproduces"
-        if counts[Verdict.DOES_NOT] == n:
+        if not self.goals and counts[Verdict.DOES_NOT] == n:
             return "does not reproduce"
-        return ", ".join(f"{counts[v]} of {n} {v}" for v in Verdict if counts[v])
+        return ", ".join(f"{counts[v]} of {n} {self.word(v)}" for v in Verdict if counts[v])
 
     def markdown(self) -> str:
+        first, last = ("goal", "met?") if self.goals else ("the paper says", "verdict")
         lines = [
             f"## {self.title}: {self.verdict}",
             "",
-            "| the paper says | per seed we measure | rule (95% intervals) | per-seed values; estimate [95% CI] "
-            "| verdict |",
+            f"| {first} | per seed we measure | rule (95% intervals) | per-seed values; estimate [95% CI] | {last} |",
             "|---|---|---|---|---|",
         ]
         for c in self.claims:
-            verdict = c.verdict.value if c.verdict == Verdict.REPRODUCES else f"**{c.verdict.value}**"
+            word = self.word(c.verdict)
+            verdict = word if c.verdict == Verdict.REPRODUCES else f"**{word}**"
             lines.append(f"| {c.paper} | {c.measure} | {c.judgement.rule} | {c.per_seed()} | {verdict} |")
         for table in self.tables:
             lines += ["", table]
@@ -72,7 +81,7 @@ class Section:
             "claims_reproduced": self.held,
             "claims_not_reproduced": self.count(Verdict.DOES_NOT),
             "claims_inconclusive": self.count(Verdict.INCONCLUSIVE),
-            "verdicts": {c.paper: c.verdict.value for c in self.claims},
+            "verdicts": {c.paper: self.word(c.verdict) for c in self.claims},
             **({"headline": headline(self.groups)} if self.groups else {}),
         }
 
@@ -101,7 +110,8 @@ def write_report(names: list[str], data: Path, out: Path, version: str) -> dict[
             write_curves(section.groups, out / f"{name}-curves.csv")
     parts = [
         f"# famarl report\n\nfamarl {version}; numbers from `{data}`. Every verdict is reproduces, does not reproduce "
-        "or inconclusive, from 95% intervals over seeds with the rule beside it (docs/verdicts.md).\n"
+        "or inconclusive (a goal beyond the paper: met, missed or inconclusive), from 95% intervals over seeds with "
+        "the rule beside it (docs/verdicts.md).\n"
     ]
     parts += [section.markdown() for section in built.values()]
     missing = [name for name in names if name not in built]

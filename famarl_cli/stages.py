@@ -277,7 +277,10 @@ def evaluate_run(run: str, into: str, episodes: int, seed: int, rollouts: int, f
     prov = provenance("famarl evaluate", {"episodes": episodes, "seed": seed}, seed, [run_folder / CHECKPOINT_FILE])
     write_json(into_folder / EVAL_FILE, {**evaluation, "provenance": prov})
     if result.traces:
-        title = f"{agent.spec.label}, seed {agent.spec.seed}: deterministic episodes, one colour per decision"
+        title = (
+            f"{agent.spec.label}, seed {agent.spec.seed}: deterministic episodes, one colour per decision "
+            "(black dots: single primitive steps)"
+        )
         plot_rollouts(result.traces, into_folder / ROLLOUTS_FILE, title)
     if film:
         save_film(film_episode(agent, seed), into_folder / FILM_FILE, into_folder / STILLS_FILE)

@@ -4,6 +4,7 @@
   difference of means, over per-seed values. For success rates, each arm's variance is floored at the
   evaluation's binomial noise, ``p (1 - p) / K`` with ``p = (successes + 1/2) / (n K + 1)`` over its n seeds of K
   episodes each: without the floor, seeds that all score 1.00 give an interval of zero width.
+  :func:`ratio_interval`: a bootstrap interval of a ratio of means (one agent's cost or speed over another's).
 - :func:`aggregate_interval`, :func:`iqm`, :func:`probability_of_improvement`, :func:`performance_profile`:
   aggregates over several tasks as rliable computes them (Agarwal et al. 2021), with the stratified bootstrap
   (each task's runs resampled on their own) and percentile intervals. rliable itself does not import with numpy 2,
@@ -88,6 +89,16 @@ def difference_interval(
     df = (va + vb) ** 2 / (va**2 / (len(a) - 1) + vb**2 / (len(b) - 1))
     half = stats.t.ppf(0.5 + level / 2, df) * se
     return Interval(estimate, estimate - half, estimate + half, level).within(bounds)
+
+
+def ratio_interval(a: Sequence[float], b: Sequence[float], level: float = LEVEL, seed: int = 0) -> Interval:
+    """mean(a) / mean(b) with a bootstrap percentile interval (each group's seeds resampled on their own): how
+    many times one agent's cost or speed another's is. ``b``'s mean must be positive."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    estimate = float(a.mean() / b.mean())
+    if len(a) < 2 or len(b) < 2:
+        return Interval(estimate, -np.inf, np.inf, level)
+    return _stratified_bootstrap((a, b), lambda x, y: float(x.mean() / y.mean()), estimate, level, seed)
 
 
 def iqm(values: Sequence[float]) -> float:

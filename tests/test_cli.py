@@ -241,7 +241,8 @@ TINY_TRAINING = ("--steps", 1500, "--n-envs", 4, "--n-steps", 8, "--epochs", 1, 
 
 def test_train_and_evaluate_end_to_end(favae_file, tmp_path):
     runs = []
-    for agent in ("famarl", "ppo", "figar"):
+    agents = ("famarl", "ppo", "figar", "hybrid")
+    for agent in agents:
         out = tmp_path / agent
         result = famarl("train", "--agent", agent, "--favae", favae_file, *TINY_TRAINING, "--out", out)
         assert result.exit_code == 0, result.output
@@ -256,18 +257,21 @@ def test_train_and_evaluate_end_to_end(favae_file, tmp_path):
     header = (tmp_path / "famarl/train.csv").read_text().splitlines()[0].split(",")
     for column in ("env_steps", "decisions", "episode_return", "episode_success", "macro_length", "policy_loss"):
         assert column in header
+    assert json.loads((tmp_path / "hybrid/run.json").read_text())["spec"]["ppo"]["macro_discount"] == "steps"
     result = famarl("evaluate", *runs, "--episodes", 3, "--curves", tmp_path / "curves.png")
     assert result.exit_code == 0, result.output
     assert (tmp_path / "curves.png").stat().st_size > 0
     summary = json.loads((tmp_path / "curves.json").read_text())["labels"]
-    assert set(summary) == {"famarl", "ppo", "figar"}
+    assert set(summary) == set(agents)
     assert summary["ppo"]["runs"] == 1 and summary["ppo"]["macro_length"]["mean"] == 1
-    for agent in ("famarl", "ppo", "figar"):
+    for agent in agents:
         metrics = json.loads((tmp_path / agent / "eval.json").read_text())
         assert metrics["episodes"] == 3 and 0 <= metrics["success_rate"] <= 1
         assert metrics["episode_length"] >= metrics["decisions"] >= 1
         assert (tmp_path / agent / "rollouts.png").stat().st_size > 0
         assert_film(tmp_path / agent, max_frames=401)
+    shares = {agent: json.loads((tmp_path / agent / "eval.json").read_text())["macro_share"] for agent in agents}
+    assert shares["famarl"] == 1 and shares["ppo"] == shares["figar"] == 0 and 0 <= shares["hybrid"] <= 1
     assert json.loads((tmp_path / "ppo/eval.json").read_text())["macro_length"] == 1
 
 

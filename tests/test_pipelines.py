@@ -60,12 +60,18 @@ TINY = {
         "evaluate": TINY_EVALUATE,
     },
     "pipelines/macro-length/params.yaml": {"seeds": "0-1", "train": TINY_TRAIN, "evaluate": TINY_EVALUATE},
+    "pipelines/hybrid/params.yaml": {
+        "seeds": "0-1",
+        "maze": TINY_TRAIN,
+        "robothand": TINY_TRAIN,
+        "evaluate": TINY_EVALUATE,
+    },
 }
 """Overrides of each params file: two seeds (an interval needs two), one variant where a pipeline sweeps, a few
 episodes, epochs and env steps. Every key must already exist, so the test fails if a params file is restructured
 without it. down-and-up stays among the scripts: pipelines/traversal reads its segments."""
 
-EXPERIMENTS = ("scripts", "beta", "demos-count", "traversal", "robothand", "macro-length")
+EXPERIMENTS = ("scripts", "beta", "demos-count", "traversal", "robothand", "macro-length", "hybrid")
 
 
 def _override(values: dict, overrides: dict, where: str) -> None:
@@ -103,7 +109,8 @@ def test_every_pipeline_writes_its_report(project):
     for name in EXPERIMENTS:
         text = (project / "data/report" / name / "report.md").read_text()
         assert text.startswith("# famarl report")
-        assert "| the paper says | per seed we measure | rule (95% intervals) |" in text
+        first = "goal" if name == "hybrid" else "the paper says"
+        assert f"| {first} | per seed we measure | rule (95% intervals) |" in text
         assert "Not run yet" not in text
         summary = json.loads((project / "data/report" / name / "summary.json").read_text())
         assert set(summary) == {name}
@@ -116,7 +123,12 @@ def test_every_pipeline_writes_its_report(project):
     assert "| 4 demos |" in (project / "data/report/demos-count/report.md").read_text()
     robothand = (project / "data/report/robothand/report.md").read_text()
     assert "reaching:" in robothand and "ballplacing:" in robothand
-    assert "no time penalty" in (project / "data/report/macro-length/report.md").read_text()
+    macro_length = (project / "data/report/macro-length/report.md").read_text()
+    assert "| famarl, no time penalty, semi-MDP |" in macro_length
+    hybrid = (project / "data/report/hybrid/report.md").read_text()
+    for label in ("famarl", "ppo", "figar", "hybrid", "hybrid-whole", "hybrid-no-residual", "hybrid-per-decision"):
+        assert f"| {label} |" in hybrid
+    assert "Semi-MDP (`steps`, the hybrid's default) against per-decision" in hybrid
     assert "data/report/summary.json" in dvc(project, "metrics", "show")
     # Each replicate's macro actions: segments, C_last, FAVAE and traversal, all from its own seed.
     for seed in (0, 1):
@@ -139,7 +151,7 @@ def test_learning_curves_are_dvc_plots_and_headline_numbers_are_metrics(project)
     assert {row["series"] for row in rows} == {"famarl", "ppo", "figar"}
     assert all(0 <= float(row["success"]) <= 1 for row in rows if row["success"] != "nan")
     titles = " / ".join(shown["data"])
-    for title in ("Scripts", "beta", "Demos count", "RobotHand", "Macro length"):
+    for title in ("Scripts", "beta", "Demos count", "RobotHand", "Macro length", "Hybrid"):
         assert f"{title}, training success" in titles
     metrics = dvc_json(project, "metrics", "show")[""]["data"]
     famarl = metrics["data/report/summary.json"]["data"]["maze"]["headline"]["famarl"]
@@ -164,4 +176,5 @@ def test_a_changed_parameter_reruns_only_its_dependents(project):
         "pipelines/scripts/dvc.yaml:report",
         "pipelines/beta/dvc.yaml:report",
         "pipelines/demos-count/dvc.yaml:report",
+        "pipelines/hybrid/dvc.yaml:report",
     }

@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 import torch
+from ppo_reference import autograd_ppo_loss
 from torch.distributions import Categorical, Normal
 
 from famarl_cli.envs.batched import ContinuousWorldBatch
@@ -125,11 +126,11 @@ def test_truncation_bootstraps_the_value_of_the_final_observation():
     np.testing.assert_allclose(rollout.returns[cut], expected[cut])
 
 
-@pytest.mark.parametrize("repeat_choices", [0, 4])
-def test_numpy_acting_agrees_with_the_torch_network_and_samples_its_distribution(repeat_choices):
+@pytest.mark.parametrize("choices", [0, 4])
+def test_numpy_acting_agrees_with_the_torch_network_and_samples_its_distribution(choices):
     """Acting (numpy) and learning (torch) take separate paths through the same parameters; they must agree."""
     torch.manual_seed(0)
-    policy = ActorCritic(obs_size=3, action_size=2, repeat_choices=repeat_choices)
+    policy = ActorCritic(obs_size=3, action_size=2, choices=choices)
     policy.params["log_std"].fill_(-0.5)
     obs = np.random.default_rng(0).normal(size=(4000, 3)).astype(np.float32)
     heads = policy(torch.from_numpy(obs))
@@ -140,10 +141,10 @@ def test_numpy_acting_agrees_with_the_torch_network_and_samples_its_distribution
     expected = Normal(heads.mean, policy.log_std.exp()).log_prob(u).sum(1)
     # The noise has the policy's std, and the repeat index its categorical's frequencies.
     assert abs(float((u - heads.mean).std()) - float(np.exp(-0.5))) < 0.02
-    if repeat_choices:
+    if choices:
         categorical = Categorical(logits=heads.logits)
         expected = expected + categorical.log_prob(index)
-        frequencies = np.bincount(action.index, minlength=repeat_choices) / len(obs)
+        frequencies = np.bincount(action.index, minlength=choices) / len(obs)
         np.testing.assert_allclose(frequencies, categorical.probs.mean(0).numpy(), atol=0.03)
         np.testing.assert_array_equal(mode.index, heads.logits.argmax(1).numpy())
     torch.testing.assert_close(torch.from_numpy(action.logp), expected, rtol=1e-4, atol=1e-4)
@@ -156,36 +157,11 @@ def test_figar_repeats_the_clipped_action_index_plus_one_times():
     np.testing.assert_array_equal(actions[0, :3], [[1.0, -0.5]] * 3)
 
 
-def _autograd_ppo_loss(policy, batch, cfg):
-    """PPO's loss the usual way (CleanRL's formulas, torch.distributions, autograd), as the reference."""
-    p = {name: view.detach().clone().requires_grad_(True) for name, view in policy.params.items()}
-    hidden = batch.obs.expand(2, -1, -1)
-    for layer in ("1", "2"):
-        hidden = torch.tanh(torch.baddbmm(p["b" + layer], hidden, p["w" + layer]))
-    normal = Normal(hidden[0] @ p["w_mean"] + p["b_mean"], p["log_std"].exp())
-    value = (hidden[1] @ p["w_value"] + p["b_value"]).squeeze(1)
-    logp, entropy = normal.log_prob(batch.u).sum(1), normal.entropy().sum(1)
-    if "w_repeat" in p:
-        categorical = Categorical(logits=hidden[0] @ p["w_repeat"] + p["b_repeat"])
-        logp, entropy = logp + categorical.log_prob(batch.index), entropy + categorical.entropy()
-    ratio = (logp - batch.logp).exp()
-    advantages = batch.advantages
-    policy_loss = torch.max(-advantages * ratio, -advantages * ratio.clamp(1 - cfg.clip, 1 + cfg.clip)).mean()
-    value_error = (value - batch.returns) ** 2
-    if cfg.clip_value:
-        clipped = batch.values + (value - batch.values).clamp(-cfg.clip, cfg.clip)
-        value_error = torch.max(value_error, (clipped - batch.returns) ** 2)
-    value_loss = 0.5 * value_error.mean()
-    loss = policy_loss - cfg.ent_coef * entropy.mean() + cfg.vf_coef * value_loss
-    loss.backward()
-    return {name: tensor.grad for name, tensor in p.items()}, [policy_loss, value_loss, entropy.mean()]
-
-
-@pytest.mark.parametrize("repeat_choices", [0, 5])
+@pytest.mark.parametrize("choices", [0, 5])
 @pytest.mark.parametrize("clip_value", [True, False])
-def test_written_out_ppo_gradient_equals_autograd(repeat_choices, clip_value):
+def test_written_out_ppo_gradient_equals_autograd(choices, clip_value):
     torch.manual_seed(0)
-    policy = ActorCritic(obs_size=4, action_size=2, repeat_choices=repeat_choices, hidden=16)
+    policy = ActorCritic(obs_size=4, action_size=2, choices=choices, hidden=16)
     cfg = PPOConfig(clip_value=clip_value, ent_coef=0.01)
     size = 64
     obs = torch.randn(size, 4)
@@ -203,7 +179,7 @@ def test_written_out_ppo_gradient_equals_autograd(repeat_choices, clip_value):
         heads.value + torch.randn(size),
     )
     stats = clipped_objective_gradient(policy, batch, cfg)
-    expected, losses = _autograd_ppo_loss(policy, batch, cfg)
+    expected, losses = autograd_ppo_loss(policy, batch, cfg)
     for name, gradient in expected.items():
         torch.testing.assert_close(policy.grads[name], gradient, rtol=1e-4, atol=1e-6, msg=name)
     torch.testing.assert_close(stats[:3], torch.stack(losses).detach(), rtol=1e-5, atol=1e-6)
@@ -254,7 +230,7 @@ class Killed(Exception):
 
 @pytest.mark.parametrize("agent", list(Agent))
 def test_resume_after_a_kill_ends_exactly_where_an_uninterrupted_run_ends(agent, favae_file, tmp_path):
-    spec = _spec(agent, favae_file if agent == Agent.FAMARL else None)
+    spec = _spec(agent, favae_file if agent.decodes_macros else None)
     straight = Run.start(spec)
     straight.train(tmp_path / "straight", checkpoint_every=100)
 

@@ -1,4 +1,5 @@
-"""``famarl train``: PPO over FAVAE latents (FaMARL), primitive actions or FiGAR's repeated actions."""
+"""``famarl train``: PPO over FAVAE latents (FaMARL), primitive actions, FiGAR's repeated actions, or the hybrid
+of macro and primitive actions."""
 
 from __future__ import annotations
 
@@ -11,19 +12,21 @@ from rich.table import Table
 
 from famarl_cli.cli import JobRecipe, app, progress_bar, reports_errors, sweepable, torch_on_one_thread
 from famarl_cli.errors import UsageError
-from famarl_cli.rl import Agent, MacroDiscount
+from famarl_cli.rl import HYBRID_ENTROPY_FLOOR, HYBRID_HORIZON, HYBRID_RESIDUAL, Agent, MacroDiscount, agent_defaults
 
 DEFAULT_ENV = "famarl/ContinuousWorld-Maze-v0"
 DEFAULT_STEPS = 1_000_000
 DEFAULT_FAVAE = Path("data/favae/pushed-down-only.pt")
-DECISIONS_PER_ROLLOUT = {Agent.FAMARL: 16, Agent.FIGAR: 32, Agent.PPO: 128}
+DECISIONS_PER_ROLLOUT = {Agent.FAMARL: 16, Agent.FIGAR: 32, Agent.PPO: 128, Agent.HYBRID: 32}
 """Default decisions per environment per rollout: a FaMARL decision lasts ~25 steps and a FiGAR one ~15, so
-fewer decisions give them rollouts (and updates per environment step) of a similar size to PPO's."""
+fewer decisions give them rollouts (and updates per environment step) of a similar size to PPO's. A hybrid
+decision lasts 1 step or a macro's length: 32 keeps its first rollouts, mostly macros, near FaMARL's size and
+its later ones, where primitives take over, frequent enough."""
 
 
 def default_run_dir(env_id: str, agent: Agent, favae: Path, seed: int) -> Path:
     env_name = env_id.split("/")[-1].rsplit("-v", 1)[0].lower()
-    suffix = f"-{favae.stem}" if agent == Agent.FAMARL else ""
+    suffix = f"-{favae.stem}" if agent.decodes_macros else ""
     return Path("data/runs") / f"{env_name}-{agent}{suffix}-seed{seed}"
 
 
@@ -34,10 +37,14 @@ def train(
         str, typer.Option(help="Environment id (famarl's or any gymnasium id with Box spaces).")
     ] = DEFAULT_ENV,
     agent: Annotated[
-        Agent, typer.Option(help="famarl: search FAVAE latents; ppo: primitive actions; figar: action + repeat count.")
+        Agent,
+        typer.Option(
+            help="famarl: search FAVAE latents; ppo: primitive actions; figar: action + repeat count; hybrid: "
+            "each decision a primitive action or a macro action."
+        ),
     ] = Agent.FAMARL,
     favae: Annotated[
-        Path, typer.Option(help="FAVAE checkpoint whose decoder makes the macro actions (famarl only).")
+        Path, typer.Option(help="FAVAE checkpoint whose decoder makes the macro actions (famarl and hybrid).")
     ] = DEFAULT_FAVAE,
     steps: Annotated[
         int | None,
@@ -57,7 +64,9 @@ def train(
     n_envs: Annotated[int, typer.Option(min=1, help="Environments stepped together.")] = 16,
     n_steps: Annotated[
         int | None,
-        typer.Option(min=1, help="Decisions per environment per rollout.  [default: famarl 16, figar 32, ppo 128]"),
+        typer.Option(
+            min=1, help="Decisions per environment per rollout.  [default: famarl 16, figar 32, ppo 128, hybrid 32]"
+        ),
     ] = None,
     epochs: Annotated[int, typer.Option(min=1, help="PPO epochs per rollout.")] = 10,
     minibatches: Annotated[int, typer.Option(min=1, help="Minibatches per epoch.")] = 8,
@@ -71,14 +80,42 @@ def train(
     clip: Annotated[float, typer.Option(min=0.0, help="PPO clip range (policy ratio and value).")] = 0.2,
     ent_coef: Annotated[float, typer.Option(min=0.0, help="Entropy bonus weight.")] = 0.0,
     macro_discount: Annotated[
-        MacroDiscount,
+        MacroDiscount | None,
         typer.Option(
-            help="decision: gamma per decision, rewards summed (the paper); steps: gamma ** length, rewards discounted."
+            help="decision: gamma per decision, rewards summed (the paper); steps: gamma ** length, rewards scaled "
+            "and discounted per step (semi-MDP).  [default: steps for hybrid, decision otherwise]"
         ),
-    ] = MacroDiscount.DECISION,
+    ] = None,
     latent_bound: Annotated[
-        float, typer.Option(min=0.0, help="famarl: clip latents to [-bound, bound] before decoding.")
+        float, typer.Option(min=0.0, help="famarl, hybrid: clip latents to [-bound, bound] before decoding.")
     ] = 3.0,
+    macro_horizon: Annotated[
+        int | None,
+        typer.Option(
+            min=0,
+            help=f"famarl, hybrid: cut macro actions after this many steps and decide again (0: run them whole).  "
+            f"[default: {HYBRID_HORIZON} for hybrid, 0 otherwise]",
+        ),
+    ] = None,
+    residual: Annotated[
+        float | None,
+        typer.Option(
+            min=0.0,
+            help=f"hybrid: a macro decision adds this times the primitive output to each of its actions (0: off).  "
+            f"[default: {HYBRID_RESIDUAL}]",
+        ),
+    ] = None,
+    type_entropy_floor: Annotated[
+        float | None,
+        typer.Option(
+            min=0.0,
+            help=f"hybrid: keep the type head's entropy above this many nats early in training (0: off).  "
+            f"[default: {HYBRID_ENTROPY_FLOOR}]",
+        ),
+    ] = None,
+    type_entropy_until: Annotated[
+        float, typer.Option(min=0.0, max=1.0, help="hybrid: share of the budget during which the floor holds.")
+    ] = 0.25,
     max_repeat: Annotated[int, typer.Option(min=1, help="figar: the largest repeat count J.")] = 32,
     normalize: Annotated[
         bool, typer.Option(help="Normalise observations and scale rewards by the return's std.")
@@ -139,7 +176,8 @@ def run_spec(options: dict):
     from famarl_cli.rl.training import RunSpec, default_label
 
     o = options  # the command's parameters by name
-    agent = o["agent"]
+    agent, floor, horizon = o["agent"], o["type_entropy_floor"], o["macro_horizon"]
+    defaults = agent_defaults(agent)
     try:
         ppo = PPOConfig(
             total_steps=o["steps"] or DEFAULT_STEPS,
@@ -153,7 +191,9 @@ def run_spec(options: dict):
             clip=o["clip"],
             clip_value=o["clip_value"],
             ent_coef=o["ent_coef"],
-            macro_discount=str(o["macro_discount"]),
+            macro_discount=str(o["macro_discount"] or defaults["macro_discount"]),
+            type_entropy_floor=defaults["type_entropy_floor"] if floor is None else floor,
+            type_entropy_until=o["type_entropy_until"],
             normalize_obs=o["normalize"],
             scale_rewards=o["normalize"],
         )
@@ -165,8 +205,10 @@ def run_spec(options: dict):
         seed=o["seed"],
         ppo=ppo,
         latent_bound=o["latent_bound"],
+        macro_horizon=defaults["macro_horizon"] if horizon is None else horizon or None,
+        residual=defaults["residual"] if o["residual"] is None else o["residual"],
         max_repeat=o["max_repeat"],
-        favae=str(o["favae"]) if agent == Agent.FAMARL else None,
+        favae=str(o["favae"]) if agent.decodes_macros else None,
         label=o["label"] or default_label(agent, o["favae"]),
     )
 

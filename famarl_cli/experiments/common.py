@@ -110,7 +110,7 @@ def headline_famarl_runs(data: Path) -> list[RunResult]:
 
 
 def curves(groups: list[Group], path: Path, title: str, panels: tuple[str, ...] | None = None) -> str:
-    from famarl_cli.plots import LEARNING_PANELS, plot_learning_curves
+    from famarl_cli.plots import DEFAULT_PANELS, plot_learning_curves
 
-    plot_learning_curves({g.label: g.logs for g in groups}, path, panels or tuple(LEARNING_PANELS), title)
+    plot_learning_curves({g.label: g.logs for g in groups}, path, panels or DEFAULT_PANELS, title)
     return path.name

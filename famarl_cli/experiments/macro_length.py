@@ -19,28 +19,36 @@ KEPT = 0.9
 MEASURE = "mean macro length chosen in the last 10% of training updates over that in the first 10%"
 
 
+SEMI_MDP = "famarl-semi-mdp"
+"""Label of the runs of the same two settings under semi-MDP discounting (pipelines/macro-length, semi-mdp)."""
+
+
 @experiment("macro-length", "pipelines/macro-length/dvc.yaml", order=7)
 def macro_length(data: Path, out: Path):
     from famarl_cli.report import Section
 
     results = gather([data / "robothand" / "eval", data / "macro-length" / "eval"])
     parts = {}
-    for name, env in (("time penalty", REACHING), ("no time penalty", REACHING_NO_PENALTY)):
-        runs = [run for g in group(results, env, "famarl").values() for run in g.runs]
-        if runs:
-            parts[name] = Group(f"famarl, {name}", runs)
+    for discount, label in (("", "famarl"), (", semi-MDP", SEMI_MDP)):
+        for name, env in (("time penalty", REACHING), ("no time penalty", REACHING_NO_PENALTY)):
+            g = group(results, env, "famarl").get(label)
+            if g is not None:
+                parts[name + discount] = Group(f"famarl, {name}{discount}", g.runs)
     if "no time penalty" not in parts:
         return None
-    ratios = {name: g.ratio("macro_length") for name, g in parts.items()}
     claims = []
-    for name, paper, rule, tau in (
-        ("time penalty", "with the time penalty, macro actions gradually shorten", fails, SHORTENED),
-        ("no time penalty", "without the time penalty, they do not", solves, KEPT),
-    ):
-        if name in parts:
-            claims.append(Claim(paper, MEASURE, rule("end / start", ratios[name], tau)))
-        else:
-            claims.append(not_run(paper, MEASURE))
+    for discount, note in (("", ""), (", semi-MDP", " (semi-MDP discounting, not the paper's)")):
+        if discount and not any(name.endswith(discount) for name in parts):
+            continue
+        for name, paper, rule, tau in (
+            ("time penalty", "with the time penalty, macro actions gradually shorten", fails, SHORTENED),
+            ("no time penalty", "without the time penalty, they do not", solves, KEPT),
+        ):
+            key = name + discount
+            if key in parts:
+                claims.append(Claim(paper + note, MEASURE, rule("end / start", parts[key].ratio("macro_length"), tau)))
+            else:
+                claims.append(not_run(paper + note, MEASURE))
     groups = list(parts.values())
 
     def shown(g: Group) -> str:

@@ -1,5 +1,6 @@
-"""Reinforcement learning: one PPO over three action modes (FaMARL's latent macro actions, primitive actions,
-FiGAR's repeated actions), all executed through the same open-loop path and budgeted in environment steps.
+"""Reinforcement learning: one PPO over four action modes (FaMARL's latent macro actions, primitive actions,
+FiGAR's repeated actions, and the hybrid of macro and primitive actions), all executed through the same open-loop
+path and budgeted in environment steps.
 
 - :mod:`~famarl_cli.rl.vector`: batched environments (ContinuousWorld natively, any gymnasium id by a loop);
 - :mod:`~famarl_cli.rl.executor`: runs a batch of open-loop action sequences of different lengths;
@@ -23,10 +24,43 @@ class Agent(StrEnum):
     FAMARL = "famarl"
     PPO = "ppo"
     FIGAR = "figar"
+    HYBRID = "hybrid"
+
+    @property
+    def decodes_macros(self) -> bool:
+        """Whether the agent needs a FAVAE to decode its macro actions."""
+        return self in (Agent.FAMARL, Agent.HYBRID)
 
 
 class MacroDiscount(StrEnum):
-    """How a macro action's rewards are discounted: per decision (the paper), or per environment step."""
+    """How a macro action's rewards are discounted: per decision (the paper), or per environment step (the
+    semi-MDP form, :mod:`famarl_cli.rl.semi_mdp`)."""
 
     DECISION = "decision"
     STEPS = "steps"
+
+
+HYBRID_HORIZON = 10
+"""The hybrid's execution horizon: deciding again after 10 steps of a macro action started higher, learned sooner
+and ended with a better return than running whole macros, on the Maze and on Reaching (docs/hybrid.md)."""
+HYBRID_RESIDUAL = 0.25
+"""The hybrid's residual scale: the correction improved the final return on the Maze and on Reaching."""
+HYBRID_ENTROPY_FLOOR = 0.3
+"""The hybrid's floor on its type head's entropy, in nats (p(type) stays above about 0.08)."""
+
+
+def agent_defaults(agent: Agent) -> dict:
+    """The settings that depend on the agent, as ``famarl train`` fills them in: ``macro_discount``,
+    ``type_entropy_floor`` (PPOConfig) and ``macro_horizon``, ``residual`` (RunSpec).
+
+    The hybrid's decisions last 1 step or a macro's length, and only the semi-MDP form values them alike
+    (:mod:`famarl_cli.rl.semi_mdp`); the other agents keep the paper's convention and run whole macros.
+    """
+    if agent == Agent.HYBRID:
+        return {
+            "macro_discount": MacroDiscount.STEPS,
+            "type_entropy_floor": HYBRID_ENTROPY_FLOOR,
+            "macro_horizon": HYBRID_HORIZON,
+            "residual": HYBRID_RESIDUAL,
+        }
+    return {"macro_discount": MacroDiscount.DECISION, "type_entropy_floor": 0.0, "macro_horizon": None, "residual": 0.0}

@@ -1,11 +1,14 @@
-"""The three action modes: what the policy outputs and how that becomes an open-loop action sequence.
+"""The action modes: what the policy outputs and how that becomes an open-loop action sequence.
 
 - ``ppo``: a primitive action, a sequence of length 1;
 - ``figar``: a primitive action and a repeat count in 1..J (FiGAR, Sharma et al. 2017), the action repeated;
-- ``famarl``: a latent z of a frozen FAVAE, decoded into a macro action and cut where ``action_off`` wins.
+- ``famarl``: a latent z of a frozen FAVAE, decoded into a macro action and cut where ``action_off`` wins;
+- ``hybrid``: a choice k in {primitive, macro}, then a primitive action or a latent (MAPLE's atomic fallback).
 
-Every mode takes the policy's continuous output ``u`` (N, policy_action_size) and, for FiGAR, the chosen
-repeat index (N,), and returns ``(actions (N, L, D), lengths (N,))`` for :func:`~famarl_cli.rl.executor.run_open_loop`.
+Every mode takes the policy's continuous output ``u`` (N, policy_action_size) and the index chosen by the
+policy's categorical head (N,) (FiGAR's repeat index, the hybrid's type; unused elsewhere), and returns
+``(actions (N, L, D), lengths (N,))`` for :func:`~famarl_cli.rl.executor.run_open_loop`. ``macro(index)`` says
+which decisions were macro actions, for the logs.
 """
 
 from __future__ import annotations
@@ -16,14 +19,20 @@ from famarl_cli.favae.model import Favae
 
 
 class PrimitiveActions:
-    repeat_choices = 0
+    choices = 0
+    """Options of the policy's categorical head (0: no such head)."""
+    branches: np.ndarray | None = None
+    """(choices, policy_action_size): which outputs each choice uses; None when every choice uses them all."""
 
     def __init__(self, low: np.ndarray, high: np.ndarray) -> None:
         self.low, self.high = low, high
         self.policy_action_size = len(low)
 
-    def to_open_loop(self, u: np.ndarray, repeat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def to_open_loop(self, u: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.clip(u, self.low, self.high)[:, None, :], np.ones(len(u), dtype=np.int64)
+
+    def macro(self, index: np.ndarray) -> np.ndarray:
+        return np.zeros(len(index), dtype=bool)
 
 
 class RepeatedActions(PrimitiveActions):
@@ -31,30 +40,80 @@ class RepeatedActions(PrimitiveActions):
 
     def __init__(self, low: np.ndarray, high: np.ndarray, max_repeat: int) -> None:
         super().__init__(low, high)
-        self.repeat_choices = max_repeat
+        self.choices = max_repeat
 
-    def to_open_loop(self, u: np.ndarray, repeat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def to_open_loop(self, u: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         action = np.clip(u, self.low, self.high)[:, None, :]
-        return np.repeat(action, self.repeat_choices, axis=1), repeat.astype(np.int64) + 1
+        return np.repeat(action, self.choices, axis=1), index.astype(np.int64) + 1
 
 
 class LatentMacroActions:
     """FaMARL: the policy's output is a FAVAE latent, clipped to ``[-bound, bound]`` before decoding.
 
     The prior is N(0, 1), so the decoder has only seen latents within about 3 of 0; far outside that box its
-    output is an extrapolation that no demonstration supports.
+    output is an extrapolation that no demonstration supports. ``horizon`` cuts every macro action after that
+    many steps, so the agent decides again sooner than the decoder would stop (None: the decoder's length).
     """
 
-    repeat_choices = 0
+    choices = 0
+    branches = None
 
-    def __init__(self, favae: Favae, low: np.ndarray, high: np.ndarray, bound: float) -> None:
+    def __init__(
+        self, favae: Favae, low: np.ndarray, high: np.ndarray, bound: float, horizon: int | None = None
+    ) -> None:
         if favae.config.action_dim != len(low):
             raise ValueError(
                 f"the FAVAE decodes {favae.config.action_dim}-D actions but the environment takes {len(low)}-D ones"
             )
-        self.favae, self.low, self.high, self.bound = favae, low, high, bound
+        self.favae, self.low, self.high, self.bound, self.horizon = favae, low, high, bound, horizon
         self.policy_action_size = favae.config.latent_size
 
-    def to_open_loop(self, u: np.ndarray, repeat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def to_open_loop(self, u: np.ndarray, index: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         actions, lengths = self.favae.decode_macro_actions(np.clip(u, -self.bound, self.bound))
+        if self.horizon is not None:
+            lengths = np.minimum(lengths, self.horizon)
         return np.clip(actions, self.low, self.high), lengths
+
+    def macro(self, index: np.ndarray) -> np.ndarray:
+        return np.ones(len(index), dtype=bool)
+
+
+class HybridActions:
+    """Each decision is a primitive action or a macro action. The policy's output ``u`` holds both branches,
+    ``[primitive (D) | latent (Z)]``; the type index (0 primitive, 1 macro) says which one runs, and only that
+    branch's outputs enter the decision's log-probability (:attr:`branches`).
+
+    ``residual`` > 0 is the residual variant: a macro decision also uses the primitive output, and adds
+    ``residual`` times it to every action of the macro (an open-loop correction, learned with the macro).
+    """
+
+    PRIMITIVE, MACRO = 0, 1
+    choices = 2
+
+    def __init__(self, macros: LatentMacroActions, residual: float = 0.0) -> None:
+        self.primitive, self.macros, self.residual = PrimitiveActions(macros.low, macros.high), macros, residual
+        size = self.primitive.policy_action_size
+        self.policy_action_size = size + macros.policy_action_size
+        self.branches = np.zeros((2, self.policy_action_size), dtype=bool)
+        self.branches[self.PRIMITIVE, :size] = True
+        self.branches[self.MACRO, size:] = True
+        self.branches[self.MACRO, :size] = residual > 0
+
+    def to_open_loop(self, u: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        macro = self.macro(index)
+        size = self.primitive.policy_action_size
+        primitive, lengths = self.primitive.to_open_loop(u[:, :size], index)
+        if not macro.any():
+            return primitive, lengths
+        # Only the macro decisions are decoded: the decoder is the costly part of a step.
+        decoded, macro_lengths = self.macros.to_open_loop(u[macro, size:], None)
+        if self.residual > 0:
+            decoded = np.clip(decoded + self.residual * u[macro, None, :size], self.macros.low, self.macros.high)
+        actions = np.zeros((len(u), decoded.shape[1], size))
+        actions[~macro, :1] = primitive[~macro]
+        actions[macro] = decoded
+        lengths[macro] = macro_lengths
+        return actions, lengths
+
+    def macro(self, index: np.ndarray) -> np.ndarray:
+        return index == self.MACRO

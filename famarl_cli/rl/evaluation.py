@@ -22,12 +22,14 @@ from famarl_cli.rl.vector import BatchedEnv, GymBatch, make_batch
 
 @dataclass
 class Trace:
-    """One evaluation episode's path, for pictures: positions (T + 1, 2) and which decision made each step."""
+    """One evaluation episode's path, for pictures: positions (T + 1, 2), which decision made each step and
+    whether that decision was a macro action."""
 
     layout: Layouts
     positions: np.ndarray
     decision: np.ndarray
     success: bool
+    macro: np.ndarray
 
 
 @dataclass
@@ -39,7 +41,7 @@ class Evaluation:
 class FrozenActor:
     """The trained policy on observations normalised with the statistics frozen at the end of training: acting
     with its mode, or sampling as it did in training when given a generator. Returns each decision's open-loop
-    actions (N, L, D) and lengths (N,)."""
+    actions (N, L, D) and lengths (N,); ``macro`` is which of the last decisions were macro actions."""
 
     def __init__(self, agent: TrainedAgent, env: BatchedEnv, rng: np.random.Generator | None = None) -> None:
         self.agent, self.rng = agent, rng
@@ -49,6 +51,7 @@ class FrozenActor:
 
     def __call__(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         action = self.agent.policy.act(self.normalize(obs.astype(np.float32), update=False), self.rng)
+        self.macro = self.mode.macro(action.index)
         return self.mode.to_open_loop(action.u.astype(np.float64), action.index)
 
 
@@ -59,12 +62,13 @@ def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4, s
     act = FrozenActor(agent, env, np.random.default_rng(seed) if sample else None)
     obs = env.reset()
     alive = np.ones(episodes, dtype=bool)
-    returns, lengths, decisions, chosen = (np.zeros(episodes) for _ in range(4))
+    returns, lengths, decisions, chosen, macros, macro_steps = (np.zeros(episodes) for _ in range(6))
     success = np.zeros(episodes, dtype=bool)
 
     traced = min(n_traces, episodes) if isinstance(env, ContinuousWorldBatch) else 0
     paths: list[list[np.ndarray]] = [[obs[i, :2].copy()] for i in range(traced)]
     labels: list[list[int]] = [[] for _ in range(traced)]
+    marks: list[list[bool]] = [[] for _ in range(traced)]
     layouts = [
         Layouts(*(getattr(env.layouts, f)[i : i + 1] for f in Layouts.__dataclass_fields__)) for i in range(traced)
     ]
@@ -74,6 +78,7 @@ def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4, s
         for i in np.flatnonzero(active[:traced]):
             paths[i].append(reached[i, :2].copy())
             labels[i].append(decision)
+            marks[i].append(bool(act.macro[i]))
 
     while alive.any():
         actions, length = act(obs)
@@ -81,6 +86,8 @@ def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4, s
         result = run_open_loop(env, obs, actions, length, on_step=trace if traced else None)
         returns += result.reward
         lengths += result.steps
+        macros += alive & act.macro
+        macro_steps += np.where(act.macro, result.steps, 0)
         decisions += alive
         chosen += length
         success |= alive & result.success
@@ -97,8 +104,13 @@ def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4, s
         "decisions": float(decisions.mean()),
         "macro_length": float(chosen.sum() / decisions.sum()),
         "steps_per_decision": float(lengths.sum() / decisions.sum()),
+        "macro_share": float(macros.sum() / decisions.sum()),
+        "macro_step_share": float(macro_steps.sum() / lengths.sum()),
     }
-    traces = [Trace(layouts[i], np.array(paths[i]), np.array(labels[i]), bool(success[i])) for i in range(traced)]
+    traces = [
+        Trace(layouts[i], np.array(paths[i]), np.array(labels[i]), bool(success[i]), np.array(marks[i], dtype=bool))
+        for i in range(traced)
+    ]
     return Evaluation(metrics, traces)
 
 

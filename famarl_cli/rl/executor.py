@@ -24,6 +24,8 @@ class OpenLoopResult:
     """(N,) sum of the rewards collected (the paper's r_tot)."""
     discounted_reward: np.ndarray
     """(N,) sum of ``discount ** k * r_k`` over the steps k of the sequence."""
+    rewards: np.ndarray
+    """(N, L) each step's reward; 0 after a sequence (or its episode) ended."""
     steps: np.ndarray
     """(N,) environment steps executed; less than the sequence's length where the episode ended first."""
     terminated: np.ndarray
@@ -48,6 +50,7 @@ def run_open_loop(
     ended episode's last one, not the next episode's first); evaluation uses it to trace paths.
     """
     n = env.n_envs
+    rewards = np.zeros((n, int(lengths.max(initial=0))))
     reward = np.zeros(n)
     discounted = np.zeros(n)
     steps = np.zeros(n, dtype=np.int64)
@@ -60,6 +63,7 @@ def run_open_loop(
         if not active.any():
             break
         obs, r, term, trunc, info = env.step(actions[:, k], active)
+        rewards[:, k] = r
         reward += r
         discounted += discount**k * r
         steps += active
@@ -71,4 +75,4 @@ def run_open_loop(
         success |= info.get("success", term) & ended
         if on_step is not None:
             on_step(active, np.where(ended[:, None], final_obs, obs))
-    return OpenLoopResult(obs, reward, discounted, steps, terminated, truncated, success, final_obs)
+    return OpenLoopResult(obs, reward, discounted, rewards, steps, terminated, truncated, success, final_obs)

@@ -58,7 +58,10 @@ class RewardScaler:
     """Divides rewards by the running standard deviation of the discounted return, so that the value targets
     stay near unit scale whatever the task's reward units (ContinuousWorld's macro rewards reach -100s).
 
-    ``discount`` is per environment and per step because a macro step's discount may depend on its length.
+    Calling it scales a decision's summed reward, with the return discounted per decision (the paper's
+    convention). :meth:`scale_steps` scales every environment step's reward before the decision sums them,
+    with the return discounted per step (the semi-MDP form): the statistics are then those of primitive-action
+    PPO whatever the decisions' lengths.
     """
 
     def __init__(self, n_envs: int, enabled: bool = True) -> None:
@@ -73,6 +76,20 @@ class RewardScaler:
         self.stats.update(self.returns)
         self.returns[done] = 0.0
         return np.minimum(np.maximum(reward / np.sqrt(self.stats.var + EPSILON), -CLIP), CLIP)
+
+    def scale_steps(self, rewards: np.ndarray, steps: np.ndarray, gamma: float, done: np.ndarray) -> np.ndarray:
+        """``sum_k gamma ** k * scaled(r_k)`` over each decision's ``steps`` (N,) first rewards (N, L)."""
+        if not self.enabled:
+            return (rewards * gamma ** np.arange(rewards.shape[1])).sum(1)
+        total = np.zeros(len(steps))
+        for k in range(int(steps.max(initial=0))):
+            active = k < steps
+            self.returns[active] = self.returns[active] * gamma + rewards[active, k]
+            self.stats.update(self.returns[active])
+            scaled = np.minimum(np.maximum(rewards[active, k] / np.sqrt(self.stats.var + EPSILON), -CLIP), CLIP)
+            total[active] += gamma**k * scaled
+        self.returns[done] = 0.0
+        return total
 
     def state_dict(self) -> dict:
         return {"returns": self.returns.copy(), **self.stats.state_dict()}

@@ -1,5 +1,10 @@
 """The actor-critic: separate 64-64 tanh networks, orthogonal initialisation, a state-independent log std,
-and for FiGAR a categorical head over repeat counts on the actor's features (CleanRL's layout).
+and a categorical head on the actor's features where the action mode has one (FiGAR's repeat counts, the
+hybrid's action type; CleanRL's layout).
+
+The hybrid's choice decides which outputs of the Gaussian it uses (``branches``): a decision's log-probability is
+log pi(k) plus the log-density of the chosen branch's outputs only, so the other branch's outputs get no
+gradient from it.
 
 Acting and learning take different paths through the same parameters, each the fastest for its batch:
 
@@ -54,7 +59,7 @@ class Heads:
     value: torch.Tensor
     """(B,) the critic's estimate."""
     logits: torch.Tensor | None
-    """(B, repeat choices) FiGAR's repeat-count logits; None for the other agents."""
+    """(B, choices) the categorical head's logits; None for agents without one."""
 
 
 @dataclass
@@ -64,7 +69,7 @@ class Action:
     u: np.ndarray
     """(B, action) the continuous output: sampled, or the Gaussian's mean."""
     index: np.ndarray
-    """(B,) FiGAR's repeat index (0 for the other agents)."""
+    """(B,) the categorical head's choice (0 for agents without one)."""
     logp: np.ndarray | None
     """(B,) log-probability of (u, index); None for the mode."""
     value: np.ndarray
@@ -72,8 +77,28 @@ class Action:
 
 
 class ActorCritic:
-    def __init__(self, obs_size: int, action_size: int, repeat_choices: int = 0, hidden: int = 64) -> None:
-        self.repeat_choices = repeat_choices
+    """``choices`` options in the categorical head (0: none). ``branches`` (choices, action_size), where given,
+    says which Gaussian outputs each choice uses (they may share outputs: the hybrid's residual variant adds its
+    primitive output to its macro actions). Without it every choice uses every output (FiGAR)."""
+
+    def __init__(
+        self,
+        obs_size: int,
+        action_size: int,
+        choices: int = 0,
+        hidden: int = 64,
+        branches: np.ndarray | None = None,
+    ) -> None:
+        self.choices = choices
+        self.branches = None if branches is None else np.asarray(branches, dtype=bool)
+        self.branch_mask = None
+        if self.branches is not None:
+            if self.branches.shape != (choices, action_size):
+                raise ValueError(f"branches must be {choices} masks over {action_size} outputs")
+            self.branch_mask = torch.from_numpy(self.branches.astype(np.float32))
+            # Outputs that the same choices use draw their noise together, in the order of their first output.
+            patterns, first = np.unique(self.branches.T, axis=0, return_index=True)
+            self.noise_groups = [np.all(self.branches.T == patterns[i], axis=1) for i in np.argsort(first)]
         shapes = {
             "w1": (2, obs_size, hidden),
             "b1": (2, 1, hidden),
@@ -85,8 +110,8 @@ class ActorCritic:
             "b_value": (1,),
             "log_std": (action_size,),
         }
-        if repeat_choices:
-            shapes |= {"w_repeat": (hidden, repeat_choices), "b_repeat": (repeat_choices,)}
+        if choices:
+            shapes |= {"w_choice": (hidden, choices), "b_choice": (choices,)}
         size = sum(math.prod(shape) for shape in shapes.values())
         self.flat, self.gradient = torch.zeros(size), torch.zeros(size)
         self.params = self._views(self.flat, shapes)
@@ -114,8 +139,8 @@ class ActorCritic:
         orthogonal(p["w_value"], 1.0)
         # Small output gains start the policy near its mean of 0 with std 1: for FaMARL, the FAVAE prior.
         orthogonal(p["w_mean"], 0.01)
-        if self.repeat_choices:
-            orthogonal(p["w_repeat"], 0.01)
+        if self.choices:
+            orthogonal(p["w_choice"], 0.01)
 
     def state_dict(self) -> dict[str, torch.Tensor]:
         return {"flat": self.flat.clone()}
@@ -128,31 +153,64 @@ class ActorCritic:
     def log_std(self) -> torch.Tensor:
         return self.params["log_std"]
 
-    def act(self, obs: np.ndarray, rng: np.random.Generator | None = None) -> Action:
+    def act(
+        self, obs: np.ndarray, rng: np.random.Generator | None = None, choice_rng: np.random.Generator | None = None
+    ) -> Action:
         """The policy on (B, obs) float32 observations: a sample drawn with ``rng``, or without it the mode (the
-        Gaussian's mean and the likeliest repeat index)."""
+        Gaussian's mean and the likeliest choice).
+
+        With branches, the choice is drawn from ``choice_rng`` (``rng`` where not given) and the noise of a
+        group of outputs only when some row chose a branch that uses it. A hybrid that always picks one branch
+        therefore draws from ``rng`` exactly what the agent with that branch alone draws (``tests/test_hybrid.py``
+        relies on it).
+        """
         p = self.arrays
         hidden = np.tanh(obs @ p["w1"] + p["b1"])
         hidden = np.tanh(hidden @ p["w2"] + p["b2"])
         mean = hidden[0] @ p["w_mean"] + p["b_mean"]
         value = hidden[1] @ p["w_value"][:, 0] + p["b_value"]
         log_p = None
-        if self.repeat_choices:
-            logits = hidden[0] @ p["w_repeat"] + p["b_repeat"]
+        if self.choices:
+            logits = hidden[0] @ p["w_choice"] + p["b_choice"]
             shifted = logits - logits.max(1, keepdims=True)
             log_p = shifted - np.log(np.exp(shifted).sum(1, keepdims=True))
         if rng is None:
             index = log_p.argmax(1) if log_p is not None else np.zeros(len(obs), dtype=np.int64)
             return Action(mean, index, None, value)
+        if self.branches is not None:
+            return self._act_on_branches(mean, value, log_p, rng, choice_rng or rng)
         noise = rng.standard_normal(mean.shape, dtype=np.float32)
         u = mean + np.exp(p["log_std"]) * noise
         logp = -0.5 * np.square(noise).sum(1) - (p["log_std"].sum() + LOG_SQRT_2PI * len(p["log_std"]))
         if log_p is None:
             return Action(u, np.zeros(len(obs), dtype=np.int64), logp, value)
-        # Inverse CDF; the minimum guards against a cumulative sum that rounds to just below 1.
-        below = np.exp(log_p).cumsum(1) < rng.random((len(obs), 1), dtype=np.float32)
-        index = np.minimum(below.sum(1), self.repeat_choices - 1)
+        index = self._draw(log_p, rng)
         return Action(u, index, logp + log_p[np.arange(len(obs)), index], value)
+
+    def _draw(self, log_p: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        # Inverse CDF; the minimum guards against a cumulative sum that rounds to just below 1.
+        below = np.exp(log_p).cumsum(1) < rng.random((len(log_p), 1), dtype=np.float32)
+        return np.minimum(below.sum(1), self.choices - 1)
+
+    def _act_on_branches(
+        self,
+        mean: np.ndarray,
+        value: np.ndarray,
+        log_p: np.ndarray,
+        rng: np.random.Generator,
+        choice_rng: np.random.Generator,
+    ) -> Action:
+        log_std = self.arrays["log_std"]
+        index = self._draw(log_p, choice_rng)
+        rows = self.branches[index]
+        noise = np.zeros_like(mean)
+        for columns in self.noise_groups:
+            if rows[:, columns].any():
+                noise[:, columns] = rng.standard_normal((len(mean), int(columns.sum())), dtype=np.float32)
+        noise *= rows
+        u = mean + np.exp(log_std) * noise
+        logp = -0.5 * np.square(noise).sum(1) - rows @ (log_std + LOG_SQRT_2PI)
+        return Action(u, index, logp + log_p[np.arange(len(mean)), index], value)
 
     def __call__(self, obs: torch.Tensor) -> Heads:
         p = self.params
@@ -160,7 +218,7 @@ class ActorCritic:
         hidden2 = tanh_layer(p["b2"], hidden1, p["w2"])
         mean = torch.addmm(p["b_mean"], hidden2[0], p["w_mean"])
         value = torch.addmm(p["b_value"], hidden2[1], p["w_value"]).squeeze(1)
-        logits = torch.addmm(p["b_repeat"], hidden2[0], p["w_repeat"]) if self.repeat_choices else None
+        logits = torch.addmm(p["b_choice"], hidden2[0], p["w_choice"]) if self.choices else None
         return Heads(obs, hidden1, hidden2, mean, value, logits)
 
     def backward(
@@ -172,7 +230,7 @@ class ActorCritic:
         d_logits: torch.Tensor | None = None,
     ) -> None:
         """Writes into ``gradient`` the gradient of a loss whose gradients with respect to the heads are given:
-        ``d_mean`` (B, action), ``d_log_std`` (action,), ``d_value`` (B,), ``d_logits`` (B, repeat choices)."""
+        ``d_mean`` (B, action), ``d_log_std`` (action,), ``d_value`` (B,), ``d_logits`` (B, choices)."""
         p, g = self.params, self.grads
         actor, critic = heads.hidden2.unbind()
         torch.mm(actor.T, d_mean, out=g["w_mean"])
@@ -183,9 +241,9 @@ class ActorCritic:
         d_hidden2 = torch.empty_like(heads.hidden2)
         torch.mm(d_mean, p["w_mean"].T, out=d_hidden2[0])
         if d_logits is not None:
-            torch.mm(actor.T, d_logits, out=g["w_repeat"])
-            torch.sum(d_logits, 0, out=g["b_repeat"])
-            d_hidden2[0].addmm_(d_logits, p["w_repeat"].T)
+            torch.mm(actor.T, d_logits, out=g["w_choice"])
+            torch.sum(d_logits, 0, out=g["b_choice"])
+            d_hidden2[0].addmm_(d_logits, p["w_choice"].T)
         torch.outer(d_value, p["w_value"].view(-1), out=d_hidden2[1])
         d_pre2 = d_hidden2.mul_(torch.addcmul(ONE, heads.hidden2, heads.hidden2, value=-1))  # tanh' = 1 - tanh^2
         torch.bmm(heads.hidden1.transpose(1, 2), d_pre2, out=g["w2"])

@@ -10,7 +10,8 @@ action, a repeated action, or a single step):
 
 - the reward of a decision is the sum of the rewards its steps collected (the paper's r_tot), and its discount
   is ``gamma`` per decision (``macro_discount="decision"``, the paper's t') or ``gamma ** steps`` with the
-  rewards inside discounted step by step (``"steps"``, the semi-MDP reading);
+  rewards inside scaled and discounted step by step (``"steps"``, the semi-MDP form; :mod:`~famarl_cli.rl.semi_mdp`
+  shows why it matters);
 - a decision cut by the time limit is bootstrapped: ``V(final_obs)``, discounted, is added to its reward and
   the episode boundary stops GAE there, so a truncation is not mistaken for a terminal state.
 
@@ -32,6 +33,7 @@ from famarl_cli.rl.executor import OpenLoopResult, run_open_loop
 from famarl_cli.rl.normalization import ObservationNormalizer, RewardScaler
 from famarl_cli.rl.optimizer import FlatAdam
 from famarl_cli.rl.policy import LOG_SQRT_2PI, ActorCritic
+from famarl_cli.rl.semi_mdp import decision_reward
 from famarl_cli.rl.vector import BatchedEnv
 
 RECENT_EPISODES = 100
@@ -57,6 +59,12 @@ class PPOConfig:
     vf_coef: float = 0.5
     max_grad_norm: float = 0.5
     macro_discount: str = "decision"
+    type_entropy_floor: float = 0.0
+    """Nats below which the categorical head's entropy is pushed back up (the hybrid's type head); 0: never."""
+    type_entropy_until: float = 0.25
+    """Share of the budget during which the floor holds."""
+    type_entropy_coef: float = 1.0
+    """Weight of the floor's hinge, max(0, floor - H(choice)), in the loss."""
     hidden: int = 64
     normalize_obs: bool = True
     scale_rewards: bool = True
@@ -120,21 +128,34 @@ class Minibatch:
     returns: torch.Tensor
 
 
-def clipped_objective_gradient(policy: ActorCritic, batch: Minibatch, cfg: PPOConfig) -> torch.Tensor:
+def clipped_objective_gradient(
+    policy: ActorCritic, batch: Minibatch, cfg: PPOConfig, entropy_floor: float = 0.0
+) -> torch.Tensor:
     """Writes into ``policy.gradient`` the gradient of PPO's loss on one minibatch; returns the :data:`STATS`.
 
     loss = clipped policy loss - ent_coef * entropy + vf_coef * (clipped) value loss, each a mean over the
-    minibatch. The derivative of each term with respect to the network's heads is written beside it; where a
-    ``max`` picks the clipped term, the clip is active and passes no gradient.
+    minibatch, plus ``type_entropy_coef * max(0, entropy_floor - H(choice))`` where the policy has a categorical
+    head. The derivative of each term with respect to the network's heads is written beside it; where a ``max``
+    picks the clipped term, the clip is active and passes no gradient.
+
+    With branches (the hybrid), only the chosen branch's outputs enter a row's log-density, and the entropy is
+    H(choice) + sum_k p(k) H(branch k).
     """
     size, log_std = len(batch.obs), policy.log_std
     heads = policy(batch.obs)
     # Every torch call costs ~5 us here, more than its arithmetic: in-place where possible, nothing computed twice.
     inv_std = log_std.neg().exp()
     z = (batch.u - heads.mean).mul_(inv_std)
+    rows = None if policy.branch_mask is None else policy.branch_mask[batch.index]
+    if rows is not None:
+        z.mul_(rows)
     z2 = z.square()
-    gaussian_constant = log_std.sum() + LOG_SQRT_2PI * len(log_std)  # sum(log_std) + const, also its entropy
-    log_ratio = z2.sum(1).mul_(-0.5).sub_(gaussian_constant).sub_(batch.logp)
+    if rows is None:
+        gaussian_constant = log_std.sum() + LOG_SQRT_2PI * len(log_std)  # sum(log_std) + const, also its entropy
+        log_ratio = z2.sum(1).mul_(-0.5).sub_(gaussian_constant).sub_(batch.logp)
+    else:
+        per_output = log_std + LOG_SQRT_2PI  # each output's share of -log density and (+ 1/2) of the entropy
+        log_ratio = z2.sum(1).mul_(-0.5).sub_(rows @ per_output).sub_(batch.logp)
     if heads.logits is not None:
         log_p = heads.logits.log_softmax(1)
         log_ratio += log_p.gather(1, batch.index[:, None]).squeeze(1)
@@ -158,19 +179,35 @@ def clipped_objective_gradient(policy: ActorCritic, batch: Minibatch, cfg: PPOCo
         value_loss, d_value = squared_error.mean().mul_(0.5), error
     d_value = d_value.mul_(cfg.vf_coef / size)
 
-    # d logp / d mean = z / std and d logp / d log_std = z^2 - 1
-    d_log_std = torch.mv(z2.sub_(1).T, d_logp).sub_(cfg.ent_coef)
+    # d logp / d mean = z / std and d logp / d log_std = z^2 - 1 (on the chosen branch's outputs, 0 elsewhere)
+    d_log_std = torch.mv(z2.sub_(1 if rows is None else rows).T, d_logp)
     d_mean = z.mul_(d_logp[:, None]).mul_(inv_std)
-    entropy = gaussian_constant + 0.5 * len(log_std)
     d_logits = None
-    if heads.logits is not None:
+    if heads.logits is None:
+        entropy = gaussian_constant + 0.5 * len(log_std)
+        d_log_std.sub_(cfg.ent_coef)
+    else:
         p = log_p.exp()
-        categorical_entropy = -(p * log_p).sum(1)
-        entropy = entropy + categorical_entropy.mean()
-        # d log p[index] / d logits = onehot(index) - p;  d entropy / d logits = -p (log p + entropy)
+        choice_entropy = -(p * log_p).sum(1)
+        # d log p[index] / d logits = onehot(index) - p;  d H(choice) / d logits = -p (log p + H(choice))
         d_logits = -p * d_logp[:, None]
         d_logits.scatter_add_(1, batch.index[:, None], d_logp[:, None])
-        d_logits += (cfg.ent_coef / size) * p * (log_p + categorical_entropy[:, None])
+        d_choice_entropy = cfg.ent_coef / size
+        if entropy_floor > 0:
+            below = (choice_entropy < entropy_floor).float()
+            d_choice_entropy = d_choice_entropy + below[:, None] * (cfg.type_entropy_coef / size)
+        d_logits += d_choice_entropy * p * (log_p + choice_entropy[:, None])
+        if rows is None:
+            entropy = gaussian_constant + 0.5 * len(log_std) + choice_entropy.mean()
+            d_log_std.sub_(cfg.ent_coef)
+        else:
+            # sum_k p(k) H(branch k): d / d log_std = E_rows[p @ mask]; d / d logits = p (H(branch) - that sum)
+            branch_entropy = policy.branch_mask @ (per_output + 0.5)
+            weights = p @ policy.branch_mask
+            expected = p @ branch_entropy
+            entropy = (choice_entropy + expected).mean()
+            d_log_std.sub_(weights.mean(0), alpha=cfg.ent_coef)
+            d_logits -= (cfg.ent_coef / size) * p * (branch_entropy - expected[:, None])
     policy.backward(heads, d_mean, d_log_std, d_value, d_logits)
     approx_kl = (ratio - log_ratio).mean() - 1
     clip_fraction = (ratio != clipped_ratio).mean(dtype=torch.float32)
@@ -191,6 +228,10 @@ class Rollout:
     returns: np.ndarray
     macro_lengths: np.ndarray
     """(T, N) lengths of the sequences chosen (before an episode end cut them)."""
+    macro: np.ndarray
+    """(T, N) which decisions were macro actions (all for FaMARL, none for PPO and FiGAR)."""
+    steps: np.ndarray
+    """(T, N) environment steps each decision ran."""
     env_steps: int
 
 
@@ -240,7 +281,10 @@ class PPOTrainer:
         self.env, self.mode, self.config = env, mode, config
         torch.manual_seed(seed)  # initialisation and the minibatch shuffles
         self.rng = np.random.default_rng(seed)  # the rollouts' sampling
-        self.policy = ActorCritic(env.observation_size, mode.policy_action_size, mode.repeat_choices, config.hidden)
+        self.choice_rng = np.random.default_rng([1, seed])  # the hybrid's type choices (ActorCritic.act)
+        self.policy = ActorCritic(
+            env.observation_size, mode.policy_action_size, mode.choices, config.hidden, mode.branches
+        )
         self.optimizer = FlatAdam(self.policy.flat, lr=config.learning_rate, eps=1e-5)
         self.obs_norm = ObservationNormalizer((env.observation_size,), config.normalize_obs)
         self.reward_scaler = RewardScaler(config.n_envs, config.scale_rewards)
@@ -259,34 +303,44 @@ class PPOTrainer:
         cfg, n = self.config, self.config.n_envs
         obs = np.zeros((cfg.n_steps, n, self.env.observation_size), np.float32)
         u = np.zeros((cfg.n_steps, n, self.mode.policy_action_size), np.float32)
-        index = np.zeros((cfg.n_steps, n), np.int64)
+        index, steps = (np.zeros((cfg.n_steps, n), np.int64) for _ in range(2))
+        macro = np.zeros((cfg.n_steps, n), bool)
         logp, values, rewards, dones, discounts, lengths = (np.zeros((cfg.n_steps, n)) for _ in range(6))
         steps_before = self.env_steps
-        within = cfg.gamma if cfg.macro_discount == "steps" else 1.0
         for t in range(cfg.n_steps):
             obs[t] = self.obs_norm(self.obs, update=True)
-            action = self.policy.act(obs[t], self.rng)
+            action = self.policy.act(obs[t], self.rng, self.choice_rng)
             u[t], index[t], logp[t], values[t] = action.u, action.index, action.logp, action.value
             actions, lengths[t] = self.mode.to_open_loop(u[t].astype(np.float64), index[t])
-            result = run_open_loop(self.env, self.obs, actions, lengths[t].astype(np.int64), discount=within)
-            if cfg.macro_discount == "steps":
-                discounts[t], reward = cfg.gamma**result.steps, result.discounted_reward
-            else:
-                discounts[t], reward = np.full(n, cfg.gamma), result.reward
+            macro[t] = self.mode.macro(index[t])
+            result = run_open_loop(self.env, self.obs, actions, lengths[t].astype(np.int64))
             dones[t] = result.terminated | result.truncated
-            rewards[t] = self.reward_scaler(reward, discounts[t], dones[t].astype(bool))
+            rewards[t], discounts[t] = decision_reward(result, cfg.macro_discount, cfg.gamma, self.reward_scaler)
             if result.truncated.any():
                 cut = result.truncated
                 final = self.obs_norm(result.final_obs[cut], update=False)
                 rewards[t, cut] += discounts[t, cut] * self.policy.act(final).value
             self.episodes.record(result)
+            steps[t] = result.steps
             self.env_steps += int(result.steps.sum())
             self.decisions += n
             self.obs = result.obs
         next_value = self.policy.act(self.obs_norm(self.obs, update=False)).value
         advantages, returns = compute_gae(rewards, values, dones, discounts, next_value, cfg.gae_lambda)
         return Rollout(
-            obs, u, index, logp, values, rewards, dones, advantages, returns, lengths, self.env_steps - steps_before
+            obs,
+            u,
+            index,
+            logp,
+            values,
+            rewards,
+            dones,
+            advantages,
+            returns,
+            lengths,
+            macro,
+            steps,
+            self.env_steps - steps_before,
         )
 
     # inference_mode: no autograd bookkeeping on any tensor (the gradient is written out), a third off every call.
@@ -301,6 +355,8 @@ class PPOTrainer:
         minibatch = size // cfg.minibatches
         totals = torch.zeros(len(STATS))
         gradient = self.policy.gradient
+        early = self.env_steps <= cfg.type_entropy_until * cfg.total_steps
+        floor = cfg.type_entropy_floor if early else 0.0
         for _ in range(cfg.epochs):
             shuffled = data[torch.randperm(size)][: minibatch * cfg.minibatches]
             columns = dict(zip(names, shuffled.split(split, dim=1), strict=True))
@@ -313,7 +369,7 @@ class PPOTrainer:
             minibatches = {name: column.split(minibatch) for name, column in columns.items()}
             for i in range(cfg.minibatches):
                 batch = Minibatch(**{name: parts[i] for name, parts in minibatches.items()})
-                totals += clipped_objective_gradient(self.policy, batch, cfg)
+                totals += clipped_objective_gradient(self.policy, batch, cfg, floor)
                 # clip_grad_norm_'s rule, on the one flat gradient
                 norm = float(gradient.norm())
                 if norm + 1e-6 > cfg.max_grad_norm:
@@ -343,6 +399,8 @@ class PPOTrainer:
                 **self.episodes.summary(),
                 "macro_length": float(rollout.macro_lengths.mean()),
                 "steps_per_decision": rollout.env_steps / rollout.macro_lengths.size,
+                "macro_share": float(rollout.macro.mean()),
+                "macro_step_share": float(rollout.steps[rollout.macro].sum() / max(rollout.env_steps, 1)),
                 "learning_rate": learning_rate,
                 **stats,
             }
@@ -356,6 +414,7 @@ class PPOTrainer:
             "optimizer": self.optimizer.state_dict(),
             "torch_rng": torch.get_rng_state(),
             "sampling_rng": json.dumps(self.rng.bit_generator.state),
+            "choice_rng": json.dumps(self.choice_rng.bit_generator.state),
             "obs_norm": self.obs_norm.state_dict(),
             "reward_scaler": self.reward_scaler.state_dict(),
             "episodes": self.episodes.state_dict(),
@@ -370,6 +429,8 @@ class PPOTrainer:
         self.optimizer.load_state_dict(state["optimizer"])
         torch.set_rng_state(state["torch_rng"])
         self.rng.bit_generator.state = json.loads(state["sampling_rng"])
+        if "choice_rng" in state:  # checkpoints from before the hybrid agent have none; only the hybrid uses it
+            self.choice_rng.bit_generator.state = json.loads(state["choice_rng"])
         self.obs_norm.load_state_dict(state["obs_norm"])
         self.reward_scaler.load_state_dict(state["reward_scaler"])
         self.log = list(state["log"])

@@ -1,6 +1,6 @@
 """A training run from start to finish: its spec, the agent it builds, checkpoints and exact resumes.
 
-A run is fully described by its :class:`RunSpec` plus the FAVAE it decodes with (FaMARL only). Checkpoints
+A run is fully described by its :class:`RunSpec` plus the FAVAE it decodes with (FaMARL and hybrid). Checkpoints
 hold the whole trainer state (:meth:`PPOTrainer.state_dict`), so ``resume`` continues the very same run: with
 the same seed, a run stopped and resumed ends with the same weights and log as one that never stopped.
 """
@@ -19,7 +19,7 @@ from famarl_cli.errors import ArtifactError, UsageError
 from famarl_cli.favae.checkpoint import load_favae
 from famarl_cli.favae.model import Favae, FavaeConfig
 from famarl_cli.rl import Agent
-from famarl_cli.rl.action_modes import LatentMacroActions, PrimitiveActions, RepeatedActions
+from famarl_cli.rl.action_modes import HybridActions, LatentMacroActions, PrimitiveActions, RepeatedActions
 from famarl_cli.rl.policy import ActorCritic
 from famarl_cli.rl.ppo import PPOConfig, PPOTrainer
 from famarl_cli.rl.vector import BatchedEnv, make_batch
@@ -32,11 +32,15 @@ class RunSpec:
     seed: int
     ppo: PPOConfig
     latent_bound: float = 3.0
-    """FaMARL: latents are clipped to [-bound, bound] before decoding."""
+    """FaMARL and hybrid: latents are clipped to [-bound, bound] before decoding."""
+    macro_horizon: int | None = None
+    """FaMARL and hybrid: macro actions are cut after this many steps (None: where the decoder stops them)."""
+    residual: float = 0.0
+    """Hybrid: a macro decision adds this times the primitive output to each of its actions (0: off)."""
     max_repeat: int = 32
     """FiGAR: the largest repeat count J."""
     favae: str | None = None
-    """FaMARL: the FAVAE checkpoint it was started from (its weights are copied into the run)."""
+    """FaMARL and hybrid: the FAVAE checkpoint it was started from (its weights are copied into the run)."""
     label: str = ""
     """How plots and reports name this kind of run; seeds of one experiment share it."""
 
@@ -49,10 +53,10 @@ class RunSpec:
 
 
 def default_label(agent: Agent, favae: str | os.PathLike | None) -> str:
-    """``famarl (<FAVAE file name>)``, or plain ``famarl`` for a FAVAE named favae.pt (famarl macros folders)."""
-    if agent != Agent.FAMARL or not favae or Path(favae).stem == "favae":
+    """``<agent> (<FAVAE file name>)``, or plain ``<agent>`` for a FAVAE named favae.pt (famarl macros folders)."""
+    if not agent.decodes_macros or not favae or Path(favae).stem == "favae":
         return str(agent)
-    return f"famarl ({Path(favae).stem})"
+    return f"{agent} ({Path(favae).stem})"
 
 
 def build_mode(spec: RunSpec, env: BatchedEnv, favae: Favae | None):
@@ -62,9 +66,10 @@ def build_mode(spec: RunSpec, env: BatchedEnv, favae: Favae | None):
     if spec.agent == Agent.FIGAR:
         return RepeatedActions(low, high, spec.max_repeat)
     try:
-        return LatentMacroActions(favae, low, high, spec.latent_bound)
+        macros = LatentMacroActions(favae, low, high, spec.latent_bound, spec.macro_horizon)
     except ValueError as exc:
         raise UsageError(f"{spec.favae}: {exc}") from exc
+    return HybridActions(macros, spec.residual) if spec.agent == Agent.HYBRID else macros
 
 
 def _favae_state(favae: Favae | None) -> dict:
@@ -92,9 +97,9 @@ class Run:
 
     @staticmethod
     def start(spec: RunSpec) -> Run:
-        if spec.agent == Agent.FAMARL and spec.favae is None:
-            raise UsageError("--agent famarl needs --favae (a checkpoint from famarl favae fit)")
-        favae = load_favae(spec.favae)[0] if spec.agent == Agent.FAMARL else None
+        if spec.agent.decodes_macros and spec.favae is None:
+            raise UsageError(f"--agent {spec.agent} needs --favae (a checkpoint from famarl favae fit)")
+        favae = load_favae(spec.favae)[0] if spec.agent.decodes_macros else None
         inputs = [Path(spec.favae)] if favae is not None else []
         prov = provenance("famarl train", spec.to_dict(), spec.seed, inputs)
         return Run(spec, favae, prov)
@@ -172,7 +177,7 @@ def load_agent(run_dir: str | os.PathLike) -> TrainedAgent:
     trainer = payload["trainer"]
     env = make_batch(spec.env_id, 1, spec.seed)
     mode = build_mode(spec, env, favae)
-    policy = ActorCritic(env.observation_size, mode.policy_action_size, mode.repeat_choices, spec.ppo.hidden)
+    policy = ActorCritic(env.observation_size, mode.policy_action_size, mode.choices, spec.ppo.hidden, mode.branches)
     policy.load_state_dict(trainer["policy"])
     return TrainedAgent(spec, policy, trainer["obs_norm"], favae, int(trainer["counters"]["env_steps"]))
 
