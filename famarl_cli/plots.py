@@ -284,15 +284,18 @@ def save_film(film, gif_path: str | os.PathLike, strip_path: str | os.PathLike, 
     """A rendered episode as a GIF and as a strip of ``stills`` frames.
 
     A band along each frame's top has the colour of the decision that made it, so macro actions show as
-    stretches of one colour (the GIF's counterpart of the paper's Fig. 4b).
+    stretches of one colour (the GIF's counterpart of the paper's Fig. 4b); a single primitive step's band is
+    black, as in the rollouts, so a hybrid's two kinds of decision stand apart.
     """
     from PIL import Image
 
     band = max(4, film.frames[0].shape[0] // 40)
+    steps = np.bincount(film.decision)
     marked = [film.frames[0].copy()]
-    for frame, decision in zip(film.frames[1:], film.decision, strict=True):
+    for frame, decision, macro in zip(film.frames[1:], film.decision, film.macro, strict=True):
         frame = frame.copy()
-        frame[:band] = DECISION_COLOURS[decision % len(DECISION_COLOURS)]
+        sequence = macro or steps[decision] > 1
+        frame[:band] = DECISION_COLOURS[decision % len(DECISION_COLOURS)] if sequence else 0
         marked.append(frame)
     images = [Image.fromarray(frame) for frame in marked]
     with atomic_path(gif_path) as temp:

@@ -257,3 +257,20 @@ def test_the_hybrid_trains_on_every_registered_env(env_id):
     trainer.train()
     assert trainer.env_steps >= 300 and all(0 <= row["macro_share"] <= 1 for row in trainer.log)
     assert all(np.isfinite(row["policy_loss"]) for row in trainer.log)
+
+
+def test_a_films_band_marks_macro_actions_in_colour_and_single_primitive_steps_in_black(tmp_path):
+    from PIL import Image, ImageSequence
+
+    from famarl_cli.plots import save_film
+    from famarl_cli.rl.evaluation import Film
+
+    # light grey frames, each a shade apart so that the GIF keeps them all; a 3-step macro, then two primitive steps
+    frames = [np.full((40, 40, 3), 250 - 8 * i, dtype=np.uint8) for i in range(6)]
+    film = Film(frames, [0, 0, 0, 1, 2], True, 10.0, [True, True, True, False, False])
+    save_film(film, tmp_path / "episode.gif", tmp_path / "episode.png")
+    with Image.open(tmp_path / "episode.gif") as gif:
+        bands = [tuple(frame.convert("RGB").getpixel((20, 0))) for frame in ImageSequence.Iterator(gif)]
+    assert len(bands) == 6 and bands[0] == (250, 250, 250)  # the reset frame has no decision
+    assert all(band != (0, 0, 0) and len(set(band)) > 1 for band in bands[1:4])  # a colour, not a grey
+    assert bands[4] == bands[5] == (0, 0, 0)

@@ -116,13 +116,15 @@ def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4, s
 
 @dataclass
 class Film:
-    """One deterministic episode rendered frame by frame; ``decision[t]`` is the decision that made frame t + 1."""
+    """One deterministic episode rendered frame by frame; ``decision[t]`` is the decision that made frame t + 1,
+    and ``macro[t]`` whether that decision was a macro action."""
 
     frames: list[np.ndarray]
     decision: list[int]
     success: bool
     fps: float
     """Frames per second of real time (the environment's ``render_fps``)."""
+    macro: list[bool]
 
 
 def film_episode(agent: TrainedAgent, seed: int) -> Film:
@@ -131,17 +133,18 @@ def film_episode(agent: TrainedAgent, seed: int) -> Film:
     env = batch.envs[0]
     act = FrozenActor(agent, batch)
     batch.reset()
-    frames, decisions, decision = [env.render()], [], 0
+    frames, decisions, macros, decision = [env.render()], [], [], 0
 
     def film(active: np.ndarray, reached: np.ndarray) -> None:
         frames.append(env.render())
         decisions.append(decision)
+        macros.append(bool(act.macro[0]))
 
     while True:
         actions, length = act(batch.obs)
         result = run_open_loop(batch, batch.obs, actions, length, on_step=film)
         if result.terminated[0] or result.truncated[0]:
-            return Film(frames, decisions, bool(result.success[0]), float(env.metadata["render_fps"]))
+            return Film(frames, decisions, bool(result.success[0]), float(env.metadata["render_fps"]), macros)
         decision += 1
 
 
