@@ -58,15 +58,15 @@ def bonferroni_level(comparisons: int) -> float:
     return 1 - (1 - LEVEL) / max(1, comparisons)
 
 
-def _three_way(reproduces: bool, does_not: bool) -> Verdict:
+def three_way(reproduces: bool, does_not: bool) -> Verdict:
     if reproduces:
         return Verdict.REPRODUCES
     return Verdict.DOES_NOT if does_not else Verdict.INCONCLUSIVE
 
 
-def _combine(verdicts: Sequence[Verdict]) -> Verdict:
+def combine(verdicts: Sequence[Verdict]) -> Verdict:
     """A claim of several parts reproduces when every part does and does not when any part does not."""
-    return _three_way(bool(verdicts) and all(v == Verdict.REPRODUCES for v in verdicts), Verdict.DOES_NOT in verdicts)
+    return three_way(bool(verdicts) and all(v == Verdict.REPRODUCES for v in verdicts), Verdict.DOES_NOT in verdicts)
 
 
 def solves(
@@ -74,7 +74,7 @@ def solves(
 ) -> Judgement:
     interval = mean_interval(values, episodes, level)
     return Judgement(
-        _three_way(interval.low >= tau, interval.high < tau),
+        three_way(interval.low >= tau, interval.high < tau),
         f"mean >= {tau:g}: lower end >= {tau:g} reproduces, upper end < {tau:g} does not",
         (Estimate(name, interval, tuple(values), tau),),
     )
@@ -85,7 +85,7 @@ def fails(
 ) -> Judgement:
     interval = mean_interval(values, episodes, level)
     return Judgement(
-        _three_way(interval.high <= tau, interval.low > tau),
+        three_way(interval.high <= tau, interval.low > tau),
         f"mean <= {tau:g}: upper end <= {tau:g} reproduces, lower end > {tau:g} does not",
         (Estimate(name, interval, tuple(values), tau),),
     )
@@ -102,7 +102,7 @@ def beats(
 ) -> Judgement:
     interval = difference_interval(a, b, episodes, level)
     return Judgement(
-        _three_way(interval.low > 0, interval.high < delta),
+        three_way(interval.low > 0, interval.high < delta),
         f"{a_name} - {b_name} (Welch, {level:.1%}): lower end > 0 reproduces, upper end < {delta:g} does not",
         (Estimate(f"{a_name} - {b_name}", interval, (), delta),),
     )
@@ -110,7 +110,7 @@ def beats(
 
 def all_of(parts: Sequence[Judgement], rule: str) -> Judgement:
     return Judgement(
-        _combine([part.verdict for part in parts]),
+        combine([part.verdict for part in parts]),
         rule,
         tuple(estimate for part in parts for estimate in part.estimates),
     )
@@ -132,9 +132,9 @@ def equivalent(groups: dict[str, Sequence[float]], margin: float, episodes: int 
         interval = difference_interval(groups[a], groups[b], episodes, level)
         inside = -margin < interval.low and interval.high < margin
         outside = interval.low > margin or interval.high < -margin
-        verdicts.append(_three_way(inside, outside))
+        verdicts.append(three_way(inside, outside))
         estimates.append(Estimate(f"{a} - {b}", interval, (), margin))
-    verdict = _combine(verdicts)
+    verdict = combine(verdicts)
     rule = (
         f"every pairwise difference (Welch, {level:.1%}, Bonferroni over {len(pairs)}) inside "
         f"(-{margin:g}, {margin:g}) reproduces; one wholly outside does not"
@@ -152,9 +152,9 @@ def improves(
     verdicts, estimates = [], []
     for rival, theirs in rivals.items():
         interval = probability_of_improvement(per_task, theirs, level)
-        verdicts.append(_three_way(interval.low > 0.5, interval.high < 0.5))
+        verdicts.append(three_way(interval.low > 0.5, interval.high < 0.5))
         estimates.append(Estimate(f"P({name} > {rival})", interval, (), 0.5))
-    verdict = _combine(verdicts)
+    verdict = combine(verdicts)
     rule = (
         f"probability of improvement over each rival (stratified bootstrap, {level:.1%}, Bonferroni): lower end "
         "> 1/2 reproduces, upper end < 1/2 does not"

@@ -30,7 +30,7 @@ import numpy as np
 
 from famarl_cli.favae.checkpoint import load_favae
 from famarl_cli.rl.action_modes import LatentMacroActions, RepeatedActions
-from famarl_cli.rl.executor import run_open_loop
+from famarl_cli.rl.executor import discounted_sum, run_open_loop
 from famarl_cli.rl.vector import GymBatch
 
 Reward = Literal["discounted", "sum"]
@@ -66,9 +66,8 @@ class OpenLoopWrapper(gymnasium.Wrapper):
     def step(self, action):
         u, repeat = self._mode_input(action)
         actions, lengths = self._mode.to_open_loop(u, repeat)
-        within = self.gamma if self.reward_kind == "discounted" else 1.0
-        result = run_open_loop(self._batch, self._batch.obs, actions, lengths, discount=within)
-        reward = result.discounted_reward[0] if self.reward_kind == "discounted" else result.reward[0]
+        result = run_open_loop(self._batch, self._batch.obs, actions, lengths)
+        reward = discounted_sum(result.rewards, self.gamma)[0] if self.reward_kind == "discounted" else result.reward[0]
         steps = int(result.steps[0])
         info = {
             **self._batch.last_info[0],

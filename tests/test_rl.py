@@ -9,7 +9,7 @@ from famarl_cli.favae.model import Favae, FavaeConfig
 from famarl_cli.rl import Agent
 from famarl_cli.rl.action_modes import LatentMacroActions, PrimitiveActions, RepeatedActions
 from famarl_cli.rl.evaluation import evaluate
-from famarl_cli.rl.executor import run_open_loop
+from famarl_cli.rl.executor import discounted_sum, run_open_loop
 from famarl_cli.rl.normalization import RewardScaler, RunningMeanStd
 from famarl_cli.rl.policy import ActorCritic
 from famarl_cli.rl.ppo import STATS, Minibatch, PPOConfig, PPOTrainer, clipped_objective_gradient, compute_gae
@@ -69,10 +69,10 @@ def test_open_loop_sums_rewards_counts_steps_and_stops_at_an_episode_end():
     env = CountingEnv(terminate_env2=True)
     obs = env.reset()
     actions = np.zeros((3, 5, 1))
-    result = run_open_loop(env, obs, actions, np.array([3, 1, 5]), discount=0.5)
+    result = run_open_loop(env, obs, actions, np.array([3, 1, 5]))
     np.testing.assert_array_equal(result.steps, [3, 1, 2])
     np.testing.assert_allclose(result.reward, [0 + 1 + 2, 10, 20 + 21])
-    np.testing.assert_allclose(result.discounted_reward, [0 + 0.5 + 0.5, 10, 20 + 0.5 * 21])
+    np.testing.assert_allclose(discounted_sum(result.rewards, 0.5), [0 + 0.5 + 0.5, 10, 20 + 0.5 * 21])
     np.testing.assert_array_equal(result.terminated, [False, False, True])
     assert result.final_obs[2, 0] == 2 and result.obs[2, 0] == 0  # last obs of the ended episode; the new one's first
     assert len(env.calls) == 3  # stops once every sequence is done

@@ -16,7 +16,7 @@ from famarl_cli.experiments.common import MAZE, curves
 from famarl_cli.experiments.robothand import BALL_PLACING, REACHING
 from famarl_cli.results import THRESHOLD, Group, RunResult, by_agent, copy_figure, gather, group, results_table
 from famarl_cli.statistics import Interval, difference_interval, mean_interval, ratio_interval
-from famarl_cli.verdicts import Claim, Estimate, Judgement, Verdict, not_run, solves
+from famarl_cli.verdicts import Claim, Estimate, Judgement, Verdict, combine, not_run, three_way
 
 EARLY = 0.02
 """Share of the budget that counts as the start of training."""
@@ -64,15 +64,11 @@ def per_seed(g: Group, measure) -> np.ndarray:
 
 
 def at_least(interval: Interval, goal: float) -> Verdict:
-    if interval.low >= goal:
-        return Verdict.REPRODUCES
-    return Verdict.DOES_NOT if interval.high < goal else Verdict.INCONCLUSIVE
+    return three_way(interval.low >= goal, interval.high < goal)
 
 
 def at_most(interval: Interval, goal: float) -> Verdict:
-    if interval.high <= goal:
-        return Verdict.REPRODUCES
-    return Verdict.DOES_NOT if interval.low > goal else Verdict.INCONCLUSIVE
+    return three_way(interval.high <= goal, interval.low > goal)
 
 
 def ratio_goal(goal: str, measure: str, name: str, mine: np.ndarray, theirs: np.ndarray, bound: float, most: bool):
@@ -120,14 +116,7 @@ def goals(maze: dict[str, Group], reaching: dict[str, Group]) -> list[Claim]:
     rivals = [g for g in (ppo, famarl) if g is not None]
     if hybrid is not None and rivals:
         parts = [difference_interval(hybrid.values("auc"), rival.values("auc")) for rival in rivals]
-        verdicts = [at_least(part, 0.0) for part in parts]
-        verdict = (
-            Verdict.REPRODUCES
-            if all(v == Verdict.REPRODUCES for v in verdicts)
-            else Verdict.DOES_NOT
-            if Verdict.DOES_NOT in verdicts
-            else Verdict.INCONCLUSIVE
-        )
+        verdict = combine([at_least(part, 0.0) for part in parts])
         estimates = tuple(
             Estimate(f"hybrid - {rival.label}", part, (), 0.0) for rival, part in zip(rivals, parts, strict=True)
         )
@@ -138,10 +127,13 @@ def goals(maze: dict[str, Group], reaching: dict[str, Group]) -> list[Claim]:
         claims.append(not_run(overall, "AUC"))
     hybrid_reaching = reaching.get("hybrid")
     if hybrid_reaching is not None:
-        judgement = solves("hybrid", hybrid_reaching.values("success"), REACHING_SUCCESS, hybrid_reaching.episodes)
-        rule = judgement.rule.replace("reproduces", "met").replace("does not", "missed")
-        measure = f"success over {hybrid_reaching.episodes} evaluation episodes, sampling as in training"
-        claims.append(Claim(reach, measure, Judgement(judgement.verdict, rule, judgement.estimates)))
+        values, episodes = hybrid_reaching.values("success"), hybrid_reaching.episodes
+        interval = mean_interval(values, episodes)
+        tau = REACHING_SUCCESS
+        rule = f"mean >= {tau:g}: lower end >= {tau:g} met, upper end < {tau:g} missed"
+        estimate = Estimate("hybrid", interval, tuple(values), tau)
+        measure = f"success over {episodes} evaluation episodes, sampling as in training"
+        claims.append(Claim(reach, measure, Judgement(at_least(interval, tau), rule, (estimate,))))
     else:
         claims.append(not_run(reach, "final success"))
     return claims

@@ -22,10 +22,8 @@ class OpenLoopResult:
     """(N, obs) after the sequence; where an episode ended, the next episode's first observation."""
     reward: np.ndarray
     """(N,) sum of the rewards collected (the paper's r_tot)."""
-    discounted_reward: np.ndarray
-    """(N,) sum of ``discount ** k * r_k`` over the steps k of the sequence."""
     rewards: np.ndarray
-    """(N, L) each step's reward; 0 after a sequence (or its episode) ended."""
+    """(N, L) each step's reward; 0 after a sequence (or its episode) ended (:func:`discounted_sum`)."""
     steps: np.ndarray
     """(N,) environment steps executed; less than the sequence's length where the episode ended first."""
     terminated: np.ndarray
@@ -41,7 +39,6 @@ def run_open_loop(
     obs: np.ndarray,
     actions: np.ndarray,
     lengths: np.ndarray,
-    discount: float = 1.0,
     on_step: Callable[[np.ndarray, np.ndarray], None] | None = None,
 ) -> OpenLoopResult:
     """Run ``actions[i, :lengths[i]]`` in environment ``i`` without feedback, from current observations ``obs``.
@@ -52,7 +49,6 @@ def run_open_loop(
     n = env.n_envs
     rewards = np.zeros((n, int(lengths.max(initial=0))))
     reward = np.zeros(n)
-    discounted = np.zeros(n)
     steps = np.zeros(n, dtype=np.int64)
     terminated = np.zeros(n, dtype=bool)
     truncated = np.zeros(n, dtype=bool)
@@ -65,7 +61,6 @@ def run_open_loop(
         obs, r, term, trunc, info = env.step(actions[:, k], active)
         rewards[:, k] = r
         reward += r
-        discounted += discount**k * r
         steps += active
         ended = term | trunc
         if ended.any():
@@ -75,4 +70,10 @@ def run_open_loop(
         success |= info.get("success", term) & ended
         if on_step is not None:
             on_step(active, np.where(ended[:, None], final_obs, obs))
-    return OpenLoopResult(obs, reward, discounted, rewards, steps, terminated, truncated, success, final_obs)
+    return OpenLoopResult(obs, reward, rewards, steps, terminated, truncated, success, final_obs)
+
+
+def discounted_sum(rewards: np.ndarray, gamma: float) -> np.ndarray:
+    """(N,) ``sum_k gamma ** k * r_k`` over each row of per-step rewards (N, L), such as
+    :attr:`OpenLoopResult.rewards`: a sequence's reward in the semi-MDP form."""
+    return (rewards * gamma ** np.arange(rewards.shape[1])).sum(1)

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from famarl_cli.rl.executor import discounted_sum
+
 CLIP = 10.0
 EPSILON = 1e-8
 
@@ -80,7 +82,7 @@ class RewardScaler:
     def scale_steps(self, rewards: np.ndarray, steps: np.ndarray, gamma: float, done: np.ndarray) -> np.ndarray:
         """``sum_k gamma ** k * scaled(r_k)`` over each decision's ``steps`` (N,) first rewards (N, L)."""
         if not self.enabled:
-            return (rewards * gamma ** np.arange(rewards.shape[1])).sum(1)
+            return discounted_sum(rewards, gamma)
         total = np.zeros(len(steps))
         for k in range(int(steps.max(initial=0))):
             active = k < steps

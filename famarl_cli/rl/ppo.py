@@ -232,7 +232,10 @@ class Rollout:
     """(T, N) which decisions were macro actions (all for FaMARL, none for PPO and FiGAR)."""
     steps: np.ndarray
     """(T, N) environment steps each decision ran."""
-    env_steps: int
+
+    @property
+    def env_steps(self) -> int:
+        return int(self.steps.sum())
 
 
 class EpisodeTracker:
@@ -306,7 +309,6 @@ class PPOTrainer:
         index, steps = (np.zeros((cfg.n_steps, n), np.int64) for _ in range(2))
         macro = np.zeros((cfg.n_steps, n), bool)
         logp, values, rewards, dones, discounts, lengths = (np.zeros((cfg.n_steps, n)) for _ in range(6))
-        steps_before = self.env_steps
         for t in range(cfg.n_steps):
             obs[t] = self.obs_norm(self.obs, update=True)
             action = self.policy.act(obs[t], self.rng, self.choice_rng)
@@ -340,7 +342,6 @@ class PPOTrainer:
             lengths,
             macro,
             steps,
-            self.env_steps - steps_before,
         )
 
     # inference_mode: no autograd bookkeeping on any tensor (the gradient is written out), a third off every call.
