@@ -1,5 +1,5 @@
-"""The demos stage: run a scripted expert in its Base task (ContinuousWorld or RobotHand) and collect its
-episodes."""
+"""The demos stage: run an expert and collect its episodes. famarl's scripted experts act in their Base task
+(ContinuousWorld or RobotHand); a user's expert acts in any gymnasium env with a Box action space."""
 
 from __future__ import annotations
 
@@ -10,8 +10,10 @@ import gymnasium as gym
 import numpy as np
 
 from famarl_cli.artifacts import Demos, Episode, provenance
-from famarl_cli.errors import UsageError
+from famarl_cli.envs.external import make_env
+from famarl_cli.errors import FamarlError, UsageError
 from famarl_cli.experts import Script, demonstration, make_expert
+from famarl_cli.experts.external import ExternalExpert
 
 
 def episode_seeds(seed: int, n_episodes: int) -> np.ndarray:
@@ -20,6 +22,8 @@ def episode_seeds(seed: int, n_episodes: int) -> np.ndarray:
 
 
 def record_episode(env: gym.Env, expert, seed: int) -> Episode:
+    """One episode of ``expert`` from ``env.reset(seed=seed)``. The expert sees the env's own observations; the
+    episode keeps them flattened (``gymnasium.spaces.flatten``: a Dict's entries in its key order)."""
     observation, _ = env.reset(seed=int(seed))
     expert.reset(observation)
     observations, actions, rewards, terminations, truncations = [observation], [], [], [], []
@@ -34,16 +38,51 @@ def record_episode(env: gym.Env, expert, seed: int) -> Episode:
         ):
             store.append(value)
         done = terminated or truncated
+    space = env.observation_space
     return Episode(
-        observations=np.array(observations, dtype=np.float32),
+        observations=np.array([gym.spaces.flatten(space, o) for o in observations], dtype=np.float32),
         actions=np.array(actions, dtype=np.float32),
         rewards=np.array(rewards, dtype=np.float64),
         terminations=np.array(terminations, dtype=bool),
         truncations=np.array(truncations, dtype=bool),
         seed=int(seed),
         segment_starts=np.array(expert.phase_starts, dtype=np.int64),
-        factors=expert.phase_factors,
+        factors=np.asarray(expert.phase_factors, dtype=np.float64),
     )
+
+
+def collect(
+    env: gym.Env,
+    expert,
+    n_episodes: int,
+    seed: int,
+    min_return: float | None = None,
+    max_attempts: int | None = None,
+    on_episode: Callable[[Episode | None], None] | None = None,
+) -> tuple[list[Episode], int]:
+    """``n_episodes`` episodes of ``expert``, keeping only those whose return exceeds ``min_return`` (all when
+    None) and giving up after ``max_attempts`` (default: ``n_episodes``); returns them and the number attempted.
+
+    ``on_episode`` is called after each attempt with the episode kept, or None (the CLI's progress bar)."""
+    if n_episodes < 1:
+        raise UsageError(f"episodes must be >= 1, got {n_episodes}")
+    attempts = max_attempts or n_episodes
+    if attempts < n_episodes:
+        raise UsageError(f"max attempts ({attempts}) must be at least the episodes asked for ({n_episodes})")
+    kept, tried = [], 0
+    for episode_seed in episode_seeds(seed, attempts):
+        episode = record_episode(env, expert, episode_seed)
+        tried += 1
+        keep = min_return is None or episode.rewards.sum() > min_return
+        if keep:
+            kept.append(episode)
+        if on_episode:
+            on_episode(episode if keep else None)
+        if len(kept) == n_episodes:
+            break
+    if not kept:
+        raise FamarlError(f"none of {tried} episodes had a return above {min_return:g}: nothing written")
+    return kept, tried
 
 
 def record_demos(
@@ -53,17 +92,10 @@ def record_demos(
 
     ``on_episode`` is called after each episode (the CLI advances its progress bar with it).
     """
-    if n_episodes < 1:
-        raise UsageError(f"episodes must be >= 1, got {n_episodes}")
     script = Script(script)
     spec = demonstration(script)
     env = gym.make(spec.env_id, **spec.env_kwargs)
-    expert = make_expert(script)
-    episodes = []
-    for episode_seed in episode_seeds(seed, n_episodes):
-        episodes.append(record_episode(env, expert, episode_seed))
-        if on_episode:
-            on_episode(episodes[-1])
+    episodes, _ = collect(env, make_expert(script), n_episodes, seed, on_episode=on_episode)
     env.close()
     params = {"script": script.value, "episodes": n_episodes, "seed": seed}
     return Demos(
@@ -74,6 +106,45 @@ def record_demos(
         factor_names=spec.factor_names,
         env_kwargs=spec.env_kwargs,
         provenance=provenance("famarl demos", params, seed),
+    )
+
+
+def record_expert_demos(
+    env_id: str,
+    expert: str,
+    n_episodes: int = 100,
+    seed: int = 0,
+    env_kwargs: dict | None = None,
+    min_return: float | None = None,
+    max_attempts: int | None = None,
+    on_episode: Callable[[Episode | None], None] | None = None,
+) -> Demos:
+    """Demos of a user's expert (``module:attribute``, :mod:`famarl_cli.experts.external`) in any gymnasium env
+    with a Box action space; with ``min_return``, only the episodes above it (see :func:`collect`)."""
+    env = make_env(env_id, env_kwargs)
+    try:
+        policy = ExternalExpert(expert, env)
+        episodes, tried = collect(env, policy, n_episodes, seed, min_return, max_attempts, on_episode)
+    finally:
+        env.close()
+    params = {
+        "env": env_id,
+        "env_kwargs": env_kwargs or {},
+        "expert": expert,
+        "episodes": n_episodes,
+        "seed": seed,
+        "min_return": min_return,
+        "max_attempts": max_attempts,
+    }
+    return Demos(
+        episodes=episodes,
+        env_id=env_id,
+        script=expert,
+        seed=seed,
+        factor_names=policy.factor_names,
+        env_kwargs=env_kwargs or {},
+        provenance=provenance("famarl demos", params, seed),
+        attempts=tried,
     )
 
 

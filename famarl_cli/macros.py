@@ -52,6 +52,11 @@ class MacrosConfig:
     head: str = "flatten"
     capacity: str = "measured"
     values: list[float] = field(default_factory=lambda: [-3.0, -1.0, 1.0, 3.0])
+    env: str | None = None
+    """The traversal runs its macro actions in this gymnasium env (None: famarl's env of their size)."""
+    env_kwargs: dict = field(default_factory=dict)
+    obs_dims: list[int] = field(default_factory=lambda: [0, 1])
+    """With ``env``: the observation dimensions the traversal draws."""
 
     def __post_init__(self) -> None:
         if (self.demos is None) == (self.segments is None):
@@ -128,8 +133,23 @@ def learn_macros(
             config.capacity,
         )
     if not (folder / TRAVERSAL).with_suffix(".json").is_file():
-        stages.traverse(favae, folder / TRAVERSAL, config.values)
+        env_id, env_kwargs = traversal_env(config)
+        stages.traverse(
+            favae, folder / TRAVERSAL, config.values, env_id=env_id, env_kwargs=env_kwargs, dims=tuple(config.obs_dims)
+        )
     return json.loads(favae.with_suffix(".metrics.json").read_text())
+
+
+def traversal_env(config: MacrosConfig) -> tuple[str | None, dict]:
+    """The gymnasium env the traversal runs in: ``config.env``, else the demos' env where it is not famarl's own
+    (None: famarl's env that takes the actions' size, :func:`famarl_cli.traversal.run_macro_actions`)."""
+    if config.env is not None or config.demos is None:
+        return config.env, config.env_kwargs
+    from famarl_cli.artifacts.demos import read_demos
+    from famarl_cli.envs import ENV_IDS
+
+    demos = read_demos(config.demos)
+    return (None, {}) if demos.env_id in ENV_IDS.values() else (demos.env_id, demos.env_kwargs)
 
 
 PHASES = ("segment", "calibrate", "fit")

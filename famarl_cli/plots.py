@@ -13,24 +13,29 @@ from matplotlib.patches import Circle
 
 from famarl_cli.artifacts import Demos, atomic_path
 from famarl_cli.artifacts.segments import Segments
-from famarl_cli.envs import ROBOT_HAND_IDS, robot_hand
+from famarl_cli.envs import ENV_IDS, ROBOT_HAND_IDS, robot_hand
 from famarl_cli.traversal import Traversal
 
 PHASE_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown", "tab:olive")
 
 
-def plot_demos(demos: Demos, path: str | os.PathLike, max_episodes: int = 100) -> None:
+def plot_demos(demos: Demos, path: str | os.PathLike, max_episodes: int = 100, dims: tuple[int, int] = (0, 1)) -> None:
     """Expert trajectories, each phase in its own colour: ContinuousWorld's on the unit square (each map scaled to
-    side 1), RobotHand's grip point in the world's metres.
+    side 1), RobotHand's grip point in the world's metres, and any other env's observation dimensions ``dims``
+    (of the flattened observation: PointMaze's position, BipedalWalker's hull angle and angular velocity).
 
     Like the paper's Figure 3: the script's family of trajectories at a glance, with the true phase boundaries
     marked, so a user sees what macro actions the demos can teach.
     """
     robot = demos.env_id in ROBOT_HAND_IDS.values()
-    fig = Figure(figsize=(8, 5.3) if robot else (5, 5.3))
+    own = demos.env_id in ENV_IDS.values()
+    fig = Figure(figsize=(8, 5.3) if robot or not own else (5, 5.3))
     ax = fig.subplots()
     for episode in demos.episodes[:max_episodes]:
-        xy = episode.observations[:, 0:2] / (1.0 if robot else episode.observations[0, 6])
+        if own:
+            xy = episode.observations[:, 0:2] / (1.0 if robot else episode.observations[0, 6])
+        else:
+            xy = episode.observations[:, list(dims)]
         bounds = [*episode.segment_starts.tolist(), episode.length]
         for phase, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
             color = PHASE_COLORS[phase % len(PHASE_COLORS)]
@@ -43,11 +48,15 @@ def plot_demos(demos: Demos, path: str | os.PathLike, max_episodes: int = 100) -
     ax.plot([], [], "k.", label="true boundary")
     if robot:
         ax.set(xlim=(0, robot_hand.WIDTH), ylim=(0, robot_hand.HEIGHT), aspect="equal", xlabel="x (m)", ylabel="y (m)")
-    else:
+    elif own:
         ax.set(xlim=(0, 1), ylim=(0, 1), aspect="equal", xlabel="x / map size", ylabel="y / map size")
+    else:
+        ax.set(xlabel=f"observation[{dims[0]}]", ylabel=f"observation[{dims[1]}]")
     shown = min(max_episodes, len(demos.episodes))
-    ax.set_title(f"{demos.script}: {shown} episodes, success {demos.success_rate:.0%}")
-    ax.legend(loc="upper right" if robot else "center", fontsize=8)
+    kept = "" if demos.keep_rate == 1 else f", kept {len(demos.episodes)} of {demos.attempts}"
+    title = f"{demos.script.split(':')[-1]}{'' if own else ' in ' + demos.env_id}: {shown} episodes{kept}"
+    ax.set_title(f"{title}, success {demos.success_rate:.0%}", fontsize=10)
+    ax.legend(loc="center" if own and not robot else "upper right", fontsize=8)
     fig.tight_layout()
     _save(fig, path)
 

@@ -212,10 +212,14 @@ def traverse(
     ladder: int | None = None,
     index: int | None = None,
     draw: str = "run",
+    env_id: str | None = None,
+    env_kwargs: dict | None = None,
+    dims: tuple[int, int] = (0, 1),
 ):
-    """Traverse the FAVAE in ``model``; writes ``out`` (HDF5), ``.png`` and ``.json`` (effect per variable, m, and
-    the information each carries, nats, where the checkpoint records it). Returns the Traversal and that
-    information per traversed variable (None for checkpoints that do not record it)."""
+    """Traverse the FAVAE in ``model`` (in ``env_id`` when given, drawing observation ``dims``). Writes ``out``
+    (HDF5), ``.png`` and ``.json`` (effect per variable, in the path's units, and the information each carries,
+    nats, where the checkpoint records it). Returns the Traversal and that information per traversed variable
+    (None for checkpoints that do not record it)."""
     from famarl_cli.artifacts.traversal import write_traversal
     from famarl_cli.favae.checkpoint import load_favae
     from famarl_cli.plots import plot_traversal
@@ -224,11 +228,13 @@ def traverse(
 
     out = prepare_output(out)
     favae, payload = load_favae(model)
-    result = run_traversal(favae, variables_of(favae, ladder, index), values, draw)
+    result = run_traversal(favae, variables_of(favae, ladder, index), values, draw, env_id, env_kwargs, dims)
     variables = result.variables.tolist()
     kl = payload.get("training", {}).get("kl_per_dim")
     information = None if kl is None else [float(kl[favae.config.latent_index(*v)]) for v in variables]
     options = {"ladder": ladder, "index": index, "values": values, "draw": draw}
+    if env_id is not None:
+        options.update(env=env_id, env_kwargs=env_kwargs or {}, dims=list(dims))
     write_traversal(out, result, provenance("famarl traverse", options, None, [model]))
     plot_traversal(result, out.with_suffix(".png"), f"{model.name}: latent traversal over {format_values(values)}")
     names = [f"({lad},{i})" for lad, i in variables]

@@ -1,6 +1,7 @@
 """Latent traversal: move one FAVAE latent variable over a range of values, keep the others fixed, decode, and
 run each decoded macro action to see what the variable controls (the paper's Figure 5). Macro actions of two
-dimensions run in ContinuousWorld, of four in RobotHand (the grip point's path is drawn).
+dimensions run in ContinuousWorld, of four in RobotHand (the grip point's path is drawn); given an env id, they
+run in that gymnasium env and two chosen observation dimensions are drawn (:func:`run_in_env`).
 
 Variables are named (ladder, index), both counted from 1 as in the paper: (3, 1) is the first latent of the
 third, deepest ladder. The fixed latent vector is the prior's mean, 0. Each decoded macro action runs open-loop
@@ -64,7 +65,17 @@ DRAWS = ("run", "values")
 its first two dimensions as positions (``values``: sequences that are themselves paths, like 2D Reaching's)."""
 
 
-def traverse(model: Favae, variables: list[tuple[int, int]], values: list[float], draw: str = "run") -> Traversal:
+def traverse(
+    model: Favae,
+    variables: list[tuple[int, int]],
+    values: list[float],
+    draw: str = "run",
+    env_id: str | None = None,
+    env_kwargs: dict | None = None,
+    dims: tuple[int, int] = (0, 1),
+) -> Traversal:
+    """Traverse ``variables`` over ``values``. With ``env_id``, each macro action runs in that gymnasium env from
+    ``reset(seed=0)`` and its path is the observation dimensions ``dims`` (:func:`run_in_env`)."""
     if draw not in DRAWS:
         raise UsageError(f"draw must be one of {DRAWS}, got {draw!r}")
     if len(values) < 2:
@@ -74,7 +85,12 @@ def traverse(model: Favae, variables: list[tuple[int, int]], values: list[float]
         z[v, :, model.config.latent_index(ladder, index)] = values
     flat = z.reshape(-1, z.shape[-1])
     actions, lengths = model.decode_macro_actions(flat)
-    paths = run_macro_actions(actions, lengths) if draw == "run" else sequence_paths(actions, lengths)
+    if draw == "values":
+        paths = sequence_paths(actions, lengths)
+    elif env_id is not None:
+        paths = run_in_env(actions, lengths, env_id, env_kwargs, dims)
+    else:
+        paths = run_macro_actions(actions, lengths)
     shape = (len(variables), len(values))
     paths = paths.reshape(*shape, *paths.shape[1:])
     gaps = np.linalg.norm(paths[:, 1:] - paths[:, :-1], axis=-1)  # (V, K - 1, L + 1)
@@ -119,9 +135,53 @@ def run_macro_actions(actions: np.ndarray, lengths: np.ndarray) -> np.ndarray:
     raise UsageError(f"no environment takes {actions.shape[-1]}-dimensional actions; traversal cannot run them")
 
 
+def run_in_env(
+    actions: np.ndarray, lengths: np.ndarray, env_id: str, env_kwargs: dict | None, dims: tuple[int, int]
+) -> np.ndarray:
+    """(n, L + 1, 2) paths of (n, L, D) macro actions run open-loop in any gymnasium env, each from the same reset
+    (seed 0): the flattened observation's dimensions ``dims``, held after the macro action ends or the episode
+    does."""
+    import gymnasium as gym
+
+    from famarl_cli.envs.external import make_env
+
+    env = make_env(env_id, env_kwargs)
+    size = gym.spaces.flatdim(env.observation_space)
+    if env.action_space.shape != actions.shape[-1:]:
+        raise UsageError(
+            f"{env_id} takes actions of shape {env.action_space.shape}, the model decodes {actions.shape[-1]}"
+        )
+    if not all(-size <= d < size for d in dims):
+        raise UsageError(f"observation dimensions {dims} do not exist: {env_id}'s observations have {size}")
+    paths = np.zeros((len(actions), actions.shape[1] + 1, 2))
+    for i, (sequence, length) in enumerate(zip(actions, lengths, strict=True)):
+        obs, _ = env.reset(seed=0)
+        points = [gym.spaces.flatten(env.observation_space, obs)[list(dims)]]
+        for action in sequence[:length]:
+            obs, _, terminated, truncated, _ = env.step(np.clip(action, env.action_space.low, env.action_space.high))
+            points.append(gym.spaces.flatten(env.observation_space, obs)[list(dims)])
+            if terminated or truncated:
+                break
+        paths[i, : len(points)] = points
+        paths[i, len(points) :] = points[-1]
+    env.close()
+    return paths
+
+
 def parse_values(text: str) -> list[float]:
     try:
         values = [float(v) for v in text.split(",") if v.strip()]
     except ValueError as exc:
         raise UsageError(f"values must be numbers separated by commas, like -3,-1,1,3; got {text!r}") from exc
     return values
+
+
+def parse_dims(text: str) -> tuple[int, int]:
+    """``--obs-dims``: two observation dimensions, like ``0,1``."""
+    try:
+        dims = tuple(int(v) for v in text.split(","))
+    except ValueError as exc:
+        raise UsageError(f"give two observation dimensions, like 0,1; got {text!r}") from exc
+    if len(dims) != 2:
+        raise UsageError(f"give two observation dimensions, like 0,1; got {text!r}")
+    return dims

@@ -4,7 +4,7 @@ Layout (HDF5, after Minari's, so plain h5py and Minari-style readers find their 
 
     /                      attrs: schema="famarl.demos", schema_version, famarl_version, provenance (JSON),
                                   env_id, env_kwargs (JSON), script, seed, n_episodes, total_steps,
-                                  factor_names (JSON)
+                                  factor_names (JSON), attempts (episodes the expert ran, kept or not)
     /episode_{i}/          attrs: id, seed (the episode's reset seed), total_steps, success
         observations       (T+1, obs_dim) float32, the reset observation first
         actions            (T, act_dim)   float32
@@ -63,6 +63,12 @@ class Demos:
     factor_names: tuple[str, ...]
     env_kwargs: dict = field(default_factory=dict)
     provenance: dict = field(default_factory=dict)
+    attempts: int | None = None
+    """Episodes the expert ran, kept or not (``famarl demos --min-return`` keeps some); None: all were kept."""
+
+    @property
+    def keep_rate(self) -> float:
+        return len(self.episodes) / (self.attempts or len(self.episodes))
 
     @property
     def total_steps(self) -> int:
@@ -88,6 +94,7 @@ def write_demos(path: str | os.PathLike, demos: Demos) -> None:
             n_episodes=len(demos.episodes),
             total_steps=demos.total_steps,
             factor_names=list(demos.factor_names),
+            attempts=demos.attempts or len(demos.episodes),
         )
         for i, episode in enumerate(demos.episodes):
             group = handle.create_group(f"episode_{i}")
@@ -121,6 +128,7 @@ def read_demos(path: str | os.PathLike) -> Demos:
             factor_names=factor_names,
             env_kwargs=json.loads(attrs.get("env_kwargs", "{}")),
             provenance=json.loads(attrs.get("provenance", "{}")),
+            attempts=int(attrs.get("attempts", n_episodes)),
         )
 
 

@@ -127,6 +127,7 @@ from famarl_cli.cli import (  # noqa: E402, F401
     favae,
     inspect,
     macros,
+    minari,
     report,
     segment,
     sequences,

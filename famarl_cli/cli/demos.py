@@ -1,4 +1,4 @@
-"""``famarl demos``: record scripted-expert demos."""
+"""``famarl demos``: record expert demos, or import a Minari dataset as demos."""
 
 from __future__ import annotations
 
@@ -20,51 +20,149 @@ from famarl_cli.experts.scripts import Environment, Script
 @reports_errors
 def demos(
     script: Annotated[
-        Script,
+        Script | None,
         typer.Option(
-            "--script", "-s", help="Expert script: the paper's four act in ContinuousWorld Base, pegging in RobotHand."
+            "--script",
+            "-s",
+            help="famarl's expert script: the paper's four act in ContinuousWorld Base, pegging in RobotHand.  "
+            "[default: pushed-down-only, unless --expert or --from-minari]",
         ),
-    ] = Script.PUSHED_DOWN_ONLY,
-    env: Annotated[
-        Environment | None,
-        typer.Option(help="Environment family; optional, the script implies it.  [default: the script's]"),
     ] = None,
-    episodes: Annotated[int, typer.Option(min=1, help="Number of episodes to record.")] = 100,
-    seed: Annotated[int, typer.Option(help="Seed of the episodes' layouts; same seed, same file.")] = 0,
+    env: Annotated[
+        str | None,
+        typer.Option(
+            help="With --expert: the gymnasium id the expert acts in (any id with a Box action space). With "
+            "--script: continuous-world or robot-hand, optional (the script implies it)."
+        ),
+    ] = None,
+    env_kwargs: Annotated[
+        str | None,
+        typer.Option(
+            help="With --expert: keyword arguments of gymnasium.make, as JSON: '{\"continuing_task\": false}'."
+        ),
+    ] = None,
+    expert: Annotated[
+        str | None,
+        typer.Option(
+            help="Your expert, as module:attribute: a policy function or a class with act(observation) "
+            "(docs/environments.md); it may return (action, phase) to mark its phases."
+        ),
+    ] = None,
+    from_minari: Annotated[
+        str | None,
+        typer.Option(
+            help="Import this Minari dataset instead of recording: an id in Minari's local storage "
+            "(MINARI_DATASETS_PATH) or a dataset folder. Needs the minari extra."
+        ),
+    ] = None,
+    episodes: Annotated[
+        int, typer.Option(min=1, help="Number of episodes to record (to keep, with --min-return).")
+    ] = 100,
+    seed: Annotated[int, typer.Option(help="Seed of the episodes' resets; same seed, same file.")] = 0,
+    min_return: Annotated[
+        float | None,
+        typer.Option(help="With --expert: keep only episodes whose return is above this (failed attempts dropped)."),
+    ] = None,
+    max_attempts: Annotated[
+        int | None,
+        typer.Option(min=1, help="With --min-return: give up after this many episodes.  [default: 50 x --episodes]"),
+    ] = None,
     out: Annotated[
-        Path | None, typer.Option(help="Output HDF5 file.  [default: data/demos/<script>.h5]", dir_okay=False)
+        Path | None,
+        typer.Option(help="Output HDF5 file.  [default: data/demos/<script, env or dataset name>.h5]", dir_okay=False),
     ] = None,
     plot: Annotated[bool, typer.Option(help="Also draw the trajectories to <out>.png.")] = True,
 ) -> None:
-    """Record scripted-expert demos (with their true phase boundaries and factors) to an HDF5 file."""
-    if env is not None and env != script.environment:
-        raise UsageError(f"script {script.value} acts in {script.environment}, not in {env.value}")
+    """Record expert demos (with their true phase boundaries and factors, where the expert knows them) to an HDF5
+    file: famarl's scripted experts, your expert in any gymnasium env, or a Minari dataset imported."""
     from famarl_cli.artifacts import prepare_output, write_demos
-    from famarl_cli.demos import record_demos
     from famarl_cli.plots import plot_demos
 
-    out = prepare_output(out or Path("data/demos") / f"{script.value}.h5")
-    with progress_bar() as progress:
-        task = progress.add_task(f"demos {script.value}", total=episodes)
-        recorded = record_demos(script, episodes, seed, on_episode=lambda _: progress.advance(task))
+    sources = [
+        name for name, given in (("--script", script), ("--expert", expert), ("--from-minari", from_minari)) if given
+    ]
+    if len(sources) > 1:
+        raise UsageError(f"give one source of demos, not {' and '.join(sources)}")
+    if (min_return is not None or max_attempts is not None or env_kwargs) and expert is None:
+        raise UsageError("--min-return, --max-attempts and --env-kwargs go with --expert")
+    if from_minari is not None:
+        from famarl_cli.artifacts.minari_datasets import import_minari
+
+        if env is not None:
+            raise UsageError("--env does not go with --from-minari: the dataset names its env")
+        recorded = import_minari(from_minari)
+        name = Path(from_minari.rstrip("/")).name
+    else:
+        with progress_bar() as progress:
+            if expert is not None:
+                recorded, name = _record_expert(
+                    progress, env, env_kwargs, expert, episodes, seed, min_return, max_attempts
+                )
+            else:
+                script = script or Script.PUSHED_DOWN_ONLY
+                families = [e.value for e in Environment]
+                if env is not None and env not in families:
+                    raise UsageError(
+                        f"--env {env}: famarl's scripts act in {' or '.join(families)}; to record in a gymnasium "
+                        "env, give your expert with --expert module:attribute"
+                    )
+                if env is not None and env != script.environment:
+                    raise UsageError(f"script {script.value} acts in {script.environment}, not in {env}")
+                from famarl_cli.demos import record_demos
+
+                task = progress.add_task(f"demos {script.value}", total=episodes)
+                recorded = record_demos(script, episodes, seed, on_episode=lambda _: progress.advance(task))
+                name = script.value
+    out = prepare_output(out or Path("data/demos") / f"{name}.h5")
     write_demos(out, recorded)
     written = [out]
     if plot:
         written.append(out.with_suffix(".png"))
         plot_demos(recorded, written[-1])
 
-    table = demos_table(recorded, f"demos: {script.value}")
+    table = demos_table(recorded, f"demos: {name}")
     table.add_row("written", ", ".join(map(str, written)))
     Console().print(table)
 
 
-@sweepable("demos", owned=("--out",))
+def _record_expert(progress, env, env_kwargs, expert, episodes, seed, min_return, max_attempts):
+    from famarl_cli.demos import record_expert_demos
+    from famarl_cli.envs.external import parse_env_kwargs
+
+    if env is None:
+        raise UsageError("--expert needs --env, the gymnasium id it acts in")
+    attempts = max_attempts or (50 * episodes if min_return is not None else episodes)
+    task = progress.add_task(f"demos {expert} in {env}", total=episodes)
+    tried = progress.add_task("  attempts", total=attempts, visible=min_return is not None)
+
+    def advance(kept) -> None:
+        progress.advance(tried)
+        if kept is not None:
+            progress.advance(task)
+
+    recorded = record_expert_demos(
+        env, expert, episodes, seed, parse_env_kwargs(env_kwargs), min_return, attempts, on_episode=advance
+    )
+    return recorded, env.split("/")[-1].split(":")[-1].lower()
+
+
+_ONE_SOURCE = "a sweep records famarl's scripts; record other demos with famarl demos, once per seed"
+
+
+@sweepable(
+    "demos",
+    owned=("--out",),
+    refused={
+        option: _ONE_SOURCE
+        for option in ("--expert", "--from-minari", "--env-kwargs", "--min-return", "--max-attempts")
+    },
+)
 def demos_job(params: dict) -> JobRecipe:
     """``famarl sweep demos``: each job records what ``famarl demos`` with the same options would, into
     ``<job folder>/demos.h5`` (and ``.png``)."""
-    script, env = params["script"], params["env"]
+    script, env = params["script"] or Script.PUSHED_DOWN_ONLY, params["env"]
     if env is not None and env != script.environment:
-        raise UsageError(f"script {script.value} acts in {script.environment}, not in {env.value}")
+        raise UsageError(f"script {script.value} acts in {script.environment}, not in {env}")
     config = {"script": script.value, "episodes": params["episodes"], "seed": params["seed"], "plot": params["plot"]}
     return JobRecipe("famarl_cli.demos:run_job", config)
 
@@ -73,7 +171,10 @@ def demos_table(demos: Demos, title: str) -> Table:
     lengths = [e.length for e in demos.episodes]
     table = Table(title=title, show_header=False)
     table.add_row("script", demos.script)
+    table.add_row("environment", f"{demos.env_id} {demos.env_kwargs or ''}".strip())
     table.add_row("episodes", str(len(demos.episodes)))
+    if demos.keep_rate < 1:
+        table.add_row("kept", f"{len(demos.episodes)} of {demos.attempts} attempts ({demos.keep_rate:.1%})")
     table.add_row("steps", str(demos.total_steps))
     table.add_row("success rate", f"{demos.success_rate:.1%}")
     table.add_row("episode length", f"{np.mean(lengths):.1f} mean, {min(lengths)}-{max(lengths)}")

@@ -31,7 +31,6 @@ def inspect(
     if schema == DEMOS:
         loaded = read_demos(path)
         table = demos_table(loaded, str(path))
-        table.add_row("environment", f"{loaded.env_id} {loaded.env_kwargs}")
         if plot:
             plot_demos(loaded, plot)
             table.add_row("written", str(plot))

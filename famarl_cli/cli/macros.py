@@ -43,7 +43,26 @@ def macros(
     capacity: Annotated[
         Capacity, typer.Option(help="FAVAE capacities (famarl favae fit --capacity).")
     ] = Capacity.MEASURED,
+    length: Annotated[
+        int | None,
+        typer.Option(
+            min=1, help="FAVAE input length L; longer segments are split.  [default: longest, rounded up to 8]"
+        ),
+    ] = None,
     values: Annotated[str, typer.Option(help="Traversal values; write --values=-3,-1,1,3.")] = "-3,-1,1,3",
+    env: Annotated[
+        str | None,
+        typer.Option(
+            help="Run the traversal's macro actions in this gymnasium env.  [default: the demos' env, where it is "
+            "not famarl's own; famarl's env of the actions' size otherwise]"
+        ),
+    ] = None,
+    env_kwargs: Annotated[
+        str | None, typer.Option(help="Keyword arguments of gymnasium.make for --env, as JSON.")
+    ] = None,
+    obs_dims: Annotated[
+        str, typer.Option(help="Observation dimensions the traversal draws in a gymnasium env, like 0,1.")
+    ] = "0,1",
 ) -> None:
     """Everything the method learns before RL, for one seed, into one folder: segments, C_last, FAVAE, traversal.
 
@@ -75,8 +94,9 @@ def macros(
 
 
 def _config(params: dict):
+    from famarl_cli.envs.external import parse_env_kwargs
     from famarl_cli.macros import MacrosConfig
-    from famarl_cli.traversal import parse_values
+    from famarl_cli.traversal import parse_dims, parse_values
 
     def text(path: Path | None) -> str | None:
         return None if path is None else str(path)
@@ -96,6 +116,10 @@ def _config(params: dict):
         head=str(params["head"]),
         capacity=str(params["capacity"]),
         values=parse_values(params["values"]),
+        length=params["length"],
+        env=params["env"],
+        env_kwargs=parse_env_kwargs(params["env_kwargs"]),
+        obs_dims=list(parse_dims(params["obs_dims"])),
     )
 
 

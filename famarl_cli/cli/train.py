@@ -36,6 +36,10 @@ def train(
     env: Annotated[
         str, typer.Option(help="Environment id (famarl's or any gymnasium id with Box spaces).")
     ] = DEFAULT_ENV,
+    env_kwargs: Annotated[
+        str | None,
+        typer.Option(help="Keyword arguments of gymnasium.make, as JSON: '{\"continuing_task\": false}'."),
+    ] = None,
     agent: Annotated[
         Agent,
         typer.Option(
@@ -172,6 +176,7 @@ def train(
 
 def run_spec(options: dict):
     """The RunSpec that ``famarl train``'s options describe (shared with ``famarl sweep train``)."""
+    from famarl_cli.envs.external import parse_env_kwargs
     from famarl_cli.rl.ppo import PPOConfig
     from famarl_cli.rl.training import RunSpec, default_label
 
@@ -201,6 +206,7 @@ def run_spec(options: dict):
         raise UsageError(str(exc)) from exc
     return RunSpec(
         env_id=o["env"],
+        env_kwargs=parse_env_kwargs(o["env_kwargs"]),
         agent=agent,
         seed=o["seed"],
         ppo=ppo,

@@ -10,6 +10,7 @@ from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.cli import app, reports_errors, torch_on_one_thread
+from famarl_cli.errors import UsageError
 
 
 @app.command()
@@ -34,15 +35,34 @@ def traverse(
             "decoded sequences' first two dimensions as positions (sequences that are paths, e.g. 2D Reaching)."
         ),
     ] = "run",
+    env: Annotated[
+        str | None,
+        typer.Option(
+            help="Run the macro actions in this gymnasium env (each from reset(seed=0)) and draw --obs-dims of its "
+            "observations.  [default: famarl's env that takes the actions' size]"
+        ),
+    ] = None,
+    env_kwargs: Annotated[
+        str | None, typer.Option(help="With --env: keyword arguments of gymnasium.make, as JSON.")
+    ] = None,
+    obs_dims: Annotated[
+        str, typer.Option(help="With --env: the two dimensions of the flattened observation drawn, like 0,1.")
+    ] = "0,1",
 ) -> None:
     """Decode sweeps of single latent variables and draw the paths their macro actions take (paper Fig. 5)."""
     from famarl_cli import stages
-    from famarl_cli.traversal import EMPTY_LADDER_NATS, empty_ladders, parse_values
+    from famarl_cli.envs.external import parse_env_kwargs
+    from famarl_cli.traversal import EMPTY_LADDER_NATS, empty_ladders, parse_dims, parse_values
 
     torch_on_one_thread()
     name = model.stem + (f"-ladder{ladder}" if ladder else "") + (f"-index{index}" if index else "")
     out = out or Path("data/traverse") / f"{name}.h5"
-    result, information = stages.traverse(model, out, parse_values(values), ladder, index, draw)
+    if env is None and env_kwargs:
+        raise UsageError("--env-kwargs goes with --env")
+    dims = parse_dims(obs_dims)
+    result, information = stages.traverse(
+        model, out, parse_values(values), ladder, index, draw, env, parse_env_kwargs(env_kwargs), dims
+    )
     table = Table(title=f"traversal of {model}", show_header=True)
     table.add_column("(ladder, index)")
     table.add_column("effect (m)", justify="right")

@@ -89,9 +89,9 @@ def favae_table(folder: Path) -> str | None:
     for name, values in rows.items():
         values = np.asarray(values, dtype=float)
         fmt = "{:.4f}" if name == "reconstruction MSE" else "{:.3f}" if values.max() < 10 else "{:.0f}"
-        per_seed = " ".join(fmt.format(v) for v in values)
+        each = " ".join(fmt.format(v) for v in values)
         interval = mean_interval(values, bounds=RATE if name in shares else (0.0, np.inf))
-        lines.append(f"| {name} | {interval.text(fmt)} | {per_seed} |")
+        lines.append(f"| {name} | {interval.text(fmt)} | {each} |")
     return "\n".join(lines)
 
 
@@ -107,6 +107,16 @@ def headline_famarl_runs(data: Path) -> list[RunResult]:
     """The default pipeline's FaMARL runs on the Maze: the experiments that vary one of its settings (script, beta,
     number of demos) reuse them as that setting's variant instead of running it again."""
     return [run for g in group(gather([data / "maze" / "eval"]), MAZE, "famarl").values() for run in g.runs]
+
+
+def per_seed(g: Group, measure) -> np.ndarray:
+    """``measure(run)`` for each seed's run of ``g``."""
+    return np.array([measure(run) for run in g.runs], dtype=float)
+
+
+def sampled_return(run: RunResult) -> float:
+    """A run's mean evaluation return, the policy sampling as in training."""
+    return float(run.evaluation["sampled"]["return_mean"])
 
 
 def curves(groups: list[Group], path: Path, title: str, panels: tuple[str, ...] | None = None) -> str:

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from famarl_cli.experiments import experiment
-from famarl_cli.experiments.common import MAZE, curves
+from famarl_cli.experiments.common import MAZE, curves, per_seed, sampled_return
 from famarl_cli.experiments.robothand import BALL_PLACING, REACHING
 from famarl_cli.results import THRESHOLD, Group, RunResult, by_agent, copy_figure, gather, group, results_table
 from famarl_cli.statistics import Interval, difference_interval, mean_interval, ratio_interval
@@ -53,14 +53,6 @@ def steps_to_learn(run: RunResult) -> float:
 
 def wall_per_million(run: RunResult) -> float:
     return float(run.evaluation["train_wall_s"]) / float(run.evaluation["env_steps"]) * 1e6
-
-
-def sampled_return(run: RunResult) -> float:
-    return float(run.evaluation["sampled"]["return_mean"])
-
-
-def per_seed(g: Group, measure) -> np.ndarray:
-    return np.array([measure(run) for run in g.runs], dtype=float)
 
 
 def at_least(interval: Interval, goal: float) -> Verdict:

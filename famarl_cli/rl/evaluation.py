@@ -9,11 +9,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import gymnasium as gym
 import numpy as np
 
 from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.envs.continuous_world import Layouts
+from famarl_cli.envs.external import make_env
 from famarl_cli.rl.executor import run_open_loop
 from famarl_cli.rl.normalization import ObservationNormalizer
 from famarl_cli.rl.training import TrainedAgent, build_mode
@@ -58,7 +58,7 @@ class FrozenActor:
 def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4, sample: bool = False) -> Evaluation:
     """``episodes`` episodes (one per world, layouts from ``seed``) of the policy acting with its mode, or, with
     ``sample``, drawing its actions as in training (from a generator seeded with ``seed``)."""
-    env = make_batch(agent.spec.env_id, episodes, seed)
+    env = make_batch(agent.spec.env_id, episodes, seed, agent.spec.env_kwargs)
     act = FrozenActor(agent, env, np.random.default_rng(seed) if sample else None)
     obs = env.reset()
     alive = np.ones(episodes, dtype=bool)
@@ -129,7 +129,9 @@ class Film:
 
 def film_episode(agent: TrainedAgent, seed: int) -> Film:
     """Render one deterministic episode of ``agent`` (its first frame is the reset state)."""
-    batch = GymBatch([gym.make(agent.spec.env_id, render_mode="rgb_array")], seed, autoreset=False)
+    batch = GymBatch(
+        [make_env(agent.spec.env_id, agent.spec.env_kwargs, render_mode="rgb_array")], seed, autoreset=False
+    )
     env = batch.envs[0]
     act = FrozenActor(agent, batch)
     batch.reset()

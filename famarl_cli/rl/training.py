@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 from famarl_cli.artifacts import provenance
@@ -43,6 +43,8 @@ class RunSpec:
     """FaMARL and hybrid: the FAVAE checkpoint it was started from (its weights are copied into the run)."""
     label: str = ""
     """How plots and reports name this kind of run; seeds of one experiment share it."""
+    env_kwargs: dict = field(default_factory=dict)
+    """Keyword arguments of ``gymnasium.make`` (PointMaze's ``continuing_task``, say)."""
 
     def to_dict(self) -> dict:
         return {**asdict(self), "agent": str(self.agent), "ppo": self.ppo.to_dict()}
@@ -89,7 +91,7 @@ class Run:
 
     def __init__(self, spec: RunSpec, favae: Favae | None, prov: dict, state: dict | None = None) -> None:
         self.spec, self.favae, self.provenance = spec, favae, prov
-        env = make_batch(spec.env_id, spec.ppo.n_envs, spec.seed)
+        env = make_batch(spec.env_id, spec.ppo.n_envs, spec.seed, spec.env_kwargs)
         self.trainer = PPOTrainer(env, build_mode(spec, env, favae), spec.ppo, spec.seed)
         if state is not None:
             self.trainer.load_state_dict(state)
@@ -175,7 +177,7 @@ def load_agent(run_dir: str | os.PathLike) -> TrainedAgent:
     spec = RunSpec.from_dict(payload["config"])
     favae = _favae_from_state(payload["mode"])
     trainer = payload["trainer"]
-    env = make_batch(spec.env_id, 1, spec.seed)
+    env = make_batch(spec.env_id, 1, spec.seed, spec.env_kwargs)
     mode = build_mode(spec, env, favae)
     policy = ActorCritic(env.observation_size, mode.policy_action_size, mode.choices, spec.ppo.hidden, mode.branches)
     policy.load_state_dict(trainer["policy"])

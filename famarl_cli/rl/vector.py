@@ -19,6 +19,7 @@ import numpy as np
 
 from famarl_cli.envs import CONTINUOUS_WORLD_IDS
 from famarl_cli.envs.batched import ContinuousWorldBatch
+from famarl_cli.envs.external import episode_success, make_env
 from famarl_cli.errors import UsageError
 
 
@@ -69,8 +70,8 @@ class GymBatch:
         self.last_info: list[dict] = [{} for _ in envs]
 
     @staticmethod
-    def make(env_id: str, n_envs: int, seed: int, **make_kwargs) -> GymBatch:
-        return GymBatch([gym.make(env_id, **make_kwargs) for _ in range(n_envs)], seed)
+    def make(env_id: str, n_envs: int, seed: int, env_kwargs: dict | None = None, **make_kwargs) -> GymBatch:
+        return GymBatch([make_env(env_id, env_kwargs, **make_kwargs) for _ in range(n_envs)], seed)
 
     def _observe(self, i: int, obs) -> None:
         self.raw_obs[i] = obs
@@ -96,7 +97,7 @@ class GymBatch:
         final_obs = self.obs.copy()
         for i in np.flatnonzero(active):
             obs, rewards[i], terminated[i], truncated[i], self.last_info[i] = self.envs[i].step(actions[i])
-            success[i] = self.last_info[i].get("success", terminated[i])
+            success[i] = episode_success(self.last_info[i], terminated[i])
             self._observe(i, obs)
             if terminated[i] or truncated[i]:
                 final_obs[i] = self.obs[i]
@@ -115,12 +116,9 @@ class GymBatch:
 CONTINUOUS_WORLD_TASKS = {env_id: task for task, env_id in CONTINUOUS_WORLD_IDS.items()}
 
 
-def make_batch(env_id: str, n_envs: int, seed: int) -> BatchedEnv:
-    """The fastest batch for ``env_id``; an unknown id is a usage error that lists ours."""
-    if env_id in CONTINUOUS_WORLD_TASKS:
+def make_batch(env_id: str, n_envs: int, seed: int, env_kwargs: dict | None = None) -> BatchedEnv:
+    """The fastest batch for ``env_id`` (made with ``env_kwargs``); bad ids are one-line errors
+    (:func:`~famarl_cli.envs.external.make_env`)."""
+    if env_id in CONTINUOUS_WORLD_TASKS and not env_kwargs:
         return ContinuousWorldBatch(CONTINUOUS_WORLD_TASKS[env_id], n_envs=n_envs, seed=seed)
-    try:
-        return GymBatch.make(env_id, n_envs, seed)
-    except gym.error.Error as exc:
-        known = ", ".join(sorted(CONTINUOUS_WORLD_TASKS))
-        raise UsageError(f"unknown environment {env_id!r} ({exc}); famarl's own: {known}") from exc
+    return GymBatch.make(env_id, n_envs, seed, env_kwargs)

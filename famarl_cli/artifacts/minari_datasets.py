@@ -1,0 +1,354 @@
+"""Minari datasets to and from famarl's demos artifact (:mod:`famarl_cli.artifacts.demos`).
+
+Minari (https://minari.farama.org) is the common format of offline-RL datasets. Importing one lets famarl segment
+and fit FAVAE on demonstrations it did not record; exporting lets any Minari user load famarl's scripted demos.
+
+What maps to what, per episode:
+
+- **observations** (T+1, D) float32: a Box observation space is reshaped to (T+1, D); a Dict, Tuple, Discrete,
+  MultiDiscrete or MultiBinary one is flattened step by step with ``gymnasium.spaces.flatten``, a Dict's entries in
+  the space's key order (which gymnasium sorts), discrete values one-hot. Export writes them as they are, under
+  ``Box(-inf, inf, (D,), float32)``: famarl keeps no observation space.
+- **actions** (T, A) float32: the action space must be a Box, since famarl learns continuous macro actions; on
+  export the space is the env's own Box when gymnasium can make ``demos.env_id`` (famarl's ids, gymnasium's,
+  gymnasium-robotics') and its shape is (A,), else ``Box(-inf, inf, (A,), float32)``.
+- **rewards** float64, **terminations** and **truncations** bool: the same arrays.
+- **seed**: Minari's episode seed; -1 ("unknown") when Minari recorded none, and on export no seed for -1.
+- **ground truth** (segment_starts, factors): only datasets exported by famarl have it. Any other episode is one
+  phase: segment_starts [0], factors of shape (1, 0), and the demos have no factor names.
+
+Where an export keeps what only famarl knows, so that importing it gives back the same demos (all but provenance):
+
+- **per dataset**: ``metadata.json`` (``dataset.storage.metadata["famarl"]``) holds ``{"schema": "famarl.demos",
+  "schema_version", "env_id", "env_kwargs", "script", "seed", "factor_names", "provenance"}``. Minari keeps keys it
+  does not know, and this one is written once, not per step.
+- **per episode**: the episode's own metadata, beside Minari's ``seed``: the HDF5 attributes
+  ``famarl/segment_starts`` (K,) int64 and ``famarl/factors`` (K, F) float64, which
+  ``dataset.storage.get_episode_metadata`` returns nested as ``{"famarl": {"segment_starts", "factors"}}`` (as it
+  does Minari's own ``options/...``). The ground truth is per phase, not per step, so per-step ``infos`` (T+1 rows
+  by Minari's convention) would only repeat it; attributes keep it exactly as famarl has it.
+
+The dataset's ``env_spec`` is recorded when gymnasium can make the env, so ``dataset.recover_environment()`` works.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import shutil
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from famarl_cli.artifacts.base import TEMP_MARKER, provenance
+from famarl_cli.artifacts.demos import SCHEMA, SCHEMA_VERSION, Demos, Episode
+from famarl_cli.errors import ArtifactError, FamarlError, UsageError
+
+FAMARL_KEY = "famarl"
+"""The key of famarl's facts in a dataset's metadata, and the prefix of its episode attributes."""
+
+_FLATTENED = (gym.spaces.Dict, gym.spaces.Tuple, gym.spaces.Discrete, gym.spaces.MultiDiscrete, gym.spaces.MultiBinary)
+"""Observation spaces read through ``gymnasium.spaces.flatten``; a Box is only reshaped."""
+
+# What Minari's loading raises on malformed datasets: its own checks are asserts and ValueErrors, h5py's OSErrors.
+_UNREADABLE = (ValueError, KeyError, OSError, AssertionError, NotImplementedError)
+
+
+def import_minari(dataset: str) -> Demos:
+    """The demos in a Minari dataset: ``dataset`` is a folder (the dataset's, or its ``data/``) or, when no such
+    folder exists, a dataset id in Minari's local storage (``MINARI_DATASETS_PATH``, else ``~/.minari/datasets``)."""
+    minari = _minari(dataset)
+    data_path = _data_path(dataset, minari)
+    try:
+        loaded = minari.MinariDataset(data_path)
+        if not isinstance(loaded.action_space, gym.spaces.Box):
+            raise ArtifactError(f"{dataset}: actions are {loaded.action_space}; famarl needs a Box (continuous) space")
+        space = loaded.observation_space
+        if not isinstance(space, (gym.spaces.Box, *_FLATTENED)):
+            raise ArtifactError(f"{dataset}: observations are {space}, which famarl cannot flatten")
+        if loaded.total_episodes == 0:
+            raise ArtifactError(f"{dataset}: holds no episodes")
+        facts = _famarl_facts(loaded.storage.metadata.get(FAMARL_KEY), dataset)
+        n_factors = len(facts["factor_names"]) if facts is not None else None
+        metadatas = list(loaded.storage.get_episode_metadata(loaded.episode_indices))
+        episodes = [
+            _episode(data, space, metadata, n_factors, dataset)
+            for data, metadata in zip(loaded.iterate_episodes(), metadatas, strict=True)
+        ]
+    except _UNREADABLE as exc:
+        raise ArtifactError(f"{dataset}: not a readable Minari dataset ({' '.join(str(exc).split())})") from exc
+    inputs = sorted(path for path in data_path.rglob("*") if path.is_file())
+    made = provenance("famarl demos", {"from_minari": dataset}, None, inputs)
+    if facts is not None:
+        return Demos(
+            episodes=episodes,
+            env_id=facts["env_id"],
+            script=facts["script"],
+            seed=facts["seed"],
+            factor_names=tuple(facts["factor_names"]),
+            env_kwargs=facts["env_kwargs"],
+            provenance=made,
+        )
+    spec = loaded.env_spec
+    return Demos(
+        episodes=episodes,
+        env_id=spec.id if spec is not None else loaded.id,
+        script=f"minari:{loaded.id}",
+        seed=-1,
+        factor_names=(),
+        env_kwargs=_json_or_empty(spec.kwargs) if spec is not None else {},
+        provenance=made,
+    )
+
+
+def export_minari(demos: Demos, dataset_id: str, root: Path | None = None, *, overwrite: bool = False) -> Path:
+    """Write ``demos`` as the Minari dataset ``dataset_id`` under ``root`` (default: Minari's local storage, where
+    ``minari.load_dataset(dataset_id)`` finds it) and return its folder.
+
+    The dataset is built in a hidden folder beside its final one (Minari lists no hidden folders) and renamed into
+    place when complete, so a failure leaves no half-written dataset. An existing dataset is replaced only with
+    ``overwrite``.
+    """
+    minari = _minari(dataset_id)
+    from minari.data_collector import EpisodeBuffer
+    from minari.dataset.minari_dataset import DATASET_ID_RE
+    from minari.dataset.minari_storage import MinariStorage
+
+    match = DATASET_ID_RE.fullmatch(dataset_id)
+    # Minari parses the version of every id it creates, and fails on one without it.
+    if match is None or match.group("version") is None:
+        raise UsageError(f"Minari dataset id {dataset_id!r} must look like [namespace/]name-v<version>, e.g. demos-v0")
+    if not demos.episodes:
+        raise UsageError(f"no episodes to export to {dataset_id}")
+    root = Path(root) if root is not None else minari.storage.get_dataset_path()
+    folder = root / dataset_id
+    if folder.exists():
+        if not overwrite:
+            raise UsageError(f"Minari dataset {dataset_id} already exists at {folder}; use another id, or --overwrite")
+        if not (folder / "data").is_dir():
+            raise UsageError(f"{folder} exists and is not a Minari dataset; not overwriting it")
+    observation_space, action_space, env_spec = _spaces(demos)
+    temp = folder.parent / f".{folder.name}{TEMP_MARKER}{os.getpid()}-{secrets.token_hex(4)}"
+    try:
+        temp.mkdir(parents=True)
+        storage = MinariStorage.new(
+            temp / "data", observation_space=observation_space, action_space=action_space, env_spec=env_spec
+        )
+        storage.update_metadata(_dataset_metadata(demos, dataset_id, minari.__version__))
+        storage.update_episodes(
+            [
+                EpisodeBuffer(
+                    seed=None if episode.seed == -1 else int(episode.seed),
+                    observations=episode.observations.astype(np.float32),
+                    actions=episode.actions.astype(np.float32),
+                    rewards=episode.rewards.astype(np.float64),
+                    terminations=episode.terminations.astype(bool),
+                    truncations=episode.truncations.astype(bool),
+                )
+                for episode in demos.episodes
+            ]
+        )
+        storage.update_episode_metadata(
+            {
+                f"{FAMARL_KEY}/segment_starts": episode.segment_starts.astype(np.int64),
+                f"{FAMARL_KEY}/factors": episode.factors.astype(np.float64),
+            }
+            for episode in demos.episodes
+        )
+        _mark_namespaces(root, dataset_id)
+        _move_into_place(temp, folder)
+    except OSError as exc:
+        raise ArtifactError(f"cannot write Minari dataset {dataset_id} at {folder}: {exc.strerror or exc}") from exc
+    finally:
+        shutil.rmtree(temp, ignore_errors=True)
+    return folder
+
+
+def _minari(dataset: str) -> ModuleType:
+    try:
+        import minari
+    except ImportError as exc:
+        from famarl_cli.envs.external import MissingExtra
+
+        raise MissingExtra("minari", f"Minari dataset {dataset}") from exc
+    return minari
+
+
+def _data_path(dataset: str, minari: ModuleType) -> Path:
+    """The folder holding the dataset's ``metadata.json`` (``<dataset folder>/data`` in Minari 0.5)."""
+    from minari.dataset.minari_storage import METADATA_FILE_NAME
+
+    folder = Path(dataset)
+    if folder.is_dir():
+        for candidate in (folder / "data", folder):
+            if (candidate / METADATA_FILE_NAME).is_file():
+                return candidate
+        raise ArtifactError(f"{folder}: not a Minari dataset folder (no data/{METADATA_FILE_NAME} in it)")
+    root = minari.storage.get_dataset_path()
+    stored = root / dataset / "data"
+    if (stored / METADATA_FILE_NAME).is_file():
+        return stored
+    raise ArtifactError(
+        f"{dataset}: no such Minari dataset folder, nor dataset id in Minari's local storage at {root} "
+        "(MINARI_DATASETS_PATH sets where that is)"
+    )
+
+
+def _famarl_facts(facts: Any, dataset: str) -> dict | None:
+    """The dataset-level facts of a famarl export, checked; None for a dataset famarl did not write."""
+    if facts is None:
+        return None
+    keys = ("schema", "schema_version", "env_id", "env_kwargs", "script", "seed", "factor_names")
+    missing = [key for key in keys if key not in facts] if isinstance(facts, dict) else list(keys)
+    if missing:
+        raise ArtifactError(f"{dataset}: its {FAMARL_KEY!r} metadata lacks {', '.join(missing)}")
+    if facts["schema"] != SCHEMA or int(facts["schema_version"]) > SCHEMA_VERSION:
+        raise ArtifactError(
+            f"{dataset}: its {FAMARL_KEY!r} metadata is {facts['schema']!r} version {facts['schema_version']}; this "
+            f"famarl reads {SCHEMA!r} up to version {SCHEMA_VERSION}"
+        )
+    return facts
+
+
+def _episode(data: Any, space: gym.Space, metadata: dict, n_factors: int | None, dataset: str) -> Episode:
+    """One Minari episode as a famarl Episode; ``n_factors`` is None for a dataset without famarl ground truth."""
+    where = f"{dataset}: episode {int(data.id)}"
+    steps = len(data.rewards)
+    if steps == 0:
+        raise ArtifactError(f"{where} has no steps")
+    if _lengths(data.observations) != {steps + 1}:
+        raise ArtifactError(f"{where}: observations must have T+1 = {steps + 1} rows")
+    for key in ("actions", "terminations", "truncations"):
+        if _lengths(getattr(data, key)) != {steps}:
+            raise ArtifactError(f"{where}: {key} must have T = {steps} rows")
+    if isinstance(space, gym.spaces.Box):
+        observations = np.asarray(data.observations, dtype=np.float32).reshape(steps + 1, -1)
+    else:
+        flat = [gym.spaces.flatten(space, _at(data.observations, t)) for t in range(steps + 1)]
+        observations = np.stack(flat).astype(np.float32)
+    episode = Episode(
+        observations=observations,
+        actions=np.asarray(data.actions, dtype=np.float32).reshape(steps, -1),
+        rewards=np.asarray(data.rewards, dtype=np.float64),
+        terminations=np.asarray(data.terminations, dtype=bool),
+        truncations=np.asarray(data.truncations, dtype=bool),
+        seed=int(metadata["seed"]) if metadata.get("seed") is not None else -1,
+        segment_starts=np.zeros(1, dtype=np.int64),
+        factors=np.zeros((1, 0)),
+    )
+    for key in ("observations", "actions", "rewards"):
+        if not np.isfinite(getattr(episode, key)).all():
+            raise ArtifactError(f"{where}: {key} contain NaN or Inf")
+    if n_factors is not None:
+        episode.segment_starts, episode.factors = _ground_truth(metadata.get(FAMARL_KEY), steps, n_factors, where)
+    return episode
+
+
+def _ground_truth(truth: Any, steps: int, n_factors: int, where: str) -> tuple[np.ndarray, np.ndarray]:
+    if not isinstance(truth, dict) or not {"segment_starts", "factors"} <= truth.keys():
+        raise ArtifactError(f"{where}: the dataset is a famarl export, but the episode has no ground truth")
+    starts = np.asarray(truth["segment_starts"], dtype=np.int64)
+    factors = np.asarray(truth["factors"], dtype=np.float64)
+    if not (
+        starts.ndim == 1 and len(starts) >= 1 and starts[0] == 0 and np.all(np.diff(starts) > 0) and starts[-1] < steps
+    ):
+        raise ArtifactError(f"{where}: segment_starts must increase from 0 and stay below {steps}, got {starts}")
+    if factors.shape != (len(starts), n_factors):
+        raise ArtifactError(f"{where}: factors must have shape ({len(starts)}, {n_factors}), got {factors.shape}")
+    return starts, factors
+
+
+def _at(tree: Any, t: int) -> Any:
+    """Step ``t`` of a Minari episode's nested (Dict, Tuple) arrays, as one value of the space."""
+    if isinstance(tree, dict):
+        return {key: _at(value, t) for key, value in tree.items()}
+    if isinstance(tree, tuple):
+        return tuple(_at(value, t) for value in tree)
+    return tree[t]
+
+
+def _lengths(tree: Any) -> set[int]:
+    """The row counts of a Minari episode's nested arrays; one count when they agree."""
+    if isinstance(tree, dict | tuple):
+        values = tree.values() if isinstance(tree, dict) else tree
+        return set().union(*(_lengths(value) for value in values))
+    return {len(tree)}
+
+
+def _json_or_empty(kwargs: dict) -> dict:
+    try:
+        json.dumps(kwargs)
+    except TypeError:
+        return {}
+    return dict(kwargs)
+
+
+def _spaces(demos: Demos) -> tuple[gym.spaces.Box, gym.spaces.Box, Any]:
+    """The export's observation space, action space, and the env's spec (None when gymnasium cannot make it)."""
+    from famarl_cli.envs.external import make_env
+
+    obs_dim = demos.episodes[0].observations.shape[1]
+    act_dim = demos.episodes[0].actions.shape[1]
+    observation_space = gym.spaces.Box(-np.inf, np.inf, (obs_dim,), np.float32)
+    unbounded = gym.spaces.Box(-np.inf, np.inf, (act_dim,), np.float32)
+    try:
+        env = make_env(demos.env_id, demos.env_kwargs)
+    except FamarlError:
+        # An unknown id (an imported dataset's, say) or a missing dependency only means the bounds are unknown.
+        return observation_space, unbounded, None
+    space, spec = env.action_space, env.unwrapped.spec
+    env.close()
+    if isinstance(space, gym.spaces.Box) and space.shape == (act_dim,):
+        return observation_space, gym.spaces.Box(space.low, space.high, dtype=np.float32), spec
+    return observation_space, unbounded, spec
+
+
+def _dataset_metadata(demos: Demos, dataset_id: str, minari_version: str) -> dict:
+    return {
+        "dataset_id": dataset_id,
+        "minari_version": minari_version,
+        "algorithm_name": f"famarl expert script {demos.script}",
+        "description": (
+            f"famarl demos of {demos.script} in {demos.env_id}: {len(demos.episodes)} episodes. The expert's true "
+            f"phases are in each episode's metadata ({FAMARL_KEY}/segment_starts, {FAMARL_KEY}/factors, columns "
+            f"named by metadata[{FAMARL_KEY!r}]['factor_names'])."
+        ),
+        FAMARL_KEY: {
+            "schema": SCHEMA,
+            "schema_version": SCHEMA_VERSION,
+            "env_id": demos.env_id,
+            "env_kwargs": demos.env_kwargs,
+            "script": demos.script,
+            "seed": demos.seed,
+            "factor_names": list(demos.factor_names),
+            "provenance": demos.provenance,
+        },
+    }
+
+
+def _mark_namespaces(root: Path, dataset_id: str) -> None:
+    """Give each namespace of ``dataset_id`` that lacks one the metadata file by which Minari lists namespaces, as
+    ``minari.namespace.create_namespace`` would (it only writes under ``MINARI_DATASETS_PATH``, not ``root``)."""
+    from minari.namespace import NAMESPACE_METADATA_FILENAME
+
+    for namespace in Path(dataset_id).parents[:-1]:
+        marker = root / namespace / NAMESPACE_METADATA_FILENAME
+        if not marker.exists():
+            marker.write_text("{}")
+
+
+def _move_into_place(temp: Path, folder: Path) -> None:
+    """Rename the finished ``temp`` to ``folder``; a dataset already there is moved aside first and then deleted,
+    since a folder cannot be renamed over a non-empty one."""
+    if folder.exists():
+        aside = temp.with_name(f"{temp.name}-old")
+        os.replace(folder, aside)
+        os.replace(temp, folder)
+        # The new dataset is in place; an old one that cannot be deleted is a hidden folder Minari does not list.
+        shutil.rmtree(aside, ignore_errors=True)
+    else:
+        os.replace(temp, folder)

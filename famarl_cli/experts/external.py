@@ -1,0 +1,95 @@
+"""A user's expert, named ``module:attribute`` (``famarl demos --env ID --expert module:attribute``).
+
+The attribute is one of:
+
+- **a class**, made once per demos run as ``Class(env)`` when its constructor takes an argument (planners need the
+  env: PointMaze's maze) or ``Class()``. Its instances have ``act(observation) -> action`` and may have
+  ``reset(observation)``, called at each episode's start. An instance may also keep famarl's expert protocol
+  (``phase_starts``, ``phase_factors`` and ``factor_names``, as :mod:`famarl_cli.experts.bipedal` does): then
+  its phases are the episode's ground truth;
+- **a function** ``policy(observation) -> action``: a stateless policy.
+
+``act`` or the function may return ``(action, phase)`` instead of an action: ``phase`` is any label and a new
+phase begins where it changes. Phase boundaries are optional: without them an episode is one phase. Observations
+are the env's own (a Dict stays a dict); actions must have the action space's shape and be finite.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from famarl_cli.errors import UsageError
+
+
+def resolve(path: str) -> Any:
+    """The object that ``module:attribute`` names; a one-line error when it does not import."""
+    module_name, _, attribute = path.partition(":")
+    if not module_name or not attribute:
+        raise UsageError(f"--expert must be module:attribute (like mypackage.experts:policy), got {path!r}")
+    try:
+        module = importlib.import_module(module_name)
+    except Exception as exc:  # the user's module may fail in any way on import
+        raise UsageError(f"expert {path}: cannot import {module_name}: {type(exc).__name__}: {exc}") from exc
+    try:
+        target = module
+        for name in attribute.split("."):
+            target = getattr(target, name)
+    except AttributeError as exc:
+        raise UsageError(f"expert {path}: {module_name} has no {attribute!r}") from exc
+    if not callable(target):
+        raise UsageError(f"expert {path}: {attribute} is a {type(target).__name__}, not a class or a function")
+    return target
+
+
+class ExternalExpert:
+    """Any expert of the module docstring, behind famarl's expert protocol (reset, act, phase_starts,
+    phase_factors, factor_names), with its actions checked against the env's action space."""
+
+    def __init__(self, path: str, env: gym.Env) -> None:
+        self.path, self.shape = path, env.action_space.shape
+        target = resolve(path)
+        if inspect.isclass(target):
+            takes_env = len(inspect.signature(target).parameters) > 0
+            self.policy = target(env) if takes_env else target()
+            if not callable(getattr(self.policy, "act", None)):
+                raise UsageError(f"expert {path}: {target.__name__} has no act(observation) method")
+            self.act_fn = self.policy.act
+        else:
+            self.policy, self.act_fn = None, target
+        self.own_phases = hasattr(self.policy, "factor_names")
+        self.factor_names: tuple[str, ...] = tuple(getattr(self.policy, "factor_names", ())) if self.own_phases else ()
+
+    def reset(self, observation) -> None:
+        if callable(getattr(self.policy, "reset", None)):
+            self.policy.reset(observation)
+        self.step, self.label, self.starts = 0, object(), []
+
+    def act(self, observation) -> np.ndarray:
+        out = self.act_fn(observation)
+        action, label = out if isinstance(out, tuple) and len(out) == 2 else (out, None)
+        action = np.asarray(action, dtype=np.float32)
+        if action.shape != self.shape:
+            raise UsageError(
+                f"expert {self.path} returned an action of shape {action.shape}; the env takes {self.shape}"
+            )
+        if not np.isfinite(action).all():
+            raise UsageError(f"expert {self.path} returned a non-finite action {action}")
+        if self.step == 0 or (label is not None and label != self.label):
+            self.starts.append(self.step)
+        self.label, self.step = label, self.step + 1
+        return action
+
+    @property
+    def phase_starts(self) -> list[int]:
+        return list(self.policy.phase_starts) if self.own_phases else self.starts
+
+    @property
+    def phase_factors(self) -> np.ndarray:
+        if self.own_phases:
+            return np.asarray(self.policy.phase_factors, dtype=np.float64).reshape(len(self.phase_starts), -1)
+        return np.zeros((len(self.starts), 0))
