@@ -108,8 +108,12 @@ def _save(fig: Figure, path: str | os.PathLike) -> None:
         fig.savefig(temp, format="png", dpi=110)
 
 
-def plot_traversal(traversal: Traversal, path: str | os.PathLike, title: str = "") -> None:
-    """One panel per latent variable, one path per value (blue to red), like the paper's Figure 5."""
+def plot_traversal(
+    traversal: Traversal, path: str | os.PathLike, title: str = "", dims: tuple[int, int] | None = None
+) -> None:
+    """One panel per latent variable, one path per value (blue to red), like the paper's Figure 5. Paths are
+    positions in metres, or, with ``dims``, those observation dimensions of a gymnasium env (any units: the
+    panels zoom to the paths)."""
     n = len(traversal.variables)
     columns = min(n, 3)
     rows = int(np.ceil(n / columns))
@@ -117,7 +121,9 @@ def plot_traversal(traversal: Traversal, path: str | os.PathLike, title: str = "
     axes = np.atleast_1d(fig.subplots(rows, columns, squeeze=False)).ravel()
     colours = cm.coolwarm(np.linspace(0, 1, len(traversal.values)))
     centre = traversal.paths[0, 0, 0]
-    reach = max(1.0, float(np.abs(traversal.paths - centre).max()) * 1.1)
+    extent = float(np.abs(traversal.paths - centre).max()) * 1.1
+    reach = max(1.0, extent) if dims is None else max(extent, 1e-6)
+    unit = " m" if dims is None else ""
     for ax, (ladder, index), paths, lengths, effect in zip(
         axes, traversal.variables, traversal.paths, traversal.lengths, traversal.effects, strict=False
     ):
@@ -125,12 +131,31 @@ def plot_traversal(traversal: Traversal, path: str | os.PathLike, title: str = "
             ax.plot(p[: length + 1, 0], p[: length + 1, 1], color=colour, lw=1.6, label=f"{value:+g} ({length} steps)")
         ax.plot(*centre, "ko", ms=4)
         ax.set(xlim=(centre[0] - reach, centre[0] + reach), ylim=(centre[1] - reach, centre[1] + reach), aspect="equal")
-        ax.set_title(f"({ladder},{index})  effect {effect:.2f} m", fontsize=9)
+        ax.set_title(f"({ladder},{index})  effect {effect:.3g}{unit}", fontsize=9)
+        if dims is not None:
+            ax.set(xlabel=f"observation[{dims[0]}]", ylabel=f"observation[{dims[1]}]", aspect="auto")
         ax.tick_params(labelsize=7)
         ax.legend(fontsize=6, loc="lower right")
     for ax in axes[n:]:
         ax.set_visible(False)
     fig.suptitle(title or "latent traversal: (ladder, index), paths from the centre, one colour per value", fontsize=9)
+    fig.tight_layout()
+    _save(fig, path)
+
+
+def plot_traversal_frames(traversal: Traversal, path: str | os.PathLike, title: str = "") -> None:
+    """What the env renders at the end of each traversed macro action: a row per variable, a column per value."""
+    rows, columns = traversal.frames.shape[:2]
+    fig = Figure(figsize=(2.2 * columns, 1.8 * rows + 0.4))
+    axes = fig.subplots(rows, columns, squeeze=False)
+    for r, (ladder, index) in enumerate(traversal.variables):
+        for c, value in enumerate(traversal.values):
+            ax = axes[r, c]
+            ax.imshow(traversal.frames[r, c])
+            ax.set_xticks([])
+            ax.set_yticks([])
+            ax.set_title(f"({ladder},{index}) = {value:+g}, {traversal.lengths[r, c]} steps", fontsize=7)
+    fig.suptitle(title or "latent traversal: the env at the end of each macro action", fontsize=9)
     fig.tight_layout()
     _save(fig, path)
 

@@ -215,20 +215,24 @@ def traverse(
     env_id: str | None = None,
     env_kwargs: dict | None = None,
     dims: tuple[int, int] = (0, 1),
+    frames: bool = False,
 ):
     """Traverse the FAVAE in ``model`` (in ``env_id`` when given, drawing observation ``dims``). Writes ``out``
     (HDF5), ``.png`` and ``.json`` (effect per variable, in the path's units, and the information each carries,
-    nats, where the checkpoint records it). Returns the Traversal and that information per traversed variable
-    (None for checkpoints that do not record it)."""
+    nats, where the checkpoint records it) and, with ``frames``, ``.frames.png`` (what the env renders at the end
+    of each macro action). Returns the Traversal and that information per traversed variable (None for
+    checkpoints that do not record it)."""
     from famarl_cli.artifacts.traversal import write_traversal
     from famarl_cli.favae.checkpoint import load_favae
-    from famarl_cli.plots import plot_traversal
+    from famarl_cli.plots import plot_traversal, plot_traversal_frames
     from famarl_cli.traversal import traverse as run_traversal
     from famarl_cli.traversal import variables_of
 
     out = prepare_output(out)
     favae, payload = load_favae(model)
-    result = run_traversal(favae, variables_of(favae, ladder, index), values, draw, env_id, env_kwargs, dims)
+    if frames and env_id is None:
+        raise UsageError("--frames goes with --env: the frames are what that env renders")
+    result = run_traversal(favae, variables_of(favae, ladder, index), values, draw, env_id, env_kwargs, dims, frames)
     variables = result.variables.tolist()
     kl = payload.get("training", {}).get("kl_per_dim")
     information = None if kl is None else [float(kl[favae.config.latent_index(*v)]) for v in variables]
@@ -236,7 +240,17 @@ def traverse(
     if env_id is not None:
         options.update(env=env_id, env_kwargs=env_kwargs or {}, dims=list(dims))
     write_traversal(out, result, provenance("famarl traverse", options, None, [model]))
-    plot_traversal(result, out.with_suffix(".png"), f"{model.name}: latent traversal over {format_values(values)}")
+    where = "" if env_id is None else f" in {env_id}"
+    plot_traversal(
+        result,
+        out.with_suffix(".png"),
+        f"{model.name}: latent traversal over {format_values(values)}{where}",
+        None if env_id is None else dims,
+    )
+    if result.frames is not None:
+        plot_traversal_frames(
+            result, out.with_suffix(".frames.png"), f"{model.name} in {env_id}: the end of each macro"
+        )
     names = [f"({lad},{i})" for lad, i in variables]
     effects = dict(zip(names, map(float, result.effects), strict=True))
     kl_json = None if information is None else dict(zip(names, information, strict=True))

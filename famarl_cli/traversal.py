@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from famarl_cli.envs import continuous_world, robot_hand
-from famarl_cli.errors import UsageError
+from famarl_cli.errors import FamarlError, UsageError
 from famarl_cli.favae.model import Favae
 
 EMPTY_LADDER_NATS = 0.1
@@ -44,7 +44,9 @@ class Traversal:
     paths: np.ndarray
     """(V, K, L + 1, 2) positions of each macro action run from the map's centre."""
     effects: np.ndarray
-    """(V,) effect size of each variable (m)."""
+    """(V,) effect size of each variable (m, or the drawn observation dimensions' units)."""
+    frames: np.ndarray | None = None
+    """(V, K, H, W, 3) what a gymnasium env renders at the end of each macro action, when asked for."""
 
 
 def variables_of(model: Favae, ladder: int | None, index: int | None) -> list[tuple[int, int]]:
@@ -73,9 +75,11 @@ def traverse(
     env_id: str | None = None,
     env_kwargs: dict | None = None,
     dims: tuple[int, int] = (0, 1),
+    frames: bool = False,
 ) -> Traversal:
     """Traverse ``variables`` over ``values``. With ``env_id``, each macro action runs in that gymnasium env from
-    ``reset(seed=0)`` and its path is the observation dimensions ``dims`` (:func:`run_in_env`)."""
+    ``reset(seed=0)``, its path is the observation dimensions ``dims`` and, with ``frames``, what the env renders
+    at its end is kept (:func:`run_in_env`)."""
     if draw not in DRAWS:
         raise UsageError(f"draw must be one of {DRAWS}, got {draw!r}")
     if len(values) < 2:
@@ -85,10 +89,11 @@ def traverse(
         z[v, :, model.config.latent_index(ladder, index)] = values
     flat = z.reshape(-1, z.shape[-1])
     actions, lengths = model.decode_macro_actions(flat)
+    end_frames = None
     if draw == "values":
         paths = sequence_paths(actions, lengths)
     elif env_id is not None:
-        paths = run_in_env(actions, lengths, env_id, env_kwargs, dims)
+        paths, end_frames = run_in_env(actions, lengths, env_id, env_kwargs, dims, frames)
     else:
         paths = run_macro_actions(actions, lengths)
     shape = (len(variables), len(values))
@@ -101,6 +106,7 @@ def traverse(
         lengths=lengths.reshape(shape),
         paths=paths,
         effects=gaps.mean(axis=(1, 2)),
+        frames=None if end_frames is None else end_frames.reshape(*shape, *end_frames.shape[1:]),
     )
 
 
@@ -136,16 +142,21 @@ def run_macro_actions(actions: np.ndarray, lengths: np.ndarray) -> np.ndarray:
 
 
 def run_in_env(
-    actions: np.ndarray, lengths: np.ndarray, env_id: str, env_kwargs: dict | None, dims: tuple[int, int]
-) -> np.ndarray:
-    """(n, L + 1, 2) paths of (n, L, D) macro actions run open-loop in any gymnasium env, each from the same reset
-    (seed 0): the flattened observation's dimensions ``dims``, held after the macro action ends or the episode
-    does."""
+    actions: np.ndarray,
+    lengths: np.ndarray,
+    env_id: str,
+    env_kwargs: dict | None,
+    dims: tuple[int, int],
+    frames: bool = False,
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Run (n, L, D) macro actions open-loop in any gymnasium env, each from the same reset (seed 0). Returns
+    their (n, L + 1, 2) paths, the flattened observation's dimensions ``dims`` held after the macro action ends
+    or the episode does, and, with ``frames``, what the env renders at each one's end ((n, H, W, 3), else None)."""
     import gymnasium as gym
 
     from famarl_cli.envs.external import make_env
 
-    env = make_env(env_id, env_kwargs)
+    env = make_env(env_id, env_kwargs, **({"render_mode": "rgb_array"} if frames else {}))
     size = gym.spaces.flatdim(env.observation_space)
     if env.action_space.shape != actions.shape[-1:]:
         raise UsageError(
@@ -153,7 +164,7 @@ def run_in_env(
         )
     if not all(-size <= d < size for d in dims):
         raise UsageError(f"observation dimensions {dims} do not exist: {env_id}'s observations have {size}")
-    paths = np.zeros((len(actions), actions.shape[1] + 1, 2))
+    paths, ends = np.zeros((len(actions), actions.shape[1] + 1, 2)), []
     for i, (sequence, length) in enumerate(zip(actions, lengths, strict=True)):
         obs, _ = env.reset(seed=0)
         points = [gym.spaces.flatten(env.observation_space, obs)[list(dims)]]
@@ -164,8 +175,20 @@ def run_in_env(
                 break
         paths[i, : len(points)] = points
         paths[i, len(points) :] = points[-1]
+        if frames:
+            ends.append(_render(env, env_id))
     env.close()
-    return paths
+    return paths, np.stack(ends) if frames else None
+
+
+def _render(env, env_id: str) -> np.ndarray:
+    try:
+        return np.asarray(env.render())
+    except Exception as exc:  # each renderer fails its own way without a display (MuJoCo: no OpenGL context)
+        raise FamarlError(
+            f"{env_id} cannot render here ({type(exc).__name__}: {exc}); MuJoCo envs need MUJOCO_GL=egl or osmesa "
+            "on a machine without a display"
+        ) from exc
 
 
 def parse_values(text: str) -> list[float]:

@@ -17,8 +17,8 @@ def examples() -> list[str]:
 
 def test_the_page_has_an_example_for_every_step():
     code = "\n".join(examples())
-    for call in ("record_demos(", "learn_macros(", "decode_macro_actions(", "MacroActionWrapper(", "Run.start(",
-                 "evaluate(", "mean_interval("):  # fmt: skip
+    for call in ("record_demos(", "record_expert_demos(", "export_minari(", "learn_macros(", "decode_macro_actions(",
+                 "MacroActionWrapper(", "Run.start(", "evaluate(", "mean_interval("):  # fmt: skip
         assert call in code
 
 
@@ -34,3 +34,4 @@ def test_every_example_on_the_api_page_runs(tmp_path, monkeypatch, capsys):
     printed = capsys.readouterr().out
     assert "one decision:" in printed and "MIG" in printed
     assert (tmp_path / "runs/famarl-seed0/train.csv").is_file() and (tmp_path / "macros/favae.pt").is_file()
+    assert (tmp_path / "minari/famarl/umaze-expert-v0/data/metadata.json").is_file()

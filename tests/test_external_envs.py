@@ -272,7 +272,8 @@ def test_traversal_runs_in_any_env_and_draws_chosen_observation_dimensions():
     actions = np.zeros((2, 6, 2), dtype=np.float32)
     actions[0, :, 0] = 1.0  # push right for 3 steps, then nothing
     lengths = np.array([3, 6])
-    paths = run_in_env(actions, lengths, "PointMaze_UMaze-v3", {"continuing_task": False}, (0, 1))
+    paths, frames = run_in_env(actions, lengths, "PointMaze_UMaze-v3", {"continuing_task": False}, (0, 1))
+    assert frames is None
     env = make_env("PointMaze_UMaze-v3", {"continuing_task": False})
     start = env.reset(seed=0)[0]["achieved_goal"]
     assert paths.shape == (2, 7, 2) and np.allclose(paths[:, 0], start)
@@ -280,6 +281,31 @@ def test_traversal_runs_in_any_env_and_draws_chosen_observation_dimensions():
     assert np.allclose(paths[1], start, atol=1e-6)  # no push, no move
     with pytest.raises(UsageError, match="observation dimensions"):
         run_in_env(actions, lengths, "PointMaze_UMaze-v3", None, (0, 9))
+
+
+def test_traversal_frames_are_what_the_env_renders_at_each_macros_end():
+    actions = np.zeros((2, 4, 4), dtype=np.float32)
+    actions[0] = 1.0  # every joint at full power moves the legs
+    paths, frames = run_in_env(actions, np.array([4, 2]), "BipedalWalker-v3", None, (0, 1), frames=True)
+    env = make_env("BipedalWalker-v3", render_mode="rgb_array")
+    env.reset(seed=0)
+    assert frames.shape == (2, *env.render().shape) and frames.dtype == np.uint8
+    # The walker's pose differs (its lidar rays too: BipedalWalker cycles them from frame to frame, so frames of
+    # the same state are not compared).
+    assert not np.array_equal(frames[0], frames[1])
+
+
+def test_frames_without_an_env_or_a_renderer_are_one_line_errors(tmp_path, favae_file, monkeypatch):
+    out = tmp_path / "t.h5"
+    one_line_error(famarl("traverse", "--model", favae_file, "--out", out, "--frames"), 2, "--frames goes with --env")
+
+    def no_display(self):
+        raise RuntimeError("no OpenGL context")
+
+    monkeypatch.setattr(gym.Wrapper, "render", no_display)
+    failed = famarl("traverse", "--model", favae_file, "--out", out, "--env", "PointMaze_UMaze-v3", "--frames")
+    one_line_error(failed, 1, "cannot render here (RuntimeError: no OpenGL context); MuJoCo envs need MUJOCO_GL")
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_traverse_cli_in_a_gymnasium_env(tmp_path, favae_file):
@@ -314,3 +340,12 @@ def test_from_minari_imports_a_dataset_and_refuses_discrete_actions(tmp_path, mo
     refused = tmp_path / "cartpole.h5"
     one_line_error(famarl("demos", "--from-minari", "cartpole/tiny-v0", "--out", refused), 1, "Discrete")
     assert not refused.exists()
+
+
+def test_a_sweep_of_demos_refuses_a_users_expert(tmp_path):
+    result = famarl(
+        "sweep", "demos", "--seeds", "0-1", "--out", tmp_path / "s", "--",
+        "--env", "Pendulum-v1", "--expert", "user_experts:swing",
+    )  # fmt: skip
+    one_line_error(result, 2, "--expert")
+    assert not (tmp_path / "s").exists()

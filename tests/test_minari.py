@@ -6,6 +6,7 @@ from hand-built buffers with ``minari.create_dataset_from_buffers``.
 """
 
 import sys
+from pathlib import Path
 
 import gymnasium as gym
 import h5py
@@ -251,6 +252,7 @@ def famarl_demos(seeds=(5, -1, 7), env_id="famarl/ContinuousWorld-Base-v0") -> D
         factor_names=("angle", "distance"),
         env_kwargs={"task": "base"},
         provenance={"command": "famarl demos"},
+        attempts=7,  # as famarl demos --min-return records: 3 kept of 7
     )
 
 
@@ -259,7 +261,7 @@ def test_export_then_import_gives_back_the_same_demos(minari_root):
     folder = export_minari(demos, "famarl/pushed-down-v0")
     assert folder == minari_root / "famarl/pushed-down-v0"
     back = import_minari("famarl/pushed-down-v0")
-    for key in ("env_id", "env_kwargs", "script", "seed", "factor_names"):
+    for key in ("env_id", "env_kwargs", "script", "seed", "factor_names", "attempts"):
         assert getattr(back, key) == getattr(demos, key), key
     for original, restored in zip(demos.episodes, back.episodes, strict=True):
         for key in Episode.__dataclass_fields__:
@@ -320,3 +322,10 @@ def test_cli_export_writes_a_loadable_dataset_and_refuses_an_existing_id(tmp_pat
     assert minari.MinariDataset(root / "famarl/cli-v0/data").total_steps == 29
     one_line_error(famarl(*args), 2, "already exists")
     assert famarl(*args, "--overwrite").exit_code == 0
+
+
+def test_export_to_a_relative_root(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    folder = export_minari(famarl_demos(), "famarl/relative-v0", root=Path("datasets"))
+    assert folder == tmp_path / "datasets/famarl/relative-v0"
+    assert import_minari("datasets/famarl/relative-v0").total_steps == famarl_demos().total_steps

@@ -20,8 +20,8 @@ What maps to what, per episode:
 Where an export keeps what only famarl knows, so that importing it gives back the same demos (all but provenance):
 
 - **per dataset**: ``metadata.json`` (``dataset.storage.metadata["famarl"]``) holds ``{"schema": "famarl.demos",
-  "schema_version", "env_id", "env_kwargs", "script", "seed", "factor_names", "provenance"}``. Minari keeps keys it
-  does not know, and this one is written once, not per step.
+  "schema_version", "env_id", "env_kwargs", "script", "seed", "factor_names", "attempts", "provenance"}``. Minari
+  keeps keys it does not know, and this one is written once, not per step.
 - **per episode**: the episode's own metadata, beside Minari's ``seed``: the HDF5 attributes
   ``famarl/segment_starts`` (K,) int64 and ``famarl/factors`` (K, F) float64, which
   ``dataset.storage.get_episode_metadata`` returns nested as ``{"famarl": {"segment_starts", "factors"}}`` (as it
@@ -92,6 +92,7 @@ def import_minari(dataset: str) -> Demos:
             factor_names=tuple(facts["factor_names"]),
             env_kwargs=facts["env_kwargs"],
             provenance=made,
+            attempts=facts.get("attempts"),
         )
     spec = loaded.env_spec
     return Demos(
@@ -124,7 +125,8 @@ def export_minari(demos: Demos, dataset_id: str, root: Path | None = None, *, ov
         raise UsageError(f"Minari dataset id {dataset_id!r} must look like [namespace/]name-v<version>, e.g. demos-v0")
     if not demos.episodes:
         raise UsageError(f"no episodes to export to {dataset_id}")
-    root = Path(root) if root is not None else minari.storage.get_dataset_path()
+    # Minari joins a relative data path onto itself: the folders it is given are absolute.
+    root = (Path(root) if root is not None else minari.storage.get_dataset_path()).resolve()
     folder = root / dataset_id
     if folder.exists():
         if not overwrite:
@@ -325,6 +327,7 @@ def _dataset_metadata(demos: Demos, dataset_id: str, minari_version: str) -> dic
             "script": demos.script,
             "seed": demos.seed,
             "factor_names": list(demos.factor_names),
+            "attempts": demos.attempts,
             "provenance": demos.provenance,
         },
     }

@@ -48,6 +48,13 @@ def traverse(
     obs_dims: Annotated[
         str, typer.Option(help="With --env: the two dimensions of the flattened observation drawn, like 0,1.")
     ] = "0,1",
+    frames: Annotated[
+        bool,
+        typer.Option(
+            help="With --env: also draw what the env renders at the end of each macro action (<out>.frames.png). "
+            "MuJoCo envs need MUJOCO_GL=egl or osmesa without a display."
+        ),
+    ] = False,
 ) -> None:
     """Decode sweeps of single latent variables and draw the paths their macro actions take (paper Fig. 5)."""
     from famarl_cli import stages
@@ -61,7 +68,7 @@ def traverse(
         raise UsageError("--env-kwargs goes with --env")
     dims = parse_dims(obs_dims)
     result, information = stages.traverse(
-        model, out, parse_values(values), ladder, index, draw, env, parse_env_kwargs(env_kwargs), dims
+        model, out, parse_values(values), ladder, index, draw, env, parse_env_kwargs(env_kwargs), dims, frames
     )
     table = Table(title=f"traversal of {model}", show_header=True)
     table.add_column("(ladder, index)")
@@ -82,4 +89,7 @@ def traverse(
             f"ladder {lad} is empty: its variables carry {nats:.3f} nats of the training data (under "
             f"{EMPTY_LADDER_NATS:g}), so traversing them changes almost nothing"
         )
-    Console().print(f"written {out}, {out.with_suffix('.png')}, {out.with_suffix('.json')}")
+    written = [out, out.with_suffix(".png"), out.with_suffix(".json")] + (
+        [out.with_suffix(".frames.png")] if frames else []
+    )
+    Console().print("written " + ", ".join(map(str, written)))

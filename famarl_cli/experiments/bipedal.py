@@ -8,8 +8,15 @@ from __future__ import annotations
 from pathlib import Path
 
 from famarl_cli.experiments import experiment
-from famarl_cli.experiments.common import curves, fails_claim, favae_table, per_seed, sampled_return
-from famarl_cli.results import Group, by_agent, copy_figure, gather, group, results_table
+from famarl_cli.experiments.common import (
+    curves,
+    demos_and_traversal,
+    fails_claim,
+    favae_table,
+    per_seed,
+    sampled_return,
+)
+from famarl_cli.results import Group, by_agent, gather, group, results_table
 from famarl_cli.statistics import mean_interval
 from famarl_cli.verdicts import Claim, beats, not_run
 
@@ -67,11 +74,6 @@ def bipedal(data: Path, out: Path):
     replicates = favae_table(data / "bipedal" / "macros")
     tables += [replicates] if replicates else []
     figures = [curves(list(agents.values()), out / "bipedal-curves.png", "BipedalWalker-v3")]
-    for name, source in (
-        ("bipedal-demos.png", data / "demos" / "bipedalwalker.png"),
-        ("bipedal-traversal.png", data / "bipedal" / "macros" / "seed0" / "traverse.png"),
-    ):
-        copied = copy_figure(source, out / name)
-        figures += [copied] if copied else []
+    figures += demos_and_traversal(data, out, "bipedal", "bipedalwalker")
     title = "BipedalWalker: the paper's stated failure (limitations, lack of feedback control)"
     return Section(title, claims, tables, figures, list(agents.values()))

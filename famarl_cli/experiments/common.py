@@ -109,6 +109,20 @@ def headline_famarl_runs(data: Path) -> list[RunResult]:
     return [run for g in group(gather([data / "maze" / "eval"]), MAZE, "famarl").values() for run in g.runs]
 
 
+def demos_and_traversal(data: Path, out: Path, name: str, demos: str) -> list[str]:
+    """The demos' picture (``data/demos/<demos>.png``) and seed 0's traversal (``data/<name>/macros``) copied into
+    ``out`` as ``<name>-demos.png`` and ``<name>-traversal.png``: what the macro actions were learned from and what
+    they do. The names of those that exist."""
+    from famarl_cli.results import copy_figure
+
+    sources = {
+        "demos": data / "demos" / f"{demos}.png",
+        "traversal": data / name / "macros" / "seed0" / "traverse.png",
+    }
+    copied = [copy_figure(source, out / f"{name}-{kind}.png") for kind, source in sources.items()]
+    return [figure for figure in copied if figure]
+
+
 def per_seed(g: Group, measure) -> np.ndarray:
     """``measure(run)`` for each seed's run of ``g``."""
     return np.array([measure(run) for run in g.runs], dtype=float)

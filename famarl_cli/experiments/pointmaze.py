@@ -8,8 +8,16 @@ from __future__ import annotations
 from pathlib import Path
 
 from famarl_cli.experiments import experiment
-from famarl_cli.experiments.common import AUC_DELTA, AUC_MEASURE, SUCCESS_DELTA, curves, favae_table, success_measure
-from famarl_cli.results import Group, by_agent, copy_figure, gather, group, results_table
+from famarl_cli.experiments.common import (
+    AUC_DELTA,
+    AUC_MEASURE,
+    SUCCESS_DELTA,
+    curves,
+    demos_and_traversal,
+    favae_table,
+    success_measure,
+)
+from famarl_cli.results import Group, by_agent, gather, group, results_table
 from famarl_cli.verdicts import Claim, beats, not_run
 
 MAZES = {"Medium": "PointMaze_Medium-v3", "Large": "PointMaze_Large-v3"}
@@ -54,11 +62,6 @@ def pointmaze(data: Path, out: Path):
             every += groups
     replicates = favae_table(data / "pointmaze" / "macros")
     tables += [replicates] if replicates else []
-    for target, source in (
-        ("pointmaze-demos.png", data / "demos" / "pointmaze.png"),
-        ("pointmaze-traversal.png", data / "pointmaze" / "macros" / "seed0" / "traverse.png"),
-    ):
-        copied = copy_figure(source, out / target)
-        figures += [copied] if copied else []
+    figures += demos_and_traversal(data, out, "pointmaze", "pointmaze")
     title = "Beyond the paper: PointMaze, macro actions from a small maze in bigger ones"
     return Section(title, claims, tables, figures, every, goals=True)
