@@ -158,21 +158,27 @@ def _read_episode(handle: h5py.File, i: int, n_factors: int, path: Path) -> Epis
     for key in ("rewards", "terminations", "truncations"):
         shape = getattr(episode, key).shape
         check(shape == (steps,), path, f"{name}: {key} must have shape ({steps},), got {shape}")
+    fault = content_fault(episode, n_factors)
+    check(fault is None, path, f"{name}: {fault}")
+    return episode
+
+
+def content_fault(episode: Episode, n_factors: int) -> str | None:
+    """What is wrong with the values of an episode whose arrays have their shapes (T+1 observations, T actions):
+    NaN or Inf, or ground truth that does not fit it; None when nothing is. Every reader of episodes (our files,
+    Minari datasets) holds them to these rules."""
     for key in ("observations", "actions", "rewards"):
-        check(np.isfinite(getattr(episode, key)).all(), path, f"{name}: {key} contain NaN or Inf")
-    starts = episode.segment_starts
-    check(
+        if not np.isfinite(getattr(episode, key)).all():
+            return f"{key} contain NaN or Inf"
+    starts, steps = episode.segment_starts, episode.length
+    if not (
         starts.ndim == 1
         and len(starts) >= 1
         and starts[0] == 0
         and bool(np.all(np.diff(starts) > 0))
-        and starts[-1] < steps,
-        path,
-        f"{name}: ground_truth/segment_starts must increase from 0 and stay below {steps}, got {starts}",
-    )
-    check(
-        episode.factors.shape == (len(starts), n_factors),
-        path,
-        f"{name}: ground_truth/factors must have shape ({len(starts)}, {n_factors}), got {episode.factors.shape}",
-    )
-    return episode
+        and starts[-1] < steps
+    ):
+        return f"ground_truth/segment_starts must increase from 0 and stay below {steps}, got {starts}"
+    if episode.factors.shape != (len(starts), n_factors):
+        return f"ground_truth/factors must have shape ({len(starts)}, {n_factors}), got {episode.factors.shape}"
+    return None

@@ -45,7 +45,7 @@ import gymnasium as gym
 import numpy as np
 
 from famarl_cli.artifacts.base import TEMP_MARKER, provenance
-from famarl_cli.artifacts.demos import SCHEMA, SCHEMA_VERSION, Demos, Episode
+from famarl_cli.artifacts.demos import SCHEMA, SCHEMA_VERSION, Demos, Episode, content_fault
 from famarl_cli.errors import ArtifactError, FamarlError, UsageError
 
 FAMARL_KEY = "famarl"
@@ -232,6 +232,9 @@ def _episode(data: Any, space: gym.Space, metadata: dict, n_factors: int | None,
     else:
         flat = [gym.spaces.flatten(space, _at(data.observations, t)) for t in range(steps + 1)]
         observations = np.stack(flat).astype(np.float32)
+    starts, factors = np.zeros(1, dtype=np.int64), np.zeros((1, 0))
+    if n_factors is not None:
+        starts, factors = _ground_truth(metadata.get(FAMARL_KEY), where)
     episode = Episode(
         observations=observations,
         actions=np.asarray(data.actions, dtype=np.float32).reshape(steps, -1),
@@ -239,29 +242,20 @@ def _episode(data: Any, space: gym.Space, metadata: dict, n_factors: int | None,
         terminations=np.asarray(data.terminations, dtype=bool),
         truncations=np.asarray(data.truncations, dtype=bool),
         seed=int(metadata["seed"]) if metadata.get("seed") is not None else -1,
-        segment_starts=np.zeros(1, dtype=np.int64),
-        factors=np.zeros((1, 0)),
+        segment_starts=starts,
+        factors=factors,
     )
-    for key in ("observations", "actions", "rewards"):
-        if not np.isfinite(getattr(episode, key)).all():
-            raise ArtifactError(f"{where}: {key} contain NaN or Inf")
-    if n_factors is not None:
-        episode.segment_starts, episode.factors = _ground_truth(metadata.get(FAMARL_KEY), steps, n_factors, where)
+    fault = content_fault(episode, n_factors or 0)
+    if fault is not None:
+        raise ArtifactError(f"{where}: {fault}")
     return episode
 
 
-def _ground_truth(truth: Any, steps: int, n_factors: int, where: str) -> tuple[np.ndarray, np.ndarray]:
+def _ground_truth(truth: Any, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """A famarl export's episode ground truth, as arrays (checked with the episode, :func:`content_fault`)."""
     if not isinstance(truth, dict) or not {"segment_starts", "factors"} <= truth.keys():
         raise ArtifactError(f"{where}: the dataset is a famarl export, but the episode has no ground truth")
-    starts = np.asarray(truth["segment_starts"], dtype=np.int64)
-    factors = np.asarray(truth["factors"], dtype=np.float64)
-    if not (
-        starts.ndim == 1 and len(starts) >= 1 and starts[0] == 0 and np.all(np.diff(starts) > 0) and starts[-1] < steps
-    ):
-        raise ArtifactError(f"{where}: segment_starts must increase from 0 and stay below {steps}, got {starts}")
-    if factors.shape != (len(starts), n_factors):
-        raise ArtifactError(f"{where}: factors must have shape ({len(starts)}, {n_factors}), got {factors.shape}")
-    return starts, factors
+    return np.asarray(truth["segment_starts"], dtype=np.int64), np.asarray(truth["factors"], dtype=np.float64)
 
 
 def _at(tree: Any, t: int) -> Any:

@@ -48,6 +48,18 @@ def _global_options(
     _debug = debug
 
 
+EnvKwargs = Annotated[
+    str | None,
+    typer.Option(help="Keyword arguments of gymnasium.make, as JSON: '{\"continuing_task\": false}'."),
+]
+"""``--env-kwargs``, the same on every command that makes a gymnasium env (parsed by
+:func:`famarl_cli.envs.external.parse_env_kwargs`)."""
+ObsDims = Annotated[
+    str, typer.Option(help="The two dimensions of the flattened observation a traversal draws in a gymnasium env.")
+]
+"""``--obs-dims`` (parsed by :func:`famarl_cli.traversal.parse_dims`)."""
+
+
 def reports_errors(command):
     """Print a FamarlError as ``error: <message>`` and exit with its code, unless ``--debug`` is on."""
 

@@ -11,7 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.artifacts import Demos
-from famarl_cli.cli import JobRecipe, app, progress_bar, reports_errors, sweepable
+from famarl_cli.cli import EnvKwargs, JobRecipe, app, progress_bar, reports_errors, sweepable
 from famarl_cli.errors import UsageError
 from famarl_cli.experts.scripts import Environment, Script
 
@@ -35,17 +35,12 @@ def demos(
             "--script: continuous-world or robot-hand, optional (the script implies it)."
         ),
     ] = None,
-    env_kwargs: Annotated[
-        str | None,
-        typer.Option(
-            help="With --expert: keyword arguments of gymnasium.make, as JSON: '{\"continuing_task\": false}'."
-        ),
-    ] = None,
+    env_kwargs: EnvKwargs = None,
     expert: Annotated[
         str | None,
         typer.Option(
             help="Your expert, as module:attribute: a policy function or a class with act(observation) "
-            "(docs/environments.md); it may return (action, phase) to mark its phases."
+            "(docs/external.md); it may return (action, phase) to mark its phases."
         ),
     ] = None,
     from_minari: Annotated[

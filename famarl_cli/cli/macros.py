@@ -9,7 +9,16 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import JobRecipe, app, progress_bar, reports_errors, sweepable, torch_on_one_thread
+from famarl_cli.cli import (
+    EnvKwargs,
+    JobRecipe,
+    ObsDims,
+    app,
+    progress_bar,
+    reports_errors,
+    sweepable,
+    torch_on_one_thread,
+)
 from famarl_cli.favae import Capacity, Head
 
 
@@ -57,12 +66,8 @@ def macros(
             "not famarl's own; famarl's env of the actions' size otherwise]"
         ),
     ] = None,
-    env_kwargs: Annotated[
-        str | None, typer.Option(help="Keyword arguments of gymnasium.make for --env, as JSON.")
-    ] = None,
-    obs_dims: Annotated[
-        str, typer.Option(help="Observation dimensions the traversal draws in a gymnasium env, like 0,1.")
-    ] = "0,1",
+    env_kwargs: EnvKwargs = None,
+    obs_dims: ObsDims = "0,1",
 ) -> None:
     """Everything the method learns before RL, for one seed, into one folder: segments, C_last, FAVAE, traversal.
 

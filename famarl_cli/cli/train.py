@@ -10,7 +10,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import JobRecipe, app, progress_bar, reports_errors, sweepable, torch_on_one_thread
+from famarl_cli.cli import EnvKwargs, JobRecipe, app, progress_bar, reports_errors, sweepable, torch_on_one_thread
 from famarl_cli.errors import UsageError
 from famarl_cli.rl import HYBRID_ENTROPY_FLOOR, HYBRID_HORIZON, HYBRID_RESIDUAL, Agent, MacroDiscount, agent_defaults
 
@@ -36,10 +36,7 @@ def train(
     env: Annotated[
         str, typer.Option(help="Environment id (famarl's or any gymnasium id with Box spaces).")
     ] = DEFAULT_ENV,
-    env_kwargs: Annotated[
-        str | None,
-        typer.Option(help="Keyword arguments of gymnasium.make, as JSON: '{\"continuing_task\": false}'."),
-    ] = None,
+    env_kwargs: EnvKwargs = None,
     agent: Annotated[
         Agent,
         typer.Option(

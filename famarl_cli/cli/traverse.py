@@ -9,7 +9,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import app, reports_errors, torch_on_one_thread
+from famarl_cli.cli import EnvKwargs, ObsDims, app, reports_errors, torch_on_one_thread
 from famarl_cli.errors import UsageError
 
 
@@ -42,12 +42,8 @@ def traverse(
             "observations.  [default: famarl's env that takes the actions' size]"
         ),
     ] = None,
-    env_kwargs: Annotated[
-        str | None, typer.Option(help="With --env: keyword arguments of gymnasium.make, as JSON.")
-    ] = None,
-    obs_dims: Annotated[
-        str, typer.Option(help="With --env: the two dimensions of the flattened observation drawn, like 0,1.")
-    ] = "0,1",
+    env_kwargs: EnvKwargs = None,
+    obs_dims: ObsDims = "0,1",
     frames: Annotated[
         bool,
         typer.Option(
