@@ -40,7 +40,7 @@ def main() -> None:
 
     segments = read_segments(args.data / "segments" / f"{args.script}.h5")
     config = FavaeConfig(action_dim=segments.action_dim, length=segments.max_length)
-    c_last = read_calibration(args.data / "favae" / f"{args.script}.calibration.json", config)
+    c_last = read_calibration(args.data / "favae" / f"{args.script}.calibration.json", config, TrainingParams())
     rows = []
     for beta in args.betas:
         for seed in args.seeds:
@@ -48,7 +48,7 @@ def main() -> None:
             params = TrainingParams(epochs=args.epochs, seed=seed)
             model, _ = train_favae(segments.padded, config, beta, c_last, params)
             scores = evaluate_fit(model, segments.padded, segments.length, segments.factors)
-            active = int(np.sum(np.array(scores["kl_per_dim"]) > 0.1))
+            active = int(np.sum(np.array(scores["information_per_dim"]) > 0.1))
             rows.append(
                 {
                     "script": args.script,

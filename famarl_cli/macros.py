@@ -24,6 +24,7 @@ from pathlib import Path
 
 from famarl_cli import stages
 from famarl_cli.errors import UsageError
+from famarl_cli.favae import CALIBRATION_BETA, DECODER, MEASURE, PROGRESSIVE
 
 SEGMENTS, FAVAE, TRAVERSAL = "segments.h5", "favae.pt", "traverse.h5"
 
@@ -51,6 +52,10 @@ class MacrosConfig:
     latent_dim: int = 2
     head: str = "flatten"
     capacity: str = "measured"
+    decoder: str = DECODER.value
+    capacity_measure: str = MEASURE.value
+    progressive: float = PROGRESSIVE
+    calibration_beta: float = CALIBRATION_BETA
     values: list[float] = field(default_factory=lambda: [-3.0, -1.0, 1.0, 3.0])
     env: str | None = None
     """The traversal runs its macro actions in this gymnasium env (None: famarl's env of their size)."""
@@ -105,7 +110,9 @@ def learn_macros(
             episodes=config.episodes,
         )
     favae = folder / FAVAE
-    training = TrainingParams(epochs=config.epochs, seed=config.seed)
+    training = TrainingParams(
+        epochs=config.epochs, seed=config.seed, measure=config.capacity_measure, progressive=config.progressive
+    )
     calibration = Path(config.calibration) if config.calibration else favae.with_suffix(".calibration.json")
     if config.calibration is None and not calibration.is_file():
         report = progress("calibrate", config.epochs)
@@ -116,7 +123,9 @@ def learn_macros(
             config.latent_dim,
             training,
             None if report is None else (lambda row: report(row["epoch"] + 1)),
-            config.head,
+            head=config.head,
+            decoder=config.decoder,
+            beta=config.calibration_beta,
         )
     if not favae.with_suffix(".metrics.json").is_file():
         report = progress("fit", config.epochs)
@@ -129,8 +138,9 @@ def learn_macros(
             config.latent_dim,
             training,
             None if report is None else (lambda _, row: report(row["epoch"] + 1)),
-            config.head,
-            config.capacity,
+            head=config.head,
+            capacity=config.capacity,
+            decoder=config.decoder,
         )
     if not (folder / TRAVERSAL).with_suffix(".json").is_file():
         env_id, env_kwargs = traversal_env(config)
@@ -166,4 +176,4 @@ def run_job(config: dict, folder: Path, context) -> dict:
     before = {phase: sum(totals[p] for p in PHASES[: PHASES.index(phase)]) for phase in PHASES}
     total = sum(totals.values())
     metrics = learn_macros(macros, folder, lambda phase, done, _: context.progress(before[phase] + done, total))
-    return {key: metrics[key] for key in ("mig", "length_accuracy", "kl_per_ladder")}
+    return {key: metrics[key] for key in ("mig", "length_accuracy", "kl_per_ladder", "information_per_ladder")}

@@ -129,18 +129,11 @@ MIG_HALF_WIDTH = 0.05
 """The interval half-width a MIG should be known to; :func:`mig_interval` says how many samples that takes."""
 
 
-def mig_interval(
-    codes: np.ndarray, factors: np.ndarray, level: float = 0.95, resamples: int = MIG_RESAMPLES, seed: int = 0
-) -> dict:
-    """MIG and each factor's score with percentile bootstrap intervals over the samples (segments or sequences).
-
-    The samples are resampled with replacement and MIG recomputed with the full sample's number of bins. Repeated
-    samples make the plug-in mutual information a little larger, so the intervals lean high; they measure how
-    much MIG moves with the sample, which is what a comparison of two FAVAEs needs. ``samples_for_half_width``
-    scales the interval's half-width as 1 / sqrt(n) to the number of samples that would make it
-    ``MIG_HALF_WIDTH``.
-    """
-    full = mig(codes, factors)
+def mig_bootstrap(
+    codes: np.ndarray, factors: np.ndarray, full: dict, resamples: int, seed: int = 0
+) -> tuple[list[float], dict[int, list[float]]]:
+    """MIG and each factor's score (NaN where a resample leaves a factor constant) on ``resamples`` resamples with
+    replacement, with the bins of ``full``, the full sample's :func:`mig`."""
     rng = np.random.default_rng(seed)
     n = len(codes)
     draws, per_factor = [], {k: [] for k in full["per_factor"]}
@@ -150,17 +143,38 @@ def mig_interval(
         draws.append(score["mig"])
         for k in per_factor:
             per_factor[k].append(score["per_factor"].get(k, np.nan))
+    return draws, per_factor
+
+
+def mig_interval(
+    codes: np.ndarray, factors: np.ndarray, level: float = 0.95, resamples: int = MIG_RESAMPLES, seed: int = 0
+) -> dict:
+    """MIG and each factor's score with bootstrap intervals over the samples (segments or sequences), each centred
+    on its estimate.
+
+    The samples are resampled with replacement and MIG recomputed with the full sample's number of bins. A resample
+    repeats samples and drops others, which moves the plug-in mutual information and the histograms' edges: the
+    resampled MIGs sit off the estimate (on a 320-sequence set, 0.582 came with a percentile interval of
+    [0.520, 0.573]), so a plain percentile interval need not contain it. The interval here is the percentile
+    interval moved so that the resamples' median falls on the estimate: the bootstrap gives the spread, the full
+    sample the centre, and the interval always holds its estimate. ``samples_for_half_width`` scales the
+    interval's half-width as 1 / sqrt(n) to the number of samples that would make it ``MIG_HALF_WIDTH``.
+    """
+    full = mig(codes, factors)
+    draws, per_factor = mig_bootstrap(codes, factors, full, resamples, seed)
+    n = len(codes)
     tail = 100 * (1 - level) / 2
 
-    def bounds(values: list[float]) -> list[float]:
-        return [float(np.nanpercentile(values, tail)), float(np.nanpercentile(values, 100 - tail))]
+    def centred(values: list[float], estimate: float) -> list[float]:
+        low, middle, high = np.nanpercentile(values, [tail, 50, 100 - tail])
+        return [float(max(estimate + low - middle, 0.0)), float(min(estimate + high - middle, 1.0))]
 
-    interval = bounds(draws)
+    interval = centred(draws, full["mig"])
     half = (interval[1] - interval[0]) / 2
     return {
         **full,
         "interval": interval,
-        "per_factor_interval": {k: bounds(v) for k, v in per_factor.items()},
+        "per_factor_interval": {k: centred(v, full["per_factor"][k]) for k, v in per_factor.items()},
         "level": level,
         "samples_for_half_width": int(np.ceil(n * (half / MIG_HALF_WIDTH) ** 2)) if half > 0 else n,
     }

@@ -16,7 +16,8 @@ import numpy as np
 
 from famarl_cli.artifacts import prepare_output, provenance, read_demos, write_csv, write_json
 from famarl_cli.artifacts.segments import Segments, read_segments, write_segments
-from famarl_cli.errors import UsageError
+from famarl_cli.errors import ArtifactError, UsageError
+from famarl_cli.favae import CALIBRATION_BETA, DECODER
 
 
 @dataclass(frozen=True)
@@ -98,7 +99,7 @@ def segment(
     return Segmented(segments, metrics, written)
 
 
-def favae_setup(segments: Path, ladders: int, latent_dim: int, head: str = "flatten"):
+def favae_setup(segments: Path, ladders: int, latent_dim: int, head: str = "flatten", decoder: str = DECODER):
     """The segments and the FAVAE config they call for (L and D come from the segments file)."""
     from famarl_cli.favae.model import FavaeConfig
 
@@ -110,6 +111,7 @@ def favae_setup(segments: Path, ladders: int, latent_dim: int, head: str = "flat
             latent_dims=(latent_dim,) * ladders,
             channels=tuple(min(32 * 2**i, 64) for i in range(ladders)),
             head=head,
+            decoder=decoder,
         )
     except ValueError as exc:
         raise UsageError(f"{exc}; re-run famarl segment with a --length divisible by {2**ladders}") from exc
@@ -123,18 +125,24 @@ def calibrate(
     latent_dim: int,
     params,
     on_epoch: Callable[[dict], None] | None = None,
+    *,
     head: str = "flatten",
+    decoder: str = DECODER,
+    beta: float | None = None,
 ) -> tuple[list[float], list[dict]]:
-    """The C_last pre-run on ``segments``, written to ``out`` (JSON); returns C_last and the pre-run's log.
-    ``params`` is a TrainingParams."""
+    """The C_last pre-run on ``segments`` at ``beta`` (None: the paper's 0.1), written to ``out`` (JSON); returns
+    C_last and the pre-run's log. ``params`` is a TrainingParams."""
     from famarl_cli.favae.checkpoint import write_calibration
     from famarl_cli.favae.training import calibrate as run_calibration
 
     out = prepare_output(out)
-    loaded, config = favae_setup(segments, ladders, latent_dim, head)
-    c_last, log = run_calibration(loaded.padded, config, params, on_epoch)
-    options = {**asdict(params), "config": config.to_dict()}
-    write_calibration(out, c_last, config, provenance("famarl favae calibrate", options, params.seed, [segments]))
+    beta = CALIBRATION_BETA if beta is None else beta
+    loaded, config = favae_setup(segments, ladders, latent_dim, head, decoder)
+    c_last, log = run_calibration(loaded.padded, config, params, on_epoch, beta)
+    options = {**asdict(params), "calibration_beta": beta, "config": config.to_dict()}
+    write_calibration(
+        out, c_last, config, provenance("famarl favae calibrate", options, params.seed, [segments]), params, beta
+    )
     return c_last, log
 
 
@@ -155,29 +163,40 @@ def fit(
     latent_dim: int,
     params,
     on_epoch: Callable[[str, dict], None] | None = None,
+    *,
     head: str = "flatten",
     capacity: str = "measured",
+    decoder: str = DECODER,
+    calibration_beta: float | None = None,
 ) -> Fitted:
-    """Fit FAVAE on ``segments`` (after the C_last pre-run, written beside ``out``, unless ``calibration`` is
-    given) and score it; writes the checkpoint ``out``, ``.log.csv`` and ``.metrics.json``. ``on_epoch`` gets the
-    phase ("calibrate" or "fit") and the epoch's log row. ``capacity`` says how the pre-run's C_last becomes the
-    capacities the fit anneals to (:func:`famarl_cli.favae.training.allocate_capacity`)."""
+    """Fit FAVAE on ``segments`` (after the C_last pre-run at ``calibration_beta``, written beside ``out``, unless
+    ``calibration`` is given) and score it; writes the checkpoint ``out``, ``.log.csv`` and ``.metrics.json``.
+    ``on_epoch`` gets the phase ("calibrate" or "fit") and the epoch's log row. ``capacity`` says how the pre-run's
+    C_last becomes the capacities the fit anneals to (:func:`famarl_cli.favae.training.allocate_capacity`)."""
     from famarl_cli.favae.checkpoint import read_calibration, save_favae
     from famarl_cli.favae.training import allocate_capacity, evaluate_fit, train_favae, training_summary
 
     out = prepare_output(out)
-    loaded, config = favae_setup(segments, ladders, latent_dim, head)
+    loaded, config = favae_setup(segments, ladders, latent_dim, head, decoder)
     inputs, log = [segments], []
 
     def phase(name: str):
         return None if on_epoch is None else (lambda row: on_epoch(name, row))
 
     if calibration:
-        c_last = read_calibration(calibration, config)
+        c_last = read_calibration(calibration, config, params)
         inputs.append(calibration)
     else:
         c_last, calibration_log = calibrate(
-            segments, out.with_suffix(".calibration.json"), ladders, latent_dim, params, phase("calibrate"), head
+            segments,
+            out.with_suffix(".calibration.json"),
+            ladders,
+            latent_dim,
+            params,
+            phase("calibrate"),
+            head=head,
+            decoder=decoder,
+            beta=calibration_beta,
         )
         log += [{"phase": "calibrate", **row} for row in calibration_log]
     capacities = allocate_capacity(c_last, capacity)
@@ -187,7 +206,7 @@ def fit(
     training = {**training_summary(params, beta, c_last), "capacity": capacity, "capacities": capacities}
     options = {**training, "ladders": ladders, "latent_dim": latent_dim}
     # the information each latent carries travels with the model: famarl traverse names an empty ladder by it
-    summary = {**training, "kl_per_dim": scores["kl_per_dim"]}
+    summary = {**training, "kl_per_dim": scores["kl_per_dim"], "information_per_dim": scores["information_per_dim"]}
     save_favae(out, model, summary, provenance("famarl favae fit", options, params.seed, inputs))
     metrics = {
         **scores,
@@ -205,6 +224,23 @@ def fit(
     return Fitted(metrics, c_last, [out, out.with_suffix(".log.csv"), out.with_suffix(".metrics.json")])
 
 
+MANUAL_FAVAE = Path("data/favae/pushed-down-only.pt")
+"""Where famarl favae fit writes by default, after famarl demos and famarl segment with their defaults."""
+PIPELINE_FAVAE = Path("data/maze/macros/seed0/favae.pt")
+"""Replicate 0 of the default pipeline's FAVAEs (dvc repro)."""
+
+
+def default_favae() -> Path:
+    """The FAVAE ``famarl traverse`` takes without ``--model``: the manual chain's, else the main job's replicate 0."""
+    for path in (MANUAL_FAVAE, PIPELINE_FAVAE):
+        if path.is_file():
+            return path
+    raise ArtifactError(
+        f"no FAVAE to traverse: neither {MANUAL_FAVAE} (famarl demos --script pushed-down-only, famarl segment, "
+        f"famarl favae fit) nor {PIPELINE_FAVAE} (dvc repro) exists; make one, or give --model"
+    )
+
+
 def traverse(
     model: Path,
     out: Path,
@@ -218,10 +254,9 @@ def traverse(
     frames: bool = False,
 ):
     """Traverse the FAVAE in ``model`` (in ``env_id`` when given, drawing observation ``dims``). Writes ``out``
-    (HDF5), ``.png`` and ``.json`` (effect per variable, in the path's units, and the information each carries,
-    nats, where the checkpoint records it) and, with ``frames``, ``.frames.png`` (what the env renders at the end
-    of each macro action). Returns the Traversal and that information per traversed variable (None for
-    checkpoints that do not record it)."""
+    (HDF5), ``.png`` and ``.json`` (effect per variable, in the path's units, and the information and KL each
+    carries, nats, where the checkpoint records them) and, with ``frames``, ``.frames.png`` (what the env renders
+    at the end of each macro action). Returns the Traversal and a Carried: what each traversed variable carries."""
     from famarl_cli.artifacts.traversal import write_traversal
     from famarl_cli.favae.checkpoint import load_favae
     from famarl_cli.plots import plot_traversal, plot_traversal_frames
@@ -234,8 +269,13 @@ def traverse(
         raise UsageError("--frames goes with --env: the frames are what that env renders")
     result = run_traversal(favae, variables_of(favae, ladder, index), values, draw, env_id, env_kwargs, dims, frames)
     variables = result.variables.tolist()
-    kl = payload.get("training", {}).get("kl_per_dim")
-    information = None if kl is None else [float(kl[favae.config.latent_index(*v)]) for v in variables]
+    training = payload.get("training", {})
+
+    def per_variable(key: str) -> list[float] | None:
+        values = training.get(key)
+        return None if values is None else [float(values[favae.config.latent_index(*v)]) for v in variables]
+
+    carried = Carried(per_variable("information_per_dim"), per_variable("kl_per_dim"))
     options = {"ladder": ladder, "index": index, "values": values, "draw": draw}
     if env_id is not None:
         options.update(env=env_id, env_kwargs=env_kwargs or {}, dims=list(dims))
@@ -253,9 +293,36 @@ def traverse(
         )
     names = [f"({lad},{i})" for lad, i in variables]
     effects = dict(zip(names, map(float, result.effects), strict=True))
-    kl_json = None if information is None else dict(zip(names, information, strict=True))
-    write_json(out.with_suffix(".json"), {"effects_m": effects, "kl_nats": kl_json, "values": values})
-    return result, information
+
+    def named(values: list[float] | None) -> dict | None:
+        return None if values is None else dict(zip(names, values, strict=True))
+
+    write_json(
+        out.with_suffix(".json"),
+        {
+            "effects_m": effects,
+            "information_nats": named(carried.information),
+            "kl_nats": named(carried.kl),
+            "values": values,
+        },
+    )
+    return result, carried
+
+
+@dataclass(frozen=True)
+class Carried:
+    """What each traversed variable carries of the training segments, as its checkpoint records it (nats; None
+    where it does not: checkpoints before the information, or before either)."""
+
+    information: list[float] | None
+    kl: list[float] | None
+
+    @property
+    def best(self) -> tuple[str, list[float]] | None:
+        """The information, else (older checkpoints) the KL, with its name; None when neither is recorded."""
+        if self.information is not None:
+            return "information", self.information
+        return None if self.kl is None else ("KL", self.kl)
 
 
 def format_values(values: list[float]) -> str:

@@ -25,8 +25,10 @@ from famarl_cli.errors import FamarlError, UsageError
 from famarl_cli.favae.model import Favae
 
 EMPTY_LADDER_NATS = 0.1
-"""A ladder whose variables together carry less information than this (their posteriors' KL from the prior,
-averaged over the training segments) is empty: an active latent carries several nats."""
+"""A ladder whose variables together carry less information than this about the training segments (the part of
+their posteriors' KL that varies with the segments, :func:`famarl_cli.favae.loss.information_per_dim`) is empty:
+an active latent carries several nats. A ladder can have a large KL and be empty: a posterior shifted alike for
+every segment costs KL and says nothing."""
 TRAVERSAL_MAP_SIZE = 10.0
 """Side (m) of the empty map traversals run in: twice Base's largest map."""
 

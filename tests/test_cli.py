@@ -386,3 +386,53 @@ def test_favae_fit_gives_the_pre_runs_capacity_to_the_deepest_ladder_or_pools_it
         deepest.with_suffix(".calibration.json"), "--head", "pool", "--out", tmp_path / "x.pt",
     )  # fmt: skip
     one_line_error(refused, 1, "was calibrated for another model")
+
+
+def test_traverse_without_a_model_takes_the_manual_chains_favae_else_the_main_jobs(favae_file, tmp_path, monkeypatch):
+    import shutil
+
+    monkeypatch.chdir(tmp_path)
+    missing = famarl("traverse", "--ladder", 3)
+    one_line_error(missing, 1, "neither data/favae/pushed-down-only.pt")
+    assert "data/maze/macros/seed0/favae.pt (dvc repro)" in missing.stderr
+    pipeline = tmp_path / "data/maze/macros/seed0/favae.pt"
+    pipeline.parent.mkdir(parents=True)
+    shutil.copy(favae_file, pipeline)
+    used = famarl("traverse", "--ladder", 3)
+    assert used.exit_code == 0, used.output
+    assert "replicate 0 of the default pipeline" in used.stdout
+    assert (tmp_path / "data/traverse/favae-ladder3.json").is_file()
+    manual = tmp_path / "data/favae/pushed-down-only.pt"
+    manual.parent.mkdir(parents=True)
+    shutil.copy(favae_file, manual)
+    chosen = famarl("traverse", "--ladder", 3)
+    assert chosen.exit_code == 0 and "replicate 0" not in chosen.stdout
+    assert (tmp_path / "data/traverse/pushed-down-only-ladder3.json").is_file()
+
+
+def test_favae_design_options_are_bounded_and_recorded(segments_file, tmp_path):
+    from famarl_cli.favae.checkpoint import load_favae
+
+    for option, value in (("--progressive", 0.9), ("--calibration-beta", -1), ("--decoder", "deep")):
+        result = famarl("favae", "fit", "--segments", segments_file, "--epochs", 2, option, value)
+        assert result.exit_code == 2 and option in usage_error(result)
+    out = tmp_path / "shared.pt"
+    result = famarl(
+        "favae", "fit", "--segments", segments_file, "--epochs", 4, "--decoder", "shared", "--capacity-measure", "kl",
+        "--progressive", 0.5, "--calibration-beta", 1, "--out", out,
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    model, payload = load_favae(out)
+    assert model.config.decoder == "shared"
+    assert payload["training"]["measure"] == "kl" and payload["training"]["progressive"] == 0.5
+    calibration = json.loads(out.with_suffix(".calibration.json").read_text())
+    assert calibration["measure"] == "kl" and calibration["beta"] == 1.0 and calibration["progressive"] == 0.5
+    metrics = json.loads(out.with_suffix(".metrics.json").read_text())
+    assert len(metrics["information_per_ladder"]) == 3 and len(metrics["active_per_ladder"]) == 3
+    # C_last measured as KL cannot be a capacity on information
+    refused = famarl(
+        "favae", "fit", "--segments", segments_file, "--epochs", 2, "--decoder", "shared",
+        "--calibration", out.with_suffix(".calibration.json"), "--out", tmp_path / "x.pt",
+    )  # fmt: skip
+    one_line_error(refused, 1, "C_last there measures kl, but this fit constrains information")
+    assert not (tmp_path / "x.pt").exists()

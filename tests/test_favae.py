@@ -7,9 +7,16 @@ import torch
 from famarl_cli.envs.continuous_world import DT, Layouts, physics_step, simulate_open_loop
 from famarl_cli.errors import ArtifactError, UsageError
 from famarl_cli.favae.checkpoint import load_favae, read_calibration, save_favae, write_calibration
-from famarl_cli.favae.loss import capacity, favae_loss, kl_per_ladder
+from famarl_cli.favae.loss import (
+    capacity,
+    favae_loss,
+    information_per_dim,
+    kl_per_dim,
+    kl_per_ladder,
+    marginal_per_dim,
+)
 from famarl_cli.favae.model import Favae, FavaeConfig, FavaeOutput
-from famarl_cli.favae.training import TrainingParams, calibrate, evaluate_fit, train_favae
+from famarl_cli.favae.training import TrainingParams, calibrate, evaluate_fit, ladder_weights, train_favae
 from famarl_cli.macro_actions import pad
 from famarl_cli.traversal import traverse, variables_of
 
@@ -24,9 +31,10 @@ def toy_segments(n=24, seed=0):
     return pad(macros, 16), np.array([len(m) for m in macros]), factors
 
 
-@pytest.mark.parametrize("dims", [(2, 2), (2, 2, 2), (1, 3, 2, 2)])
-def test_shapes_for_any_number_of_ladders(dims):
-    config = FavaeConfig(action_dim=3, length=32, latent_dims=dims, channels=(8,) * len(dims))
+@pytest.mark.parametrize("decoder", ["ladder", "shared"])
+@pytest.mark.parametrize("dims", [(2,), (2, 2), (2, 2, 2), (1, 3, 2, 2)])
+def test_shapes_for_any_number_of_ladders(dims, decoder):
+    config = FavaeConfig(action_dim=3, length=32, latent_dims=dims, channels=(8,) * len(dims), decoder=decoder)
     model = Favae(config)
     x = torch.zeros(5, 5, 32)
     output = model(x)
@@ -58,7 +66,7 @@ def test_loss_ignores_padding_and_penalises_kl_away_from_capacity():
     assert favae_loss(FavaeOutput(noisy_padding, zeros, zeros), x, 10.0, [0.0] * 3).action_error.item() == 0.0
 
     shifted = [torch.ones(4, 2)] * 3  # KL of each ladder = 0.5 * 2 dims = 1
-    terms = favae_loss(FavaeOutput(perfect, shifted, zeros), x, beta=10.0, capacities=[1.0, 0.0, 3.0])
+    terms = favae_loss(FavaeOutput(perfect, shifted, zeros), x, beta=10.0, capacities=[1.0, 0.0, 3.0], measure="kl")
     assert [k.item() for k in terms.kl] == pytest.approx([1.0, 1.0, 1.0])
     assert terms.total.item() == pytest.approx(10.0 * (0 + 1 + 2), abs=1e-4)
 
@@ -83,9 +91,11 @@ def test_fit_learns_and_is_deterministic():
     assert len(scores["kl_per_dim"]) == 6 and len(scores["kl_per_ladder"]) == 3
 
 
-def test_calibration_takes_the_last_epochs_kl_and_refuses_bad_settings():
+def test_calibration_takes_the_last_epochs_information_or_kl_and_refuses_bad_settings():
     padded, _, _ = toy_segments()
     c_last, log = calibrate(padded, CONFIG, TrainingParams(epochs=3, batch_size=8))
+    assert c_last == [log[-1][f"information_{i}"] for i in (1, 2, 3)]
+    c_last, log = calibrate(padded, CONFIG, TrainingParams(epochs=3, batch_size=8, measure="kl"))
     assert c_last == [log[-1][f"kl_{i}"] for i in (1, 2, 3)]
     with pytest.raises(UsageError, match="beta"):
         train_favae(padded, CONFIG, -1.0, [0.0] * 3, TrainingParams(epochs=1))
@@ -104,14 +114,73 @@ def test_checkpoint_and_calibration_round_trip(tmp_path):
     assert payload["training"]["c_last"] == [1.0, 2.0, 3.0] and payload["schema"] == "famarl.favae"
 
     calibration = tmp_path / "c.json"
-    write_calibration(calibration, [0.5, 0.25, 0.0], CONFIG, {})
-    assert read_calibration(calibration, CONFIG) == [0.5, 0.25, 0.0]
+    params = TrainingParams()
+    write_calibration(calibration, [0.5, 0.25, 0.0], CONFIG, {}, params, 0.1)
+    assert read_calibration(calibration, CONFIG, params) == [0.5, 0.25, 0.0]
     other = FavaeConfig(action_dim=2, length=16, latent_dims=(3, 3, 3))
     with pytest.raises(ArtifactError, match="calibrated for another model"):
-        read_calibration(calibration, other)
+        read_calibration(calibration, other, params)
+    # C_last measured as information is not a KL capacity, and the reverse
+    with pytest.raises(ArtifactError, match="C_last there measures information, but this fit constrains kl"):
+        read_calibration(calibration, CONFIG, TrainingParams(measure="kl"))
     calibration.write_text("{not json")
     with pytest.raises(ArtifactError, match="not a JSON calibration file"):
-        read_calibration(calibration, CONFIG)
+        read_calibration(calibration, CONFIG, params)
+
+
+def test_a_checkpoint_of_the_layout_before_the_ladder_decoder_loads_and_decodes_as_it_did(tmp_path):
+    """Version-1 checkpoints have no decoder in their config: they are the shared decoder, and decode as before."""
+    from famarl_cli.artifacts.checkpoints import save_checkpoint
+    from famarl_cli.favae.checkpoint import SCHEMA
+
+    torch.manual_seed(0)
+    shared = Favae(FavaeConfig(action_dim=2, length=16, decoder="shared"))
+    config = {k: v for k, v in shared.checkpoint_config().items() if k != "decoder"}
+    path = tmp_path / "old.pt"
+    save_checkpoint(path, SCHEMA, 1, config, shared.state_dict(), {}, {"training": {"kl_per_dim": [0.0] * 6}})
+    loaded, _ = load_favae(path)
+    assert loaded.config.decoder == "shared"
+    z = np.random.default_rng(1).normal(size=(4, 6))
+    for a, b in zip(shared.decode_macro_actions(z), loaded.decode_macro_actions(z), strict=True):
+        np.testing.assert_array_equal(a, b)
+    # an old calibration file measured KL for the shared decoder: refused for today's default, with the reason
+    old = tmp_path / "old.calibration.json"
+    old.write_text(json.dumps({"schema": "famarl.favae-calibration", "schema_version": 1, "c_last": [1, 2, 0],
+                               "config": config}))  # fmt: skip
+    with pytest.raises(ArtifactError, match="calibrated for another model"):
+        read_calibration(old, CONFIG, TrainingParams())
+    assert read_calibration(old, shared.config, TrainingParams(measure="kl")) == [1.0, 2.0, 0.0]
+
+
+@pytest.mark.parametrize("decoder", ["ladder", "shared"])
+def test_a_ladder_weighed_zero_does_not_reach_the_output(decoder):
+    torch.manual_seed(0)
+    model = Favae(FavaeConfig(action_dim=2, length=16, decoder=decoder))
+    z = torch.randn(3, 6)
+    moved = z.clone()
+    moved[:, 2:4] += 5.0  # ladder 2
+    weights = [1.0, 0.0, 1.0]
+    assert torch.equal(model.decode(z, weights), model.decode(moved, weights))
+    assert not torch.allclose(model.decode(z), model.decode(moved))
+
+
+def test_the_ladder_decoder_joins_each_latent_at_its_own_depth():
+    """Ladder l's latent enters at depth l, as a map of L / 2^l steps, and reaches the output through the last l
+    transposed convolutions only: cutting the k-th (from the deepest) cuts off exactly the ladders deeper than 3 - k.
+    """
+    z = torch.randn(3, 6)
+    assert [j.out_features for j in Favae(FavaeConfig(action_dim=2, length=32)).joins] == [32 * 16, 64 * 8]
+    for cut in range(3):
+        torch.manual_seed(0)
+        model = Favae(FavaeConfig(action_dim=2, length=32))
+        with torch.no_grad():
+            model.deconvs[cut].weight.zero_()
+        reaches = []
+        for ladder in range(3):
+            moved = z.clone()
+            moved[:, 2 * ladder : 2 * ladder + 2] += 5.0
+            reaches.append(not torch.equal(model.decode(z), model.decode(moved)))
+        assert reaches == [ladder < 2 - cut for ladder in range(3)]
 
 
 def test_open_loop_simulation_matches_the_physics_and_holds_after_the_length():
@@ -143,12 +212,82 @@ def test_traversal_variables_and_a_variable_that_does_nothing():
             variables_of(model, ladder, index)
 
     with torch.no_grad():
-        model.top_down[0][0].weight[:, 0] = 0.0  # the deepest ladder's first latent no longer reaches the decoder
+        model.top[0].weight[:, 0] = 0.0  # the deepest ladder's first latent no longer reaches the decoder
     result = traverse(model, [(3, 1), (3, 2)], [-3.0, 0.0, 3.0])
     assert result.paths.shape == (2, 3, 17, 2) and result.lengths.shape == (2, 3)
     assert result.effects[0] == 0.0 and result.effects[1] > 0.0
     with pytest.raises(UsageError):
         traverse(model, [(3, 1)], [1.0])
+
+
+def test_kl_is_the_information_plus_the_aggregates_cost_and_a_shift_carries_no_information():
+    torch.manual_seed(0)
+    mu, logvar = torch.randn(50, 3) * 2 + 1, torch.randn(50, 3) * 0.5 - 1
+    total = kl_per_dim(mu, logvar).mean(dim=0)
+    information, marginal = information_per_dim(mu, logvar), marginal_per_dim(mu, logvar)
+    torch.testing.assert_close(information + marginal, total)
+    assert (information > 0).all() and (marginal >= 0).all()
+    # every segment's posterior shifted alike, or narrowed alike: KL, and no information
+    shifted = torch.full((50, 3), 3.0)
+    assert kl_per_dim(shifted, torch.zeros(50, 3)).mean().item() == pytest.approx(4.5)
+    assert information_per_dim(shifted, torch.zeros(50, 3)).abs().max().item() < 1e-6
+    assert information_per_dim(torch.zeros(50, 3), torch.full((50, 3), -6.0)).abs().max().item() < 1e-6
+
+
+def test_a_shift_meets_a_kl_capacity_but_not_an_information_capacity():
+    padded, _, _ = toy_segments(4)
+    x = torch.as_tensor(padded.transpose(0, 2, 1).copy())
+    perfect = torch.cat([x[:, :-2], torch.where(x[:, -2:] > 0, 20.0, -20.0)], dim=1)
+    zeros = [torch.zeros(4, 2)] * 3
+    shifted = [torch.full((4, 2), 3.0)] * 3  # KL 9 nats per ladder, all of it shift
+    output = FavaeOutput(perfect, shifted, zeros)
+    assert favae_loss(output, x, 1.0, [9.0] * 3, "kl").total.item() < 1e-4
+    information = favae_loss(output, x, 1.0, [9.0] * 3, "information")
+    assert information.total.item() == pytest.approx(3 * (9.0 + 9.0), abs=1e-3)  # |0 - C| + the shift's cost
+    spread = [torch.tensor([[3.0, 0.0], [-3.0, 0.0], [3.0, 0.0], [-3.0, 0.0]])] * 3
+    informative = favae_loss(FavaeOutput(perfect, spread, zeros), x, 1.0, [0.0] * 3, "information")
+    assert [i.item() for i in informative.information] == pytest.approx([0.5 * np.log(10.0)] * 3, abs=1e-5)
+
+
+def test_progressive_weights_bring_in_the_deepest_ladder_first_and_every_ladder_by_the_end():
+    assert ladder_weights(0, 100, 3, 0.0) == [1.0, 1.0, 1.0]
+    assert ladder_weights(0, 100, 1, 0.6) == [1.0]
+    schedule = np.array([ladder_weights(e, 1500, 3, 2 / 3) for e in range(1500)])
+    assert (schedule[:, 2] == 1).all() and (np.diff(schedule, axis=0) >= 0).all()
+    first_in = [int(np.argmax(schedule[:, ladder] > 0)) for ladder in range(3)]
+    assert first_in == [1000, 500, 0]  # ladder 2 after a third of the epochs, ladder 1 after two thirds
+    assert schedule[624, 1] == 1.0 and schedule[623, 1] < 1.0 and schedule[-1].tolist() == [1.0, 1.0, 1.0]
+    assert ladder_weights(99, 100, 2, 0.8) == [1.0, 1.0]  # the largest share still ends with every ladder in
+    with pytest.raises(UsageError, match="progressive must be in"):
+        TrainingParams(progressive=0.9)
+    with pytest.raises(UsageError, match="capacity measure"):
+        TrainingParams(measure="entropy")
+
+
+def test_a_progressive_fit_holds_a_ladder_at_capacity_zero_until_it_is_in():
+    padded, _, _ = toy_segments()
+    params = TrainingParams(epochs=12, batch_size=8, progressive=0.5)
+    _, log = train_favae(padded, CONFIG, 1.0, [2.0, 2.0, 2.0], params)
+    for row in log:
+        for ladder in (1, 2, 3):
+            weight = row[f"weight_{ladder}"]
+            assert row[f"capacity_{ladder}"] == pytest.approx(weight * 2.0 * row["epoch"] / 11)
+    assert [row["weight_1"] for row in log[:6]] == [0.0] * 6 and log[-1]["weight_1"] == 1.0
+
+
+def test_fit_scores_tell_information_from_a_shift():
+    """A ladder whose posterior is the same for every segment has KL and no information, and is not active."""
+    padded, lengths, factors = toy_segments()
+    model = Favae(CONFIG)
+    with torch.no_grad():
+        last = model.heads[2][-1]
+        last.weight.zero_()
+        last.bias.copy_(torch.tensor([3.0, 3.0, 0.0, 0.0]))  # mean 3, log-variance 0
+    scores = evaluate_fit(model, padded, lengths, factors)
+    assert scores["kl_per_ladder"][2] == pytest.approx(9.0, abs=1e-4)
+    assert scores["information_per_ladder"][2] == pytest.approx(0.0, abs=1e-5)
+    assert scores["shift_per_ladder"][2] == pytest.approx(9.0, abs=1e-4)
+    assert scores["active_per_ladder"][2] == 0 and scores["information_per_ladder"][0] > 0
 
 
 def test_kl_per_ladder_of_the_prior_is_zero():

@@ -11,7 +11,17 @@ from rich.progress import Progress
 from rich.table import Table
 
 from famarl_cli.cli import app, progress_bar, reports_errors, torch_on_one_thread
-from famarl_cli.favae import Capacity, Head
+from famarl_cli.favae import (
+    CALIBRATION_BETA,
+    DECODER,
+    MAX_PROGRESSIVE,
+    MEASURE,
+    PROGRESSIVE,
+    Capacity,
+    Decoder,
+    Head,
+    Measure,
+)
 
 favae_app = typer.Typer(
     help="Fit FAVAE, the sequence VAE whose latents become the macro-action space.", no_args_is_help=True
@@ -38,14 +48,47 @@ CapacityOption = Annotated[
         "ladder) or half (half of each shallower ladder's moved to the deepest); docs/favae.md."
     ),
 ]
+DecoderOption = Annotated[
+    Decoder,
+    typer.Option(
+        help="How the latents reach the output: ladder (each ladder's latent joins the transposed convolutions at "
+        "its own depth, so the deepest shapes the whole sequence) or shared (all through one MLP stack and the same "
+        "convolutions, the design before the ladder decoder); docs/favae.md."
+    ),
+]
+MeasureOption = Annotated[
+    Measure,
+    typer.Option(
+        help="What each ladder's capacity C constrains: information (the part of its KL that varies with the "
+        "segments; the rest, a shift or narrowing shared by all, is penalised on its own) or kl (the paper's: the "
+        "whole KL, which a constant shift of the posterior can meet while carrying nothing)."
+    ),
+]
+ProgressiveOption = Annotated[
+    float,
+    typer.Option(
+        min=0.0,
+        max=MAX_PROGRESSIVE,
+        help="Share of the epochs over which the ladders are added one at a time, deepest first, each faded in "
+        "(pro-VLAE); 0 trains all from the start.",
+    ),
+]
+CalibrationBetaOption = Annotated[
+    float, typer.Option(min=0.0, max=1e4, help="The C_last pre-run's beta (the paper's 0.1), where the pre-run runs.")
+]
 DEFAULT_SEGMENTS = Path("data/segments/pushed-down-only.h5")
 
 
 def _epoch_reporter(progress: Progress, task, phase: str):
     def report(row: dict) -> None:
-        kls = "/".join(f"{v:.2f}" for k, v in row.items() if k.startswith("kl_"))
+        def per_ladder(prefix: str) -> str:
+            return "/".join(f"{v:.2f}" for k, v in row.items() if k.startswith(prefix))
+
         progress.update(
-            task, advance=1, description=f"{phase}: loss {row['loss']:.2f} recon {row['reconstruction']:.3f} KL {kls}"
+            task,
+            advance=1,
+            description=f"{phase}: loss {row['loss']:.2f} recon {row['reconstruction']:.3f} "
+            f"KL {per_ladder('kl_')} information {per_ladder('information_')}",
         )
 
     return report
@@ -63,13 +106,21 @@ def favae_calibrate(
     epochs: EpochsOption = 1500,
     seed: SeedOption = 0,
     head: HeadOption = Head.FLATTEN,
+    decoder: DecoderOption = DECODER,
+    capacity_measure: MeasureOption = MEASURE,
+    progressive: ProgressiveOption = PROGRESSIVE,
+    beta: Annotated[
+        float, typer.Option(min=0.0, max=1e4, help="The pre-run's beta (the paper's 0.1), with C = 0.")
+    ] = CALIBRATION_BETA,
 ) -> None:
-    """The C_last pre-run: fit with beta = 0.1 and C = 0; each ladder's final KL becomes its C_last."""
+    """The C_last pre-run: fit with a small beta and C = 0; each ladder's final information (or KL, with
+    --capacity-measure kl) becomes its C_last."""
     from famarl_cli import stages
     from famarl_cli.favae.training import TrainingParams
 
     torch_on_one_thread()
     out = out or Path("data/favae") / f"{segments.stem}.calibration.json"
+    params = TrainingParams(epochs=epochs, seed=seed, measure=str(capacity_measure), progressive=progressive)
     with progress_bar() as progress:
         task = progress.add_task("calibrate", total=epochs)
         c_last, _ = stages.calibrate(
@@ -77,11 +128,13 @@ def favae_calibrate(
             out,
             ladders,
             latent_dim,
-            TrainingParams(epochs=epochs, seed=seed),
+            params,
             _epoch_reporter(progress, task, "C_last pre-run"),
-            str(head),
+            head=str(head),
+            decoder=str(decoder),
+            beta=beta,
         )
-    Console().print(f"C_last per ladder: {', '.join(f'{c:.3f}' for c in c_last)}  -> {out}")
+    Console().print(f"C_last per ladder ({capacity_measure}): {', '.join(f'{c:.3f}' for c in c_last)}  -> {out}")
 
 
 @favae_app.command("fit")
@@ -103,6 +156,15 @@ def favae_fit(
     seed: SeedOption = 0,
     head: HeadOption = Head.FLATTEN,
     capacity: CapacityOption = Capacity.MEASURED,
+    decoder: DecoderOption = DECODER,
+    capacity_measure: MeasureOption = MEASURE,
+    progressive: ProgressiveOption = PROGRESSIVE,
+    calibration_beta: Annotated[
+        float,
+        typer.Option(
+            min=0.0, max=1e4, help="The pre-run's beta (the paper's 0.1), when it runs here (no --calibration)"
+        ),
+    ] = CALIBRATION_BETA,
 ) -> None:
     """Fit FAVAE on segments (after the C_last pre-run unless --calibration is given) and score it."""
     from famarl_cli import stages
@@ -123,17 +185,24 @@ def favae_fit(
             calibration,
             ladders,
             latent_dim,
-            TrainingParams(epochs=epochs, seed=seed),
+            TrainingParams(epochs=epochs, seed=seed, measure=str(capacity_measure), progressive=progressive),
             lambda phase, row: reporters[phase](row),
-            str(head),
-            str(capacity),
+            head=str(head),
+            capacity=str(capacity),
+            decoder=str(decoder),
+            calibration_beta=calibration_beta,
         )
     scores, c_last = fitted.scores, fitted.c_last
     table = Table(title=f"FAVAE on {segments} (beta {beta:g})", show_header=False)
-    table.add_row("C_last per ladder", ", ".join(f"{c:.3f}" for c in c_last))
+    table.add_row(f"C_last per ladder ({capacity_measure})", ", ".join(f"{c:.3f}" for c in c_last))
     if capacity != "measured":
         table.add_row(f"capacities ({capacity})", ", ".join(f"{c:.3f}" for c in scores["capacities"]))
     table.add_row("KL per ladder", ", ".join(f"{k:.3f}" for k in scores["kl_per_ladder"]))
+    table.add_row(
+        "information per ladder",
+        ", ".join(f"{k:.3f}" for k in scores["information_per_ladder"])
+        + f" nats (active latents {', '.join(map(str, scores['active_per_ladder']))})",
+    )
     table.add_row("reconstruction MSE", f"{scores['reconstruction_mse']:.5f} per real action value")
     table.add_row(
         "length", f"{scores['length_accuracy']:.1%} exact, mean error {scores['length_mean_abs_error']:.2f} steps"

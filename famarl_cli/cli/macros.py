@@ -19,7 +19,8 @@ from famarl_cli.cli import (
     sweepable,
     torch_on_one_thread,
 )
-from famarl_cli.favae import Capacity, Head
+from famarl_cli.cli.favae import CalibrationBetaOption, DecoderOption, MeasureOption, ProgressiveOption
+from famarl_cli.favae import CALIBRATION_BETA, DECODER, MEASURE, PROGRESSIVE, Capacity, Head
 
 
 @app.command()
@@ -52,6 +53,10 @@ def macros(
     capacity: Annotated[
         Capacity, typer.Option(help="FAVAE capacities (famarl favae fit --capacity).")
     ] = Capacity.MEASURED,
+    decoder: DecoderOption = DECODER,
+    capacity_measure: MeasureOption = MEASURE,
+    progressive: ProgressiveOption = PROGRESSIVE,
+    calibration_beta: CalibrationBetaOption = CALIBRATION_BETA,
     length: Annotated[
         int | None,
         typer.Option(
@@ -92,6 +97,7 @@ def macros(
         metrics = learn_macros(config, out, show)
     table = Table(title=f"macro actions of {source}, seed {seed}", show_header=False)
     table.add_row("KL per ladder", ", ".join(f"{k:.3f}" for k in metrics["kl_per_ladder"]))
+    table.add_row("information per ladder", ", ".join(f"{k:.3f}" for k in metrics["information_per_ladder"]))
     table.add_row("length accuracy", f"{metrics['length_accuracy']:.1%}")
     table.add_row("MIG", f"{metrics['mig']:.3f}")
     table.add_row("written", str(out))
@@ -120,6 +126,10 @@ def _config(params: dict):
         latent_dim=params["latent_dim"],
         head=str(params["head"]),
         capacity=str(params["capacity"]),
+        decoder=str(params["decoder"]),
+        capacity_measure=str(params["capacity_measure"]),
+        progressive=params["progressive"],
+        calibration_beta=params["calibration_beta"],
         values=parse_values(params["values"]),
         length=params["length"],
         env=params["env"],

@@ -16,9 +16,13 @@ from famarl_cli.errors import UsageError
 @app.command()
 @reports_errors
 def traverse(
-    model: Annotated[Path, typer.Option(help="FAVAE checkpoint (from famarl favae fit).")] = Path(
-        "data/favae/pushed-down-only.pt"
-    ),
+    model: Annotated[
+        Path | None,
+        typer.Option(
+            help="FAVAE checkpoint (from famarl favae fit).  [default: data/favae/pushed-down-only.pt, else the main "
+            "job's data/maze/macros/seed0/favae.pt]"
+        ),
+    ] = None,
     ladder: Annotated[
         int | None, typer.Option(help="Traverse this ladder's variables (from 1).  [default: all]")
     ] = None,
@@ -58,31 +62,35 @@ def traverse(
     from famarl_cli.traversal import EMPTY_LADDER_NATS, empty_ladders, parse_dims, parse_values
 
     torch_on_one_thread()
+    if model is None:
+        model = stages.default_favae()
+        if model == stages.PIPELINE_FAVAE:
+            Console().print(f"traversing {model}: replicate 0 of the default pipeline (dvc repro)")
     name = model.stem + (f"-ladder{ladder}" if ladder else "") + (f"-index{index}" if index else "")
     out = out or Path("data/traverse") / f"{name}.h5"
     if env is None and env_kwargs:
         raise UsageError("--env-kwargs goes with --env")
     dims = parse_dims(obs_dims)
-    result, information = stages.traverse(
+    result, carried = stages.traverse(
         model, out, parse_values(values), ladder, index, draw, env, parse_env_kwargs(env_kwargs), dims, frames
     )
     table = Table(title=f"traversal of {model}", show_header=True)
     table.add_column("(ladder, index)")
     table.add_column("effect (m)", justify="right")
-    table.add_column("information (nats)", justify="right")
+    measure, nats = carried.best or ("information", [None] * len(result.effects))
+    table.add_column(f"{measure} (nats)", justify="right")
     table.add_column("decoded lengths")
-    kl = information or [None] * len(result.effects)
-    for (lad, i), effect, nats, lengths in zip(
-        result.variables.tolist(), result.effects, kl, result.lengths, strict=True
+    for (lad, i), effect, carries, lengths in zip(
+        result.variables.tolist(), result.effects, nats, result.lengths, strict=True
     ):
         table.add_row(
-            f"({lad},{i})", f"{effect:.3f}", "?" if nats is None else f"{nats:.3f}", " ".join(map(str, lengths))
+            f"({lad},{i})", f"{effect:.3f}", "?" if carries is None else f"{carries:.3f}", " ".join(map(str, lengths))
         )
     Console().print(table)
-    empty = {} if information is None else empty_ladders(result.variables.tolist(), information)
-    for lad, nats in empty.items():
+    empty = {} if carried.best is None else empty_ladders(result.variables.tolist(), nats)
+    for lad, total in empty.items():
         Console().print(
-            f"ladder {lad} is empty: its variables carry {nats:.3f} nats of the training data (under "
+            f"ladder {lad} is empty: its variables carry {total:.3f} nats ({measure}) of the training data (under "
             f"{EMPTY_LADDER_NATS:g}), so traversing them changes almost nothing"
         )
     written = [out, out.with_suffix(".png"), out.with_suffix(".json")] + (

@@ -76,6 +76,9 @@ def favae_table(folder: Path) -> str | None:
     }
     for ladder in range(len(metrics[0]["kl_per_ladder"])):
         rows[f"KL of ladder {ladder + 1} (nats)"] = [m["kl_per_ladder"][ladder] for m in metrics]
+        # the part of the KL that varies with the segments (FAVAEs fitted before it was measured lack it)
+        if all("information_per_ladder" in m for m in metrics):
+            rows[f"information of ladder {ladder + 1} (nats)"] = [m["information_per_ladder"][ladder] for m in metrics]
     if segments:
         rows["segments"] = [s["segments"] for s in segments]
         rows["boundary F1 (±2 steps)"] = [s["boundaries_within_2"]["f1"] for s in segments]

@@ -1,4 +1,8 @@
-"""FAVAE checkpoints and the calibration file of the C_last pre-run."""
+"""FAVAE checkpoints and the calibration file of the C_last pre-run.
+
+Version 2 of both records the decoder (a version-1 checkpoint has the shared decoder and still loads as one) and,
+in the calibration, what C_last measures (a version-1 calibration measured KL).
+"""
 
 from __future__ import annotations
 
@@ -9,12 +13,14 @@ from pathlib import Path
 from famarl_cli.artifacts.base import check, write_json
 from famarl_cli.artifacts.checkpoints import load_checkpoint, save_checkpoint
 from famarl_cli.errors import ArtifactError
+from famarl_cli.favae import Measure
 from famarl_cli.favae.model import Favae, FavaeConfig
+from famarl_cli.favae.training import TrainingParams
 
 SCHEMA = "famarl.favae"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 CALIBRATION_SCHEMA = "famarl.favae-calibration"
-CALIBRATION_SCHEMA_VERSION = 1
+CALIBRATION_SCHEMA_VERSION = 2
 
 
 def save_favae(path: str | os.PathLike, model: Favae, training: dict, provenance: dict) -> None:
@@ -35,21 +41,33 @@ def load_favae(path: str | os.PathLike) -> tuple[Favae, dict]:
     return model.eval(), payload
 
 
-def write_calibration(path: str | os.PathLike, c_last: list[float], config: FavaeConfig, provenance: dict) -> None:
+def write_calibration(
+    path: str | os.PathLike,
+    c_last: list[float],
+    config: FavaeConfig,
+    provenance: dict,
+    params: TrainingParams,
+    beta: float,
+) -> None:
+    """C_last of a pre-run of ``config`` trained with ``params`` at ``beta``; C_last is in ``params.measure``."""
     write_json(
         path,
         {
             "schema": CALIBRATION_SCHEMA,
             "schema_version": CALIBRATION_SCHEMA_VERSION,
             "c_last": list(c_last),
+            "measure": params.measure,
+            "beta": beta,
+            "progressive": params.progressive,
             "config": config.to_dict(),
             "provenance": provenance,
         },
     )
 
 
-def read_calibration(path: str | os.PathLike, config: FavaeConfig) -> list[float]:
-    """C_last from a calibration file, checked against the model about to be fitted."""
+def read_calibration(path: str | os.PathLike, config: FavaeConfig, params: TrainingParams) -> list[float]:
+    """C_last from a calibration file, checked against the model about to be fitted and what its capacities
+    constrain (``params.measure``)."""
     path = Path(path)
     if not path.is_file():
         raise ArtifactError(f"{path}: no such file")
@@ -73,5 +91,12 @@ def read_calibration(path: str | os.PathLike, config: FavaeConfig) -> list[float
         calibrated == config,
         path,
         f"was calibrated for another model ({data.get('config')}), not {config.to_dict()}",
+    )
+    measure = data.get("measure", Measure.KL.value)
+    check(
+        measure == params.measure,
+        path,
+        f"C_last there measures {measure}, but this fit constrains {params.measure} (--capacity-measure); "
+        "re-run famarl favae calibrate with the same --capacity-measure",
     )
     return [float(c) for c in c_last]

@@ -11,18 +11,27 @@ Input ``x``: (B, D + 2, L), the actions of a macro action zero-padded to L steps
           └ conv s2 ─ h2 (c2, L/4) ──► flatten ─ MLP ─► mu2, logvar2 ─► z2   ladder 2
               └ conv s2 ─ h3 (c3, L/8) ──► flatten ─ MLP ─► mu3, logvar3 ─► z3   ladder 3: most abstract
 
-    decoder, top-down:  t3 = MLP(z3)
-                        t2 = MLP([t3, z2])
-                        t1 = MLP([t2, z1]) ─► reshape (c3, L/8) ─► 3 x transposed conv s2 ─► (D+2, L)
+    decoder "ladder" (the default):           decoder "shared" (before the ladder decoder):
+      g3 = MLP(z3) as a map (c3, L/8)            t3 = MLP(z3); t2 = MLP([t3, z2]); t1 = MLP([t2, z1])
+      g2 = deconv(g3) + W2 z2   (c2, L/4)        g = t1 as a map (c3, L/8)
+      g1 = deconv(g2) + W1 z1   (c1, L/2)        3 x deconv ─► (D+2, L)
+      deconv(g1) ─► (D+2, L)
     output: D action channels (linear) and 2 on/off logits per step
+
+In the ladder decoder (VLAE's generative path: each latent joins at its own depth, projected to a feature map;
+adding the projection is concatenation followed by the next layer's linear map), the network between z_l and the
+output has l transposed convolutions: z1 reaches it through one layer and can only make simple, near-linear
+changes, z3 through an MLP and three layers, so what shapes the whole sequence has to go deep. In the shared
+decoder every latent reaches the output through the same stack; the shallowest ladder, with the finest feature map
+and the largest head, takes the information first (docs/favae.md).
 
 What each ladder sees: a feature at depth 1, 2, 3 sees 3, 7, 15 steps of the input (kernel 3, stride 2). With
 ``head="flatten"`` (the default) every head reads its whole feature map, so every ladder sees the whole macro
-action, placed in time; the shallowest, with the finest map and the largest head, is the easiest place to put
-information, and on our demos it takes it (docs/favae.md: the deepest ladder stays empty). With ``head="pool"`` a
-head reads its features' mean over time: a ladder then sees only stretches as long as its receptive field,
-averaged, and loses where in the sequence things happen. In the decoder z3 passes through all three top-down
-MLPs and z1 through one; every latent reaches the output through the same transposed convolutions.
+action, placed in time. With ``head="pool"`` a head reads its features' mean over time: a ladder then sees only
+stretches as long as its receptive field, averaged.
+
+``weights`` (one per ladder, in [0, 1]) scale each ladder's latent before it reaches the decoder: progressive
+training (:mod:`famarl_cli.favae.training`) fades shallower ladders in with them, after the deepest has learned.
 """
 
 from __future__ import annotations
@@ -33,7 +42,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from famarl_cli.favae import Head
+from famarl_cli.favae import DECODER, Decoder, Head
 from famarl_cli.macro_actions import cut_lengths
 
 
@@ -52,8 +61,13 @@ class FavaeConfig:
     """What each ladder's head reads of its convolution features: ``flatten``, the whole map (every ladder sees
     the whole sequence, placed in time), or ``pool``, their mean over time (a ladder sees only what its
     receptive field sees, averaged: local detail for shallow ladders, longer stretches for deep ones)."""
+    decoder: str = DECODER.value
+    """How the latents reach the output: ``ladder``, each at its own depth of the transposed convolutions, or
+    ``shared``, all through one MLP stack and the same convolutions (:class:`~famarl_cli.favae.Decoder`)."""
 
     def __post_init__(self) -> None:
+        if self.decoder not in tuple(Decoder):
+            raise ValueError(f"decoder must be one of {tuple(map(str, Decoder))}, got {self.decoder!r}")
         if self.head not in tuple(Head):
             raise ValueError(f"head must be one of {tuple(map(str, Head))}, got {self.head!r}")
         if len(self.latent_dims) != len(self.channels):
@@ -78,6 +92,9 @@ class FavaeConfig:
 
     @staticmethod
     def from_dict(values: dict) -> FavaeConfig:
+        """A config as :meth:`to_dict` wrote it. One without ``decoder`` was written before the field existed, when
+        every FAVAE had the shared decoder: it still loads, as that."""
+        values = {"decoder": Decoder.SHARED.value, **values}
         return FavaeConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in values.items()})
 
 
@@ -109,17 +126,25 @@ class Favae(nn.Module):
             for a, b in zip(widths[:-1], widths[1:], strict=True)
         )
         steps = [config.length // 2 ** (depth + 1) for depth in range(config.ladders)]
+        self.maps = list(zip(config.channels, steps, strict=True))  # (channels, steps) at each depth
         pooled = config.head == Head.POOL
         self.heads = nn.ModuleList(
             _mlp(c if pooled else c * s, config.hidden, 2 * z)
             for c, s, z in zip(config.channels, steps, config.latent_dims, strict=True)
         )
-        # Top-down: the deepest ladder starts alone; each shallower one joins the path by concatenation.
         top, *rest = reversed(config.latent_dims)
-        self.top_down = nn.ModuleList([_mlp(top, config.hidden, config.hidden)])
-        self.top_down.extend(_mlp(config.hidden + z, config.hidden, config.hidden) for z in rest)
-        self.deepest = (config.channels[-1], steps[-1])
-        self.to_features = nn.Linear(config.hidden, config.channels[-1] * steps[-1])
+        deepest = config.channels[-1] * steps[-1]
+        if config.decoder == Decoder.LADDER:
+            self.top = _mlp(top, config.hidden, deepest)
+            # ladder l < deepest joins the path as a projected map at depth l
+            self.joins = nn.ModuleList(
+                nn.Linear(z, c * s) for z, (c, s) in zip(config.latent_dims[:-1], self.maps[:-1], strict=True)
+            )
+        else:
+            # Top-down MLPs: the deepest ladder starts alone; each shallower one joins the path by concatenation.
+            self.top_down = nn.ModuleList([_mlp(top, config.hidden, config.hidden)])
+            self.top_down.extend(_mlp(config.hidden + z, config.hidden, config.hidden) for z in rest)
+            self.to_features = nn.Linear(config.hidden, deepest)
         back = list(reversed(widths))
         self.deconvs = nn.ModuleList(
             nn.ConvTranspose1d(a, b, kernel_size=4, stride=2, padding=1)
@@ -138,26 +163,36 @@ class Favae(nn.Module):
             logvars.append(logvar.clamp(-10.0, 10.0))
         return mus, logvars
 
-    def decode(self, z: torch.Tensor) -> torch.Tensor:
-        """(B, latent_size) -> (B, D + 2, L). ``z`` is the ladders' latents concatenated, shallowest first."""
+    def decode(self, z: torch.Tensor, weights: list[float] | None = None) -> torch.Tensor:
+        """(B, latent_size) -> (B, D + 2, L). ``z`` is the ladders' latents concatenated, shallowest first;
+        ``weights`` scale each ladder's part (progressive training fades ladders in with them)."""
         parts = list(torch.split(z, list(self.config.latent_dims), dim=1))
+        if weights is not None:
+            parts = [part * w for part, w in zip(parts, weights, strict=True)]
+        if self.config.decoder == Decoder.LADDER:
+            h = self.top(parts[-1]).view(-1, *self.maps[-1])
+            for depth, deconv in zip(range(self.config.ladders - 2, -2, -1), self.deconvs, strict=True):
+                h = deconv(torch.relu(h))
+                if depth >= 0:
+                    h = h + self.joins[depth](parts[depth]).view(-1, *self.maps[depth])
+            return h
         t = self.top_down[0](parts[-1])
         for layer, part in zip(self.top_down[1:], reversed(parts[:-1]), strict=True):
             t = layer(torch.cat([torch.relu(t), part], dim=1))
-        h = self.to_features(torch.relu(t)).view(-1, *self.deepest)
+        h = self.to_features(torch.relu(t)).view(-1, *self.maps[-1])
         for i, deconv in enumerate(self.deconvs):
             h = deconv(h)
             if i < len(self.deconvs) - 1:
                 h = torch.relu(h)
         return h
 
-    def forward(self, x: torch.Tensor, sample: bool = True) -> FavaeOutput:
+    def forward(self, x: torch.Tensor, sample: bool = True, weights: list[float] | None = None) -> FavaeOutput:
         mus, logvars = self.encode(x)
         if sample:
             zs = [mu + torch.randn_like(mu) * (0.5 * lv).exp() for mu, lv in zip(mus, logvars, strict=True)]
         else:
             zs = mus
-        return FavaeOutput(self.decode(torch.cat(zs, dim=1)), mus, logvars)
+        return FavaeOutput(self.decode(torch.cat(zs, dim=1), weights), mus, logvars)
 
     @torch.no_grad()
     def decode_macro_actions(self, z: np.ndarray | torch.Tensor) -> tuple[np.ndarray, np.ndarray]:
