@@ -1,6 +1,6 @@
 """FAVAE designs on the FAVAE authors' own data with known factors: 2D Reaching (../shared/data/favae-2d-reaching).
 
-    python benchmarks/favae_2d_reaching.py [--steps 100] [--designs ladder-info-prog,shared-kl] [--betas 1]
+    python benchmarks/favae_2d_reaching.py [--steps 100] [--designs ladder-info-p20,shared-kl] [--betas 1]
                                            [--seeds 0-9] [--epochs 1500]
 
 The 20 sequences are imported as ``famarl sequences`` does (one macro action each, standardised; ``--raw`` leaves
@@ -35,7 +35,7 @@ CAPTURED = 0.1
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--steps", type=int, choices=(100, 1000), default=100)
-    parser.add_argument("--designs", default="ladder-info-prog,shared-kl")
+    parser.add_argument("--designs", default="ladder-info-p20,shared-kl")
     parser.add_argument("--betas", default="1")
     parser.add_argument("--seeds", default="0-9")
     parser.add_argument("--epochs", type=int, default=1500)

@@ -1,6 +1,6 @@
 """Time per FAVAE optimiser step of each design, on the default pipeline's segments, one torch thread.
 
-    python benchmarks/favae_step.py [--designs shared-kl,ladder-info-prog] [--segments PATH] [--steps 400]
+    python benchmarks/favae_step.py [--designs shared-kl,ladder-info-p20] [--segments PATH] [--steps 400]
 
 One step is what the fit does per batch: forward (sampling), the loss with its capacity term, backward, Adam. The
 designs (benchmarks/favae_designs.py) take turns, ``--repeats`` times each, on the same batch of 64 segments (the
@@ -61,7 +61,7 @@ def time_steps(model: Favae, x: torch.Tensor, design, steps: int) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--designs", default="shared-kl,ladder-info-prog")
+    parser.add_argument("--designs", default="shared-kl,ladder-info-p20")
     parser.add_argument("--segments", type=Path, default=Path("data/maze/macros/seed0/segments.h5"))
     parser.add_argument("--steps", type=int, default=400)
     parser.add_argument("--repeats", type=int, default=5)
@@ -83,7 +83,11 @@ def main() -> None:
     results = {}
     for name in names:
         median = float(np.median(times[name]))
-        results[name] = {"ms_per_step": 1000 * median, "ratio": median / first, "repeats_ms": times[name]}
+        results[name] = {
+            "ms_per_step": 1000 * median,
+            "ratio": median / first,
+            "repeats_ms": [1000 * t for t in times[name]],
+        }
         print(f"{name:22s} {1000 * median:6.2f} ms per step  ({median / first:.2f}x {names[0]})")
     write_result(
         args.out,

@@ -1,7 +1,7 @@
 """FAVAE designs against each other on the default pipeline's segments: which ladder carries what, and at what cost.
 
     dvc repro                                   # data/maze/macros/seed*/segments.h5
-    python benchmarks/favae_variants.py [--seeds 0-2] [--designs shared-kl,ladder-info-prog] [--beta 50]
+    python benchmarks/favae_variants.py [--seeds 0-2] [--designs shared-kl,ladder-info-p20] [--beta 50]
     python benchmarks/favae_variants.py --data data/scripts/macros --pattern 'down-and-up-seed{seed}' --beta 0.1
 
 Per design (benchmarks/favae_designs.py) and seed, the C_last pre-run and a fit at the pipeline's settings (beta
@@ -53,7 +53,7 @@ def design_line(design: str, group: list[dict]) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", default="0-2")
-    parser.add_argument("--designs", default="shared-kl,ladder-info-prog")
+    parser.add_argument("--designs", default="shared-kl,ladder-info-p20")
     parser.add_argument("--beta", type=float, default=50.0)
     parser.add_argument("--epochs", type=int, default=1500)
     parser.add_argument("--data", type=Path, default=Path("data/maze/macros"))
