@@ -128,15 +128,14 @@ def calibrate(
     *,
     head: str = "flatten",
     decoder: str = DECODER,
-    beta: float | None = None,
+    beta: float = CALIBRATION_BETA,
 ) -> tuple[list[float], list[dict]]:
-    """The C_last pre-run on ``segments`` at ``beta`` (None: the paper's 0.1), written to ``out`` (JSON); returns
+    """The C_last pre-run on ``segments`` at ``beta``, written to ``out`` (JSON); returns
     C_last and the pre-run's log. ``params`` is a TrainingParams."""
     from famarl_cli.favae.checkpoint import write_calibration
     from famarl_cli.favae.training import calibrate as run_calibration
 
     out = prepare_output(out)
-    beta = CALIBRATION_BETA if beta is None else beta
     loaded, config = favae_setup(segments, ladders, latent_dim, head, decoder)
     c_last, log = run_calibration(loaded.padded, config, params, on_epoch, beta)
     options = {**asdict(params), "calibration_beta": beta, "config": config.to_dict()}
@@ -167,7 +166,7 @@ def fit(
     head: str = "flatten",
     capacity: str = "measured",
     decoder: str = DECODER,
-    calibration_beta: float | None = None,
+    calibration_beta: float = CALIBRATION_BETA,
 ) -> Fitted:
     """Fit FAVAE on ``segments`` (after the C_last pre-run at ``calibration_beta``, written beside ``out``, unless
     ``calibration`` is given) and score it; writes the checkpoint ``out``, ``.log.csv`` and ``.metrics.json``.

@@ -109,9 +109,7 @@ def favae_calibrate(
     decoder: DecoderOption = DECODER,
     capacity_measure: MeasureOption = MEASURE,
     progressive: ProgressiveOption = PROGRESSIVE,
-    beta: Annotated[
-        float, typer.Option(min=0.0, max=1e4, help="The pre-run's beta (the paper's 0.1), with C = 0.")
-    ] = CALIBRATION_BETA,
+    beta: CalibrationBetaOption = CALIBRATION_BETA,
 ) -> None:
     """The C_last pre-run: fit with a small beta and C = 0; each ladder's final information (or KL, with
     --capacity-measure kl) becomes its C_last."""
@@ -159,12 +157,7 @@ def favae_fit(
     decoder: DecoderOption = DECODER,
     capacity_measure: MeasureOption = MEASURE,
     progressive: ProgressiveOption = PROGRESSIVE,
-    calibration_beta: Annotated[
-        float,
-        typer.Option(
-            min=0.0, max=1e4, help="The pre-run's beta (the paper's 0.1), when it runs here (no --calibration)"
-        ),
-    ] = CALIBRATION_BETA,
+    calibration_beta: CalibrationBetaOption = CALIBRATION_BETA,
 ) -> None:
     """Fit FAVAE on segments (after the C_last pre-run unless --calibration is given) and score it."""
     from famarl_cli import stages
