@@ -3,7 +3,9 @@
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import gymnasium as gym
@@ -11,7 +13,8 @@ import numpy as np
 
 from famarl_cli.artifacts import Demos, Episode, provenance
 from famarl_cli.envs.external import make_env
-from famarl_cli.errors import FamarlError, UsageError
+from famarl_cli.envs.success import SuccessRule, as_bool, success_rule
+from famarl_cli.errors import FamarlError, UsageError, foreign
 from famarl_cli.experts import Script, demonstration, make_expert
 from famarl_cli.experts.external import ExternalExpert
 
@@ -21,16 +24,25 @@ def episode_seeds(seed: int, n_episodes: int) -> np.ndarray:
     return np.random.default_rng(seed).integers(0, 2**31 - 1, n_episodes)
 
 
-def record_episode(env: gym.Env, expert, seed: int) -> Episode:
-    """One episode of ``expert`` from ``env.reset(seed=seed)``. The expert sees the env's own observations; the
-    episode keeps them flattened (``gymnasium.spaces.flatten``: a Dict's entries in its key order)."""
-    observation, _ = env.reset(seed=int(seed))
+def record_episode(
+    env: gym.Env, expert, seed: int, rule: SuccessRule, on_step: Callable[[int], None] | None = None
+) -> tuple[Episode, str]:
+    """One episode of ``expert`` from ``env.reset(seed=seed)``, its success judged by ``rule`` (returned with the
+    episode, in words). The expert sees the env's own observations; the episode keeps them flattened
+    (``gymnasium.spaces.flatten``: a Dict's entries in its key order). ``on_step(steps)`` is called every
+    :data:`STEP_REPORT` steps, so that a long episode shows progress."""
+    name = env.spec.id if env.spec is not None else type(env.unwrapped).__name__
+    with foreign(f"env {name} reset"):
+        observation, info = env.reset(seed=int(seed))
     expert.reset(observation)
     observations, actions, rewards, terminations, truncations = [observation], [], [], [], []
     done = False
     while not done:
         action = expert.act(observation)
-        observation, reward, terminated, truncated, _ = env.step(action)
+        with foreign(f"env {name} step"):
+            observation, reward, terminated, truncated, info = env.step(action)
+        if on_step is not None and len(rewards) % STEP_REPORT == STEP_REPORT - 1:
+            on_step(len(rewards) + 1)
         for store, value in zip(
             (observations, actions, rewards, terminations, truncations),
             (observation, action, reward, terminated, truncated),
@@ -39,7 +51,7 @@ def record_episode(env: gym.Env, expert, seed: int) -> Episode:
             store.append(value)
         done = terminated or truncated
     space = env.observation_space
-    return Episode(
+    episode = Episode(
         observations=np.array([gym.spaces.flatten(space, o) for o in observations], dtype=np.float32),
         actions=np.array(actions, dtype=np.float32),
         rewards=np.array(rewards, dtype=np.float64),
@@ -48,7 +60,21 @@ def record_episode(env: gym.Env, expert, seed: int) -> Episode:
         seed=int(seed),
         segment_starts=np.array(expert.phase_starts, dtype=np.int64),
         factors=np.asarray(expert.phase_factors, dtype=np.float64),
+        success=as_bool(rule.judge(info, float(np.sum(rewards)))),
     )
+    return episode, rule.describe(info)
+
+
+STEP_REPORT = 1000
+"""Steps between two progress reports within an episode."""
+
+
+@dataclass
+class Collected:
+    episodes: list[Episode]
+    attempts: int
+    success_rule: str
+    """How the episodes' success was judged (:mod:`famarl_cli.envs.success`), in words."""
 
 
 def collect(
@@ -59,19 +85,24 @@ def collect(
     min_return: float | None = None,
     max_attempts: int | None = None,
     on_episode: Callable[[Episode | None], None] | None = None,
-) -> tuple[list[Episode], int]:
+    success_return: float | None = None,
+    on_step: Callable[[int], None] | None = None,
+) -> Collected:
     """``n_episodes`` episodes of ``expert``, keeping only those whose return exceeds ``min_return`` (all when
-    None) and giving up after ``max_attempts`` (default: ``n_episodes``); returns them and the number attempted.
+    None) and giving up after ``max_attempts`` (default: ``n_episodes``); success is judged by
+    :mod:`famarl_cli.envs.success` with the user's ``success_return``.
 
-    ``on_episode`` is called after each attempt with the episode kept, or None (the CLI's progress bar)."""
+    ``on_episode`` is called after each attempt with the episode kept, or None, and ``on_step`` within a long
+    episode (:func:`record_episode`): the CLI's progress bars."""
     if n_episodes < 1:
         raise UsageError(f"episodes must be >= 1, got {n_episodes}")
     attempts = max_attempts or n_episodes
     if attempts < n_episodes:
         raise UsageError(f"max attempts ({attempts}) must be at least the episodes asked for ({n_episodes})")
-    kept, tried = [], 0
+    rule = success_rule(env.spec, success_return)
+    kept, tried, described = [], 0, ""
     for episode_seed in episode_seeds(seed, attempts):
-        episode = record_episode(env, expert, episode_seed)
+        episode, described = record_episode(env, expert, episode_seed, rule, on_step)
         tried += 1
         keep = min_return is None or episode.rewards.sum() > min_return
         if keep:
@@ -82,7 +113,7 @@ def collect(
             break
     if not kept:
         raise FamarlError(f"none of {tried} episodes had a return above {min_return:g}: nothing written")
-    return kept, tried
+    return Collected(kept, tried, described)
 
 
 def record_demos(
@@ -95,17 +126,18 @@ def record_demos(
     script = Script(script)
     spec = demonstration(script)
     env = gym.make(spec.env_id, **spec.env_kwargs)
-    episodes, _ = collect(env, make_expert(script), n_episodes, seed, on_episode=on_episode)
+    collected = collect(env, make_expert(script), n_episodes, seed, on_episode=on_episode)
     env.close()
     params = {"script": script.value, "episodes": n_episodes, "seed": seed}
     return Demos(
-        episodes=episodes,
+        episodes=collected.episodes,
         env_id=spec.env_id,
         script=script.value,
         seed=seed,
         factor_names=spec.factor_names,
         env_kwargs=spec.env_kwargs,
         provenance=provenance("famarl demos", params, seed),
+        success_rule=collected.success_rule,
     )
 
 
@@ -118,15 +150,20 @@ def record_expert_demos(
     min_return: float | None = None,
     max_attempts: int | None = None,
     on_episode: Callable[[Episode | None], None] | None = None,
+    success_return: float | None = None,
+    on_step: Callable[[int], None] | None = None,
 ) -> Demos:
     """Demos of a user's expert (``module:attribute``, :mod:`famarl_cli.experts.external`) in any gymnasium env
     with a Box action space; with ``min_return``, only the episodes above it (see :func:`collect`)."""
     env = make_env(env_id, env_kwargs)
     try:
         policy = ExternalExpert(expert, env)
-        episodes, tried = collect(env, policy, n_episodes, seed, min_return, max_attempts, on_episode)
+        collected = collect(
+            env, policy, n_episodes, seed, min_return, max_attempts, on_episode, success_return, on_step
+        )
     finally:
-        env.close()
+        with contextlib.suppress(Exception):  # the user's env may fail to close after failing to step
+            env.close()
     params = {
         "env": env_id,
         "env_kwargs": env_kwargs or {},
@@ -135,16 +172,18 @@ def record_expert_demos(
         "seed": seed,
         "min_return": min_return,
         "max_attempts": max_attempts,
+        "success_return": success_return,
     }
     return Demos(
-        episodes=episodes,
+        episodes=collected.episodes,
         env_id=env_id,
         script=expert,
         seed=seed,
         factor_names=policy.factor_names,
         env_kwargs=env_kwargs or {},
         provenance=provenance("famarl demos", params, seed),
-        attempts=tried,
+        attempts=collected.attempts,
+        success_rule=collected.success_rule,
     )
 
 

@@ -176,4 +176,5 @@ def run_job(config: dict, folder: Path, context) -> dict:
     before = {phase: sum(totals[p] for p in PHASES[: PHASES.index(phase)]) for phase in PHASES}
     total = sum(totals.values())
     metrics = learn_macros(macros, folder, lambda phase, done, _: context.progress(before[phase] + done, total))
-    return {key: metrics[key] for key in ("mig", "length_accuracy", "kl_per_ladder", "information_per_ladder")}
+    kept = ("mig", "mig_note", "length_accuracy", "kl_per_ladder", "information_per_ladder")
+    return {key: metrics[key] for key in kept if key in metrics}

@@ -123,6 +123,20 @@ def mig(codes: np.ndarray, factors: np.ndarray, bins: int | None = None) -> dict
     return {"mig": score, "per_factor": per_factor, "bins": bins, "samples": n}
 
 
+NO_FACTORS = "not measured (no ground-truth factors)"
+CONSTANT_FACTORS = "not measured (the ground-truth factors never vary)"
+
+
+def mig_unmeasured(factors: np.ndarray) -> str | None:
+    """Why MIG cannot be measured against ``factors`` (N, F): none given (data from outside: a Minari dataset, a
+    policy without phases), or none that varies; None where it can."""
+    if factors.ndim != 2 or factors.shape[1] == 0:
+        return NO_FACTORS
+    if len(factors) < 2 or not (factors != factors[:1]).any():
+        return CONSTANT_FACTORS
+    return None
+
+
 MIG_RESAMPLES = 200
 """Bootstrap resamples behind a MIG interval."""
 MIG_HALF_WIDTH = 0.05
@@ -150,7 +164,8 @@ def mig_interval(
     codes: np.ndarray, factors: np.ndarray, level: float = 0.95, resamples: int = MIG_RESAMPLES, seed: int = 0
 ) -> dict:
     """MIG and each factor's score with bootstrap intervals over the samples (segments or sequences), each centred
-    on its estimate.
+    on its estimate; where there is nothing to measure against (:func:`mig_unmeasured`), ``mig`` and ``interval``
+    are None and ``note`` says why.
 
     The samples are resampled with replacement and MIG recomputed with the full sample's number of bins. A resample
     repeats samples and drops others, which moves the plug-in mutual information and the histograms' edges: the
@@ -160,6 +175,19 @@ def mig_interval(
     sample the centre, and the interval always holds its estimate. ``samples_for_half_width`` scales the
     interval's half-width as 1 / sqrt(n) to the number of samples that would make it ``MIG_HALF_WIDTH``.
     """
+    unmeasured = mig_unmeasured(factors)
+    if unmeasured is not None:
+        return {
+            "mig": None,
+            "per_factor": {},
+            "bins": None,
+            "samples": len(codes),
+            "interval": None,
+            "per_factor_interval": {},
+            "level": level,
+            "samples_for_half_width": None,
+            "note": unmeasured,
+        }
     full = mig(codes, factors)
     draws, per_factor = mig_bootstrap(codes, factors, full, resamples, seed)
     n = len(codes)

@@ -14,6 +14,7 @@ from matplotlib.patches import Circle
 from famarl_cli.artifacts import Demos, atomic_path
 from famarl_cli.artifacts.segments import Segments
 from famarl_cli.envs import ENV_IDS, ROBOT_HAND_IDS, robot_hand
+from famarl_cli.envs.success import shown as success_shown
 from famarl_cli.traversal import Traversal
 
 PHASE_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple", "tab:brown", "tab:olive")
@@ -29,11 +30,15 @@ def plot_demos(demos: Demos, path: str | os.PathLike, max_episodes: int = 100, d
     """
     robot = demos.env_id in ROBOT_HAND_IDS.values()
     own = demos.env_id in ENV_IDS.values()
+    # An env with a one-dimensional observation is drawn over time: observation[0] against the step.
+    over_time = not own and demos.episodes[0].observations.shape[1] < 2
     fig = Figure(figsize=(8, 5.3) if robot or not own else (5, 5.3))
     ax = fig.subplots()
     for episode in demos.episodes[:max_episodes]:
         if own:
             xy = episode.observations[:, 0:2] / (1.0 if robot else episode.observations[0, 6])
+        elif over_time:
+            xy = np.column_stack([np.arange(len(episode.observations)), episode.observations[:, 0]])
         else:
             xy = episode.observations[:, list(dims)]
         bounds = [*episode.segment_starts.tolist(), episode.length]
@@ -50,12 +55,14 @@ def plot_demos(demos: Demos, path: str | os.PathLike, max_episodes: int = 100, d
         ax.set(xlim=(0, robot_hand.WIDTH), ylim=(0, robot_hand.HEIGHT), aspect="equal", xlabel="x (m)", ylabel="y (m)")
     elif own:
         ax.set(xlim=(0, 1), ylim=(0, 1), aspect="equal", xlabel="x / map size", ylabel="y / map size")
+    elif over_time:
+        ax.set(xlabel="step", ylabel="observation[0]")
     else:
         ax.set(xlabel=f"observation[{dims[0]}]", ylabel=f"observation[{dims[1]}]")
     shown = min(max_episodes, len(demos.episodes))
     kept = "" if demos.keep_rate == 1 else f", kept {len(demos.episodes)} of {demos.attempts}"
     title = f"{demos.script.split(':')[-1]}{'' if own else ' in ' + demos.env_id}: {shown} episodes{kept}"
-    ax.set_title(f"{title}, success {demos.success_rate:.0%}", fontsize=10)
+    ax.set_title(f"{title}, success {success_shown(demos.success_rate)}", fontsize=10)
     ax.legend(loc="center" if own and not robot else "upper right", fontsize=8)
     fig.tight_layout()
     _save(fig, path)

@@ -145,7 +145,8 @@ def reached(g: Group) -> str:
 
 def results_table(groups: list[Group], extra: dict | None = None) -> str:
     """Per label: seeds, env steps, success (sampled) and deterministic success with their 95% intervals, AUC,
-    steps to 0.8, return, macro length and training wall time per run."""
+    steps to 0.8, return, macro length and training wall time per run; then the rule that judged success (evaluations
+    before famarl recorded it say nothing)."""
     extra = extra or {}
     head = [
         "n",
@@ -174,6 +175,11 @@ def results_table(groups: list[Group], extra: dict | None = None) -> str:
             *(cell(g) for cell in extra.values()),
         ]
         lines.append(f"| {g.label} | " + " | ".join(cells) + " |")
+    rules = sorted(
+        {str(run.evaluation["success_rule"]) for g in groups for run in g.runs if "success_rule" in run.evaluation}
+    )
+    if rules:
+        lines += ["", f"Success: {'; '.join(rules)} (famarl_cli.envs.success)."]
     return "\n".join(lines)
 
 

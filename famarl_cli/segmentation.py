@@ -295,8 +295,10 @@ def segment_demos(demos: Demos, model: WindowAutoencoder, params: SegmentParams)
         "split_segments": n_split,
         "dropped_segments": n_dropped,
         "threshold": cuts.threshold,
-        "boundaries_exact": boundary_scores(cuts.boundaries, true, 0),
-        f"boundaries_within_{params.tolerance}": boundary_scores(cuts.boundaries, true, params.tolerance),
+        "boundaries_exact": boundary_scores(cuts.boundaries, true, 0) if demos.has_ground_truth else None,
+        f"boundaries_within_{params.tolerance}": (
+            boundary_scores(cuts.boundaries, true, params.tolerance) if demos.has_ground_truth else None
+        ),
     }
     return segments, metrics
 

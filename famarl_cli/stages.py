@@ -328,10 +328,14 @@ def format_values(values: list[float]) -> str:
     return ",".join(f"{v:g}" for v in np.asarray(values, dtype=float))
 
 
-def evaluate_run(run: str, into: str, episodes: int, seed: int, rollouts: int, film: bool) -> dict:
+def evaluate_run(
+    run: str, into: str, episodes: int, seed: int, rollouts: int, film: bool, success_return: float | None = None
+) -> dict:
     """Evaluate the run folder ``run`` into the folder ``into``: ``eval.json`` (the policy acting with its mode,
     and under ``sampled`` the same numbers for the policy drawing its actions as in training), ``rollouts.png``
-    (ContinuousWorld) and, with ``film``, one rendered episode. Returns what eval.json holds, less provenance."""
+    (ContinuousWorld) and, with ``film``, one rendered episode. Success follows :mod:`famarl_cli.envs.success`
+    (``success_return`` overrides the run's); ``success_rule`` says which rule judged it. Returns what eval.json
+    holds, less provenance."""
     from famarl_cli.artifacts.runs import (
         CHECKPOINT_FILE,
         EVAL_FILE,
@@ -346,8 +350,8 @@ def evaluate_run(run: str, into: str, episodes: int, seed: int, rollouts: int, f
 
     run_folder, into_folder = Path(run), Path(into)
     agent = load_agent(run_folder)
-    result = evaluate(agent, episodes, seed, rollouts)
-    sampled = evaluate(agent, episodes, seed, 0, sample=True)
+    result = evaluate(agent, episodes, seed, rollouts, success_return=success_return)
+    sampled = evaluate(agent, episodes, seed, 0, sample=True, success_return=success_return)
     evaluation = {
         **result.metrics,
         "sampled": sampled.metrics,
@@ -360,7 +364,12 @@ def evaluate_run(run: str, into: str, episodes: int, seed: int, rollouts: int, f
         "train_wall_s": read_run_file(run_folder)["wall_s"],
     }
     into_folder.mkdir(parents=True, exist_ok=True)
-    prov = provenance("famarl evaluate", {"episodes": episodes, "seed": seed}, seed, [run_folder / CHECKPOINT_FILE])
+    params = {
+        "episodes": episodes,
+        "seed": seed,
+        **({} if success_return is None else {"success_return": success_return}),
+    }
+    prov = provenance("famarl evaluate", params, seed, [run_folder / CHECKPOINT_FILE])
     write_json(into_folder / EVAL_FILE, {**evaluation, "provenance": prov})
     if result.traces:
         title = (

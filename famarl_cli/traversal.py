@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from famarl_cli.envs import continuous_world, robot_hand
-from famarl_cli.errors import FamarlError, UsageError
+from famarl_cli.errors import FamarlError, UsageError, foreign
 from famarl_cli.favae.model import Favae
 
 EMPTY_LADDER_NATS = 0.1
@@ -168,10 +168,14 @@ def run_in_env(
         raise UsageError(f"observation dimensions {dims} do not exist: {env_id}'s observations have {size}")
     paths, ends = np.zeros((len(actions), actions.shape[1] + 1, 2)), []
     for i, (sequence, length) in enumerate(zip(actions, lengths, strict=True)):
-        obs, _ = env.reset(seed=0)
+        with foreign(f"env {env_id} reset"):
+            obs, _ = env.reset(seed=0)
         points = [gym.spaces.flatten(env.observation_space, obs)[list(dims)]]
         for action in sequence[:length]:
-            obs, _, terminated, truncated, _ = env.step(np.clip(action, env.action_space.low, env.action_space.high))
+            with foreign(f"env {env_id} step"):
+                obs, _, terminated, truncated, _ = env.step(
+                    np.clip(action, env.action_space.low, env.action_space.high)
+                )
             points.append(gym.spaces.flatten(env.observation_space, obs)[list(dims)])
             if terminated or truncated:
                 break

@@ -14,7 +14,8 @@ semi-MDP discounted sum ``sum_j gamma**j r_j`` over the steps run (``reward="dis
 - ``discount``: ``gamma ** steps``, the factor to bootstrap the next decision's value with under semi-MDP
   discounting (an agent with one gamma per decision ignores it);
 - ``sequence_length``: the length of the decoded sequence (``steps`` is shorter where the episode ended first);
-- ``success``: the environment's ``info["success"]`` at the last step, else whether it terminated.
+- ``success``: whether the episode succeeded, by :mod:`famarl_cli.envs.success` (the env's report, else its
+  ``reward_threshold`` on the episode's return; None where neither exists); False while the episode goes on.
 
 Observations are the wrapped environment's own, unchanged.
 """
@@ -28,6 +29,7 @@ from typing import Literal
 import gymnasium
 import numpy as np
 
+from famarl_cli.envs.success import as_bool
 from famarl_cli.favae.checkpoint import load_favae
 from famarl_cli.rl.action_modes import LatentMacroActions, RepeatedActions
 from famarl_cli.rl.executor import discounted_sum, run_open_loop
@@ -74,7 +76,7 @@ class OpenLoopWrapper(gymnasium.Wrapper):
             "steps": steps,
             "discount": self.gamma**steps,
             "sequence_length": int(lengths[0]),
-            "success": bool(result.success[0]),
+            "success": as_bool(result.success[0]),
         }
         return self._batch.raw_obs[0], float(reward), bool(result.terminated[0]), bool(result.truncated[0]), info
 

@@ -159,11 +159,12 @@ def test_a_class_expert_is_made_once_and_reset_every_episode():
 
 def test_min_return_keeps_only_the_episodes_above_it_and_counts_the_attempts():
     env = make_env("Pendulum-v1")
-    everything, _ = collect(env, _swing(env), 6, seed=1)
+    everything = collect(env, _swing(env), 6, seed=1).episodes
     returns = np.array([e.rewards.sum() for e in everything])
     threshold = float(np.sort(returns)[2])  # three of the six are above it
     third_above = int(np.flatnonzero(returns > threshold)[2]) + 1  # recording stops once three are kept
-    kept, tried = collect(env, _swing(env), 3, seed=1, min_return=threshold, max_attempts=6)
+    collected = collect(env, _swing(env), 3, seed=1, min_return=threshold, max_attempts=6)
+    kept, tried = collected.episodes, collected.attempts
     assert tried == third_above and len(kept) == 3 and all(e.rewards.sum() > threshold for e in kept)
     assert [e.seed for e in kept] == [e.seed for e in everything if e.rewards.sum() > threshold]
     demos = record_expert_demos("Pendulum-v1", "user_experts:swing", 3, 1, min_return=threshold, max_attempts=6)
@@ -201,8 +202,8 @@ def test_bipedal_heuristic_phases_are_its_state_machine(tmp_path):
 def test_bipedal_expert_replays_the_same_walk_from_the_same_seed():
     env = make_env("BipedalWalker-v3")
     expert = BipedalWalkerExpert()
-    first, _ = collect(env, expert, 1, seed=4)
-    again, _ = collect(env, expert, 1, seed=4)
+    first = collect(env, expert, 1, seed=4).episodes
+    again = collect(env, expert, 1, seed=4).episodes
     assert np.array_equal(first[0].actions, again[0].actions)
 
 
@@ -349,3 +350,17 @@ def test_a_sweep_of_demos_refuses_a_users_expert(tmp_path):
     )  # fmt: skip
     one_line_error(result, 2, "--expert")
     assert not (tmp_path / "s").exists()
+
+
+def test_demos_without_ground_truth_get_no_boundary_scores(tmp_path):
+    demos = tmp_path / "demos.h5"
+    recorded = famarl(
+        "demos", "--env", "Pendulum-v1", "--expert", "user_experts:swing", "--episodes", 2, "--out", demos
+    )
+    assert recorded.exit_code == 0, recorded.output
+    out = tmp_path / "segments.h5"
+    result = famarl("segment", "--demos", demos, "--out", out, "--epochs", 1, "--length", 48, "--no-plot")
+    assert result.exit_code == 0, result.output
+    assert "not measured (the demos have no ground-truth phases)" in " ".join(result.output.split())
+    metrics = json.loads(out.with_suffix(".metrics.json").read_text())
+    assert metrics["boundaries_exact"] is None and metrics["boundaries_within_2"] is None

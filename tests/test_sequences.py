@@ -4,6 +4,7 @@ interval, and the line that names an empty ladder."""
 from __future__ import annotations
 
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -52,11 +53,11 @@ def test_sequences_become_one_macro_action_each_padded_for_the_ladders(tmp_path)
 def test_bad_sequences_are_one_line_errors_that_write_nothing(tmp_path):
     paths, factors = curves()
     cases = {
-        "nan.npz": (dict(sequences=np.where(paths > 0.5, np.nan, paths)), 1, "contain NaN or Inf"),
+        "nan.npz": (dict(sequences=np.where(paths > 0.5, np.nan, paths)), 1, "contain NaN, Inf or values beyond"),
         "flat.npz": (dict(sequences=paths[0]), 1, "(N, T, D) array"),
         "other.npz": (dict(positions=paths), 1, "no array 'sequences or trajectories' (it holds positions)"),
-        "rows.npz": (dict(sequences=paths, factors=factors[:5]), 1, "factors must be a finite (12, F) array"),
-        "objects.npz": (dict(sequences=np.array([paths[0], paths[1][:5]], dtype=object)), 1, "plain arrays"),
+        "rows.npz": (dict(sequences=paths, factors=factors[:5]), 1, "factors must be a real-valued (12, F) array"),
+        "objects.npz": (dict(sequences=np.array([paths[0], paths[1][:5]], dtype=object)), 1, "holds Python objects"),
     }
     for name, (arrays, code, needle) in cases.items():
         np.savez(tmp_path / name, **arrays)
@@ -140,3 +141,18 @@ def test_pooled_heads_and_capacity_to_the_deepest_ladder():
     assert allocate_capacity([4.0, 3.0, 0.5], "measured") == [4.0, 3.0, 0.5]
     with pytest.raises(ValueError, match="head must be one of"):
         FavaeConfig(action_dim=2, length=16, head="attend")
+
+
+def test_sequences_without_factors_say_mig_was_not_measured(tmp_path):
+    np.save(tmp_path / "plain.npy", curves()[0])
+    assert famarl("sequences", tmp_path / "plain.npy", "--out", tmp_path / "plain.h5").exit_code == 0
+    model = tmp_path / "favae.pt"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        fitted = famarl("favae", "fit", "--segments", tmp_path / "plain.h5", "--epochs", 2, "--out", model)
+    assert fitted.exit_code == 0, fitted.output
+    assert "not measured (no ground-truth factors)" in fitted.output and "nan" not in fitted.output.lower()
+    assert not [w for w in caught if issubclass(w.category, RuntimeWarning)]
+    metrics = json.loads(model.with_suffix(".metrics.json").read_text())
+    assert metrics["mig"] is None and metrics["mig_interval"] is None
+    assert metrics["mig_note"] == "not measured (no ground-truth factors)"

@@ -34,3 +34,56 @@ class Counter:
 
 
 NOT_CALLABLE = 3
+
+
+def words(observation):
+    return "left"
+
+
+def complex_action(observation):
+    return np.array([1.0 + 2.0j])
+
+
+def array_label(observation):
+    return np.array([0.5]), np.array([1, 2])
+
+
+def raises(observation):
+    raise RuntimeError("the policy server is down")
+
+
+class NeedsGain:
+    def __init__(self, env, gain):
+        self.gain = gain
+
+    def act(self, observation):
+        return np.array([self.gain])
+
+
+class FailsToStart:
+    def __init__(self, env):
+        raise KeyError("weights.pt")
+
+    def act(self, observation):
+        return np.zeros(1)
+
+
+class BadFactors:
+    """Keeps famarl's expert protocol, with factors that are not numbers."""
+
+    factor_names = ("side",)
+
+    def reset(self, observation):
+        self.phase_starts, self.phase_factors = [0], [["left"]]
+
+    def act(self, observation):
+        return np.zeros(1)
+
+
+def full_push(observation):
+    return np.ones(1)
+
+
+def full_throttle(observation):
+    """LunarLander: both engines at full power, every step."""
+    return np.ones(2)

@@ -4,8 +4,10 @@ Layout (HDF5, after Minari's, so plain h5py and Minari-style readers find their 
 
     /                      attrs: schema="famarl.demos", schema_version, famarl_version, provenance (JSON),
                                   env_id, env_kwargs (JSON), script, seed, n_episodes, total_steps,
-                                  factor_names (JSON), attempts (episodes the expert ran, kept or not)
-    /episode_{i}/          attrs: id, seed (the episode's reset seed), total_steps, success
+                                  factor_names (JSON), attempts (episodes the expert ran, kept or not),
+                                  success_rule (how success was judged, famarl_cli.envs.success)
+    /episode_{i}/          attrs: id, seed (the episode's reset seed), total_steps, success (absent where
+                                  success is not defined)
         observations       (T+1, obs_dim) float32, the reset observation first
         actions            (T, act_dim)   float32
         rewards            (T,)           float64
@@ -29,9 +31,12 @@ import h5py
 import numpy as np
 
 from famarl_cli.artifacts.base import atomic_path, check, open_artifact, write_header
+from famarl_cli.envs.success import rate
 
 SCHEMA = "famarl.demos"
 SCHEMA_VERSION = 1
+OLD_SUCCESS_RULE = "termination (a file written before famarl judged success by its rules)"
+"""Files written before ``success_rule`` existed stored success as the last step's termination."""
 
 
 @dataclass
@@ -44,14 +49,13 @@ class Episode:
     seed: int
     segment_starts: np.ndarray
     factors: np.ndarray
+    success: bool | None = None
+    """Whether the episode succeeded by its demos' ``success_rule`` (:mod:`famarl_cli.envs.success`); None where
+    success is not defined."""
 
     @property
     def length(self) -> int:
         return len(self.actions)
-
-    @property
-    def success(self) -> bool:
-        return bool(self.terminations[-1])
 
 
 @dataclass
@@ -65,6 +69,8 @@ class Demos:
     provenance: dict = field(default_factory=dict)
     attempts: int | None = None
     """Episodes the expert ran, kept or not (``famarl demos --min-return`` keeps some); None: all were kept."""
+    success_rule: str = ""
+    """How the episodes' success was judged, in words (:mod:`famarl_cli.envs.success`)."""
 
     @property
     def keep_rate(self) -> float:
@@ -75,8 +81,15 @@ class Demos:
         return sum(e.length for e in self.episodes)
 
     @property
-    def success_rate(self) -> float:
-        return float(np.mean([e.success for e in self.episodes])) if self.episodes else 0.0
+    def has_ground_truth(self) -> bool:
+        """Whether the expert said what its phases were: named factors, or more than one phase in some episode.
+        Demos from outside (a Minari dataset, a policy without phase labels) have none to score against."""
+        return bool(self.factor_names) or any(len(e.segment_starts) > 1 for e in self.episodes)
+
+    @property
+    def success_rate(self) -> float | None:
+        """The share of episodes that succeeded; None where success is not defined."""
+        return rate(e.success for e in self.episodes)
 
 
 def write_demos(path: str | os.PathLike, demos: Demos) -> None:
@@ -95,10 +108,13 @@ def write_demos(path: str | os.PathLike, demos: Demos) -> None:
             total_steps=demos.total_steps,
             factor_names=list(demos.factor_names),
             attempts=demos.attempts or len(demos.episodes),
+            success_rule=demos.success_rule,
         )
         for i, episode in enumerate(demos.episodes):
             group = handle.create_group(f"episode_{i}")
-            group.attrs.update(id=i, seed=episode.seed, total_steps=episode.length, success=episode.success)
+            group.attrs.update(id=i, seed=episode.seed, total_steps=episode.length)
+            if episode.success is not None:  # no attribute: success is not defined
+                group.attrs["success"] = episode.success
             group.create_dataset("observations", data=episode.observations.astype(np.float32))
             group.create_dataset("actions", data=episode.actions.astype(np.float32))
             group.create_dataset("rewards", data=episode.rewards.astype(np.float64))
@@ -120,6 +136,12 @@ def read_demos(path: str | os.PathLike) -> Demos:
         factor_names = tuple(json.loads(attrs["factor_names"]))
         check(n_episodes > 0, path, "holds no episodes")
         episodes = [_read_episode(handle, i, len(factor_names), path) for i in range(n_episodes)]
+        widths = {(e.observations.shape[1], e.actions.shape[1]) for e in episodes}
+        check(
+            len(widths) == 1,
+            path,
+            f"its episodes differ in width: (observation, action) sizes {sorted(widths)}; one env has one of each",
+        )
         return Demos(
             episodes=episodes,
             env_id=str(attrs["env_id"]),
@@ -129,6 +151,7 @@ def read_demos(path: str | os.PathLike) -> Demos:
             env_kwargs=json.loads(attrs.get("env_kwargs", "{}")),
             provenance=json.loads(attrs.get("provenance", "{}")),
             attempts=int(attrs.get("attempts", n_episodes)),
+            success_rule=str(attrs.get("success_rule", OLD_SUCCESS_RULE)),
         )
 
 
@@ -147,6 +170,7 @@ def _read_episode(handle: h5py.File, i: int, n_factors: int, path: Path) -> Epis
         seed=int(group.attrs.get("seed", -1)),
         segment_starts=group["ground_truth/segment_starts"][()],
         factors=group["ground_truth/factors"][()],
+        success=bool(group.attrs["success"]) if "success" in group.attrs else None,
     )
     steps = episode.actions.shape[0] if episode.actions.ndim == 2 else -1
     check(steps >= 1, path, f"{name}: actions must be a non-empty (T, action_dim) array, got {episode.actions.shape}")

@@ -20,13 +20,14 @@ What maps to what, per episode:
 Where an export keeps what only famarl knows, so that importing it gives back the same demos (all but provenance):
 
 - **per dataset**: ``metadata.json`` (``dataset.storage.metadata["famarl"]``) holds ``{"schema": "famarl.demos",
-  "schema_version", "env_id", "env_kwargs", "script", "seed", "factor_names", "attempts", "provenance"}``. Minari
-  keeps keys it does not know, and this one is written once, not per step.
+  "schema_version", "env_id", "env_kwargs", "script", "seed", "factor_names", "attempts", "success_rule",
+  "provenance"}``. Minari keeps keys it does not know, and this one is written once, not per step.
 - **per episode**: the episode's own metadata, beside Minari's ``seed``: the HDF5 attributes
-  ``famarl/segment_starts`` (K,) int64 and ``famarl/factors`` (K, F) float64, which
-  ``dataset.storage.get_episode_metadata`` returns nested as ``{"famarl": {"segment_starts", "factors"}}`` (as it
-  does Minari's own ``options/...``). The ground truth is per phase, not per step, so per-step ``infos`` (T+1 rows
-  by Minari's convention) would only repeat it; attributes keep it exactly as famarl has it.
+  ``famarl/segment_starts`` (K,) int64, ``famarl/factors`` (K, F) float64 and ``famarl/success`` (absent where
+  success is not defined), which ``dataset.storage.get_episode_metadata`` returns nested as ``{"famarl":
+  {"segment_starts", "factors", "success"}}`` (as it does Minari's own ``options/...``). The ground truth is per
+  phase, not per step, so per-step ``infos`` (T+1 rows by Minari's convention) would only repeat it; attributes
+  keep it exactly as famarl has it.
 
 The dataset's ``env_spec`` is recorded when gymnasium can make the env, so ``dataset.recover_environment()`` works.
 """
@@ -46,21 +47,32 @@ import numpy as np
 
 from famarl_cli.artifacts.base import TEMP_MARKER, provenance
 from famarl_cli.artifacts.demos import SCHEMA, SCHEMA_VERSION, Demos, Episode, content_fault
+from famarl_cli.envs.success import SuccessRule, as_bool, success_rule
 from famarl_cli.errors import ArtifactError, FamarlError, UsageError
 
 FAMARL_KEY = "famarl"
 """The key of famarl's facts in a dataset's metadata, and the prefix of its episode attributes."""
 
+NAME_MAX = 255
+"""The longest file name (bytes) of the usual file systems (ext4, APFS, NTFS)."""
+TEMP_NAME_EXTRA = 40
+"""What an export's temporary folder adds to the dataset's folder name (a dot, a marker, a pid, random hex)."""
+
 _FLATTENED = (gym.spaces.Dict, gym.spaces.Tuple, gym.spaces.Discrete, gym.spaces.MultiDiscrete, gym.spaces.MultiBinary)
 """Observation spaces read through ``gymnasium.spaces.flatten``; a Box is only reshaped."""
 
 # What Minari's loading raises on malformed datasets: its own checks are asserts and ValueErrors, h5py's OSErrors.
-_UNREADABLE = (ValueError, KeyError, OSError, AssertionError, NotImplementedError)
+# A metadata.json of the wrong shape (a list where a dict belongs) fails inside Minari as TypeError or AttributeError.
+_UNREADABLE = (ValueError, KeyError, OSError, AssertionError, NotImplementedError, TypeError, AttributeError)
 
 
-def import_minari(dataset: str) -> Demos:
+def import_minari(dataset: str, success_return: float | None = None) -> Demos:
     """The demos in a Minari dataset: ``dataset`` is a folder (the dataset's, or its ``data/``) or, when no such
-    folder exists, a dataset id in Minari's local storage (``MINARI_DATASETS_PATH``, else ``~/.minari/datasets``)."""
+    folder exists, a dataset id in Minari's local storage (``MINARI_DATASETS_PATH``, else ``~/.minari/datasets``).
+
+    An episode's success is what a famarl export recorded; otherwise it is judged on its return by
+    :mod:`famarl_cli.envs.success` (Minari keeps no per-step infos to read a reported success from): the user's
+    ``success_return``, else the ``reward_threshold`` of the dataset's env, else not defined."""
     minari = _minari(dataset)
     data_path = _data_path(dataset, minari)
     try:
@@ -74,15 +86,19 @@ def import_minari(dataset: str) -> Demos:
             raise ArtifactError(f"{dataset}: holds no episodes")
         facts = _famarl_facts(loaded.storage.metadata.get(FAMARL_KEY), dataset)
         n_factors = len(facts["factor_names"]) if facts is not None else None
+        spec = loaded.env_spec
+        rule = success_rule(_registered_spec(facts["env_id"]) if facts is not None else spec, success_return)
         metadatas = list(loaded.storage.get_episode_metadata(loaded.episode_indices))
         episodes = [
-            _episode(data, space, metadata, n_factors, dataset)
+            _episode(data, space, metadata, n_factors, dataset, rule)
             for data, metadata in zip(loaded.iterate_episodes(), metadatas, strict=True)
         ]
     except _UNREADABLE as exc:
         raise ArtifactError(f"{dataset}: not a readable Minari dataset ({' '.join(str(exc).split())})") from exc
     inputs = sorted(path for path in data_path.rglob("*") if path.is_file())
-    made = provenance("famarl demos", {"from_minari": dataset}, None, inputs)
+    params = {"from_minari": dataset, **({} if success_return is None else {"success_return": success_return})}
+    made = provenance("famarl demos", params, None, inputs)
+    described = rule.describe({})
     if facts is not None:
         return Demos(
             episodes=episodes,
@@ -93,8 +109,8 @@ def import_minari(dataset: str) -> Demos:
             env_kwargs=facts["env_kwargs"],
             provenance=made,
             attempts=facts.get("attempts"),
+            success_rule=facts.get("success_rule", described) if success_return is None else described,
         )
-    spec = loaded.env_spec
     return Demos(
         episodes=episodes,
         env_id=spec.id if spec is not None else loaded.id,
@@ -103,7 +119,16 @@ def import_minari(dataset: str) -> Demos:
         factor_names=(),
         env_kwargs=_json_or_empty(spec.kwargs) if spec is not None else {},
         provenance=made,
+        success_rule=described,
     )
+
+
+def _registered_spec(env_id: str) -> Any:
+    """gymnasium's spec of ``env_id``, None where it is not registered here."""
+    try:
+        return gym.spec(env_id)
+    except gym.error.Error:
+        return None
 
 
 def export_minari(demos: Demos, dataset_id: str, root: Path | None = None, *, overwrite: bool = False) -> Path:
@@ -123,6 +148,12 @@ def export_minari(demos: Demos, dataset_id: str, root: Path | None = None, *, ov
     # Minari parses the version of every id it creates, and fails on one without it.
     if match is None or match.group("version") is None:
         raise UsageError(f"Minari dataset id {dataset_id!r} must look like [namespace/]name-v<version>, e.g. demos-v0")
+    longest = max(len(part.encode()) for part in Path(dataset_id).parts)
+    if longest + TEMP_NAME_EXTRA > NAME_MAX:
+        raise UsageError(
+            f"Minari dataset id {dataset_id[:40]}...: a folder name of {longest} bytes; the file system takes "
+            f"{NAME_MAX - TEMP_NAME_EXTRA} at most here"
+        )
     if not demos.episodes:
         raise UsageError(f"no episodes to export to {dataset_id}")
     # Minari joins a relative data path onto itself: the folders it is given are absolute.
@@ -158,6 +189,7 @@ def export_minari(demos: Demos, dataset_id: str, root: Path | None = None, *, ov
             {
                 f"{FAMARL_KEY}/segment_starts": episode.segment_starts.astype(np.int64),
                 f"{FAMARL_KEY}/factors": episode.factors.astype(np.float64),
+                **({} if episode.success is None else {f"{FAMARL_KEY}/success": episode.success}),
             }
             for episode in demos.episodes
         )
@@ -185,39 +217,67 @@ def _data_path(dataset: str, minari: ModuleType) -> Path:
     from minari.dataset.minari_storage import METADATA_FILE_NAME
 
     folder = Path(dataset)
-    if folder.is_dir():
-        for candidate in (folder / "data", folder):
-            if (candidate / METADATA_FILE_NAME).is_file():
-                return candidate
-        raise ArtifactError(f"{folder}: not a Minari dataset folder (no data/{METADATA_FILE_NAME} in it)")
     root = minari.storage.get_dataset_path()
     stored = root / dataset / "data"
-    if (stored / METADATA_FILE_NAME).is_file():
-        return stored
+    try:
+        if folder.is_dir():
+            for candidate in (folder / "data", folder):
+                if (candidate / METADATA_FILE_NAME).is_file():
+                    return candidate
+            raise ArtifactError(f"{folder}: not a Minari dataset folder (no data/{METADATA_FILE_NAME} in it)")
+        if (stored / METADATA_FILE_NAME).is_file():
+            return stored
+    except OSError as exc:  # a name the file system refuses (too long)
+        raise ArtifactError(f"{dataset[:60]}: not a usable dataset folder or id ({exc.strerror or exc})") from exc
     raise ArtifactError(
         f"{dataset}: no such Minari dataset folder, nor dataset id in Minari's local storage at {root} "
         "(MINARI_DATASETS_PATH sets where that is)"
     )
 
 
+_FACT_TYPES = {
+    "schema": str,
+    "schema_version": int,
+    "env_id": str,
+    "env_kwargs": dict,
+    "script": str,
+    "seed": int,
+    "factor_names": list,
+}
+"""The dataset-level facts of a famarl export and their JSON types."""
+
+
 def _famarl_facts(facts: Any, dataset: str) -> dict | None:
     """The dataset-level facts of a famarl export, checked; None for a dataset famarl did not write."""
     if facts is None:
         return None
-    keys = ("schema", "schema_version", "env_id", "env_kwargs", "script", "seed", "factor_names")
-    missing = [key for key in keys if key not in facts] if isinstance(facts, dict) else list(keys)
+    where = f"{dataset}: its {FAMARL_KEY!r} metadata"
+    if not isinstance(facts, dict):
+        raise ArtifactError(f"{where} is a {type(facts).__name__}, not an object")
+    missing = [key for key in _FACT_TYPES if key not in facts]
     if missing:
-        raise ArtifactError(f"{dataset}: its {FAMARL_KEY!r} metadata lacks {', '.join(missing)}")
-    if facts["schema"] != SCHEMA or int(facts["schema_version"]) > SCHEMA_VERSION:
+        raise ArtifactError(f"{where} lacks {', '.join(missing)}")
+    for key, kind in _FACT_TYPES.items():
+        if not isinstance(facts[key], kind) or (kind is int and isinstance(facts[key], bool)):
+            raise ArtifactError(f"{where}: {key} must be a {kind.__name__}, got {facts[key]!r:.60}")
+    if not all(isinstance(name, str) for name in facts["factor_names"]):
+        raise ArtifactError(f"{where}: factor_names must be strings, got {facts['factor_names']!r:.60}")
+    attempts = facts.get("attempts")
+    if attempts is not None and (not isinstance(attempts, int) or isinstance(attempts, bool) or attempts < 1):
+        raise ArtifactError(f"{where}: attempts must be a positive integer, got {attempts!r:.60}")
+    if facts["schema"] != SCHEMA or facts["schema_version"] > SCHEMA_VERSION:
         raise ArtifactError(
-            f"{dataset}: its {FAMARL_KEY!r} metadata is {facts['schema']!r} version {facts['schema_version']}; this "
-            f"famarl reads {SCHEMA!r} up to version {SCHEMA_VERSION}"
+            f"{where} is {facts['schema']!r} version {facts['schema_version']}; this famarl reads {SCHEMA!r} up to "
+            f"version {SCHEMA_VERSION}"
         )
     return facts
 
 
-def _episode(data: Any, space: gym.Space, metadata: dict, n_factors: int | None, dataset: str) -> Episode:
-    """One Minari episode as a famarl Episode; ``n_factors`` is None for a dataset without famarl ground truth."""
+def _episode(
+    data: Any, space: gym.Space, metadata: dict, n_factors: int | None, dataset: str, rule: SuccessRule
+) -> Episode:
+    """One Minari episode as a famarl Episode; ``n_factors`` is None for a dataset without famarl ground truth.
+    Its success is the export's record where a famarl export has one, else ``rule``'s judgement of its return."""
     where = f"{dataset}: episode {int(data.id)}"
     steps = len(data.rewards)
     if steps == 0:
@@ -233,17 +293,23 @@ def _episode(data: Any, space: gym.Space, metadata: dict, n_factors: int | None,
         flat = [gym.spaces.flatten(space, _at(data.observations, t)) for t in range(steps + 1)]
         observations = np.stack(flat).astype(np.float32)
     starts, factors = np.zeros(1, dtype=np.int64), np.zeros((1, 0))
+    rewards = np.asarray(data.rewards, dtype=np.float64)
+    success = as_bool(rule.judge({}, float(rewards.sum())))
     if n_factors is not None:
-        starts, factors = _ground_truth(metadata.get(FAMARL_KEY), where)
+        truth = metadata.get(FAMARL_KEY)
+        starts, factors = _ground_truth(truth, where)
+        if "success" in truth and not rule.user:
+            success = bool(np.asarray(truth["success"]))
     episode = Episode(
         observations=observations,
         actions=np.asarray(data.actions, dtype=np.float32).reshape(steps, -1),
-        rewards=np.asarray(data.rewards, dtype=np.float64),
+        rewards=rewards,
         terminations=np.asarray(data.terminations, dtype=bool),
         truncations=np.asarray(data.truncations, dtype=bool),
         seed=int(metadata["seed"]) if metadata.get("seed") is not None else -1,
         segment_starts=starts,
         factors=factors,
+        success=success,
     )
     fault = content_fault(episode, n_factors or 0)
     if fault is not None:
@@ -322,6 +388,7 @@ def _dataset_metadata(demos: Demos, dataset_id: str, minari_version: str) -> dic
             "seed": demos.seed,
             "factor_names": list(demos.factor_names),
             "attempts": demos.attempts,
+            "success_rule": demos.success_rule,
             "provenance": demos.provenance,
         },
     }

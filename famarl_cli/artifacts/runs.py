@@ -109,10 +109,15 @@ def read_evaluation(path: str | os.PathLike) -> dict:
         check(key in values, path, f"has no {key!r} (written by an older famarl evaluate? run it again)")
     check(isinstance(values["sampled"], dict) and "success_rate" in values["sampled"], path, "has no sampled success")
     for key in ("success_rate", "return_mean", "macro_length"):
-        check(
-            np.isfinite(values[key]) and np.isfinite(values["sampled"].get(key, 0.0)), path, f"has a non-finite {key!r}"
-        )
+        for value in (values[key], values["sampled"].get(key, 0.0)):
+            if value is None and key == "success_rate":
+                continue  # an env without a meaning of success (famarl_cli.envs.success)
+            check(_finite(value), path, f"has a non-finite {key!r}")
     return values
+
+
+def _finite(value: object) -> bool:
+    return isinstance(value, int | float) and bool(np.isfinite(value))
 
 
 def _read_json(path: Path, missing: str) -> object:

@@ -54,14 +54,27 @@ EnvKwargs = Annotated[
 ]
 """``--env-kwargs``, the same on every command that makes a gymnasium env (parsed by
 :func:`famarl_cli.envs.external.parse_env_kwargs`)."""
+SuccessReturn = Annotated[
+    float | None,
+    typer.Option(
+        help="An episode succeeds when its return reaches this, whatever the env reports.  [default: the env's own "
+        "success report, else its gymnasium reward_threshold, else success is not defined]"
+    ),
+]
+"""``--success-return``, the same on every command that judges episodes (:mod:`famarl_cli.envs.success`)."""
 ObsDims = Annotated[
     str, typer.Option(help="The two dimensions of the flattened observation a traversal draws in a gymnasium env.")
 ]
 """``--obs-dims`` (parsed by :func:`famarl_cli.traversal.parse_dims`)."""
 
 
+INTERRUPTED = 130
+"""The exit code of a command stopped with Ctrl-C (128 + SIGINT, as shells report it)."""
+
+
 def reports_errors(command):
-    """Print a FamarlError as ``error: <message>`` and exit with its code, unless ``--debug`` is on."""
+    """Print a FamarlError as ``error: <message>`` and exit with its code, and Ctrl-C as one line and exit 130,
+    unless ``--debug`` is on."""
 
     @functools.wraps(command)
     def wrapper(*args, **kwargs):
@@ -72,6 +85,13 @@ def reports_errors(command):
                 raise
             typer.echo(f"error: {exc}", err=True)
             raise typer.Exit(exc.exit_code) from None
+        except KeyboardInterrupt:
+            if _debug:
+                raise
+            # Every artifact is written to a temporary name and renamed when complete: an interrupted stage
+            # leaves its previous output as it was.
+            typer.echo("error: interrupted; no output of this command was completed or changed", err=True)
+            raise typer.Exit(INTERRUPTED) from None
 
     return wrapper
 

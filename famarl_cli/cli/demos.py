@@ -11,7 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.artifacts import Demos
-from famarl_cli.cli import EnvKwargs, JobRecipe, app, progress_bar, reports_errors, sweepable
+from famarl_cli.cli import EnvKwargs, JobRecipe, SuccessReturn, app, progress_bar, reports_errors, sweepable
 from famarl_cli.errors import UsageError
 from famarl_cli.experts.scripts import Environment, Script
 
@@ -67,6 +67,7 @@ def demos(
         typer.Option(help="Output HDF5 file.  [default: data/demos/<script, env or dataset name>.h5]", dir_okay=False),
     ] = None,
     plot: Annotated[bool, typer.Option(help="Also draw the trajectories to <out>.png.")] = True,
+    success_return: SuccessReturn = None,
 ) -> None:
     """Record expert demos (with their true phase boundaries and factors, where the expert knows them) to an HDF5
     file: famarl's scripted experts, your expert in any gymnasium env, or a Minari dataset imported."""
@@ -80,18 +81,20 @@ def demos(
         raise UsageError(f"give one source of demos, not {' and '.join(sources)}")
     if (min_return is not None or max_attempts is not None or env_kwargs) and expert is None:
         raise UsageError("--min-return, --max-attempts and --env-kwargs go with --expert")
+    if success_return is not None and expert is None and from_minari is None:
+        raise UsageError("--success-return goes with --expert or --from-minari: famarl's scripts report success")
     if from_minari is not None:
         from famarl_cli.artifacts.minari_datasets import import_minari
 
         if env is not None:
             raise UsageError("--env does not go with --from-minari: the dataset names its env")
-        recorded = import_minari(from_minari)
+        recorded = import_minari(from_minari, success_return)
         name = Path(from_minari.rstrip("/")).name
     else:
         with progress_bar() as progress:
             if expert is not None:
                 recorded, name = _record_expert(
-                    progress, env, env_kwargs, expert, episodes, seed, min_return, max_attempts
+                    progress, env, env_kwargs, expert, episodes, seed, min_return, max_attempts, success_return
                 )
             else:
                 script = script or Script.PUSHED_DOWN_ONLY
@@ -120,23 +123,33 @@ def demos(
     Console().print(table)
 
 
-def _record_expert(progress, env, env_kwargs, expert, episodes, seed, min_return, max_attempts):
+def _record_expert(progress, env, env_kwargs, expert, episodes, seed, min_return, max_attempts, success_return):
     from famarl_cli.demos import record_expert_demos
     from famarl_cli.envs.external import parse_env_kwargs
 
     if env is None:
         raise UsageError("--expert needs --env, the gymnasium id it acts in")
+    kwargs = parse_env_kwargs(env_kwargs)
     attempts = max_attempts or (50 * episodes if min_return is not None else episodes)
-    task = progress.add_task(f"demos {expert} in {env}", total=episodes)
+    description = f"demos {expert} in {env}"
+    task = progress.add_task(f"{description} (making the env)", total=episodes)
     tried = progress.add_task("  attempts", total=attempts, visible=min_return is not None)
+    # An episode of a user's env may run for millions of steps (max_episode_steps is theirs): show them.
+    steps = progress.add_task("  steps of this episode", total=None, visible=False)
+
+    def step(done: int) -> None:
+        progress.update(task, description=description)
+        progress.update(steps, completed=done, visible=True)
 
     def advance(kept) -> None:
+        progress.update(task, description=description)
+        progress.update(steps, completed=0, visible=False)
         progress.advance(tried)
         if kept is not None:
             progress.advance(task)
 
     recorded = record_expert_demos(
-        env, expert, episodes, seed, parse_env_kwargs(env_kwargs), min_return, attempts, on_episode=advance
+        env, expert, episodes, seed, kwargs, min_return, attempts, advance, success_return, on_step=step
     )
     return recorded, env.split("/")[-1].split(":")[-1].lower()
 
@@ -149,7 +162,14 @@ _ONE_SOURCE = "a sweep records famarl's scripts; record other demos with famarl 
     owned=("--out",),
     refused={
         option: _ONE_SOURCE
-        for option in ("--expert", "--from-minari", "--env-kwargs", "--min-return", "--max-attempts")
+        for option in (
+            "--expert",
+            "--from-minari",
+            "--env-kwargs",
+            "--min-return",
+            "--max-attempts",
+            "--success-return",
+        )
     },
 )
 def demos_job(params: dict) -> JobRecipe:
@@ -163,6 +183,8 @@ def demos_job(params: dict) -> JobRecipe:
 
 
 def demos_table(demos: Demos, title: str) -> Table:
+    from famarl_cli.envs.success import shown
+
     lengths = [e.length for e in demos.episodes]
     table = Table(title=title, show_header=False)
     table.add_row("script", demos.script)
@@ -171,7 +193,8 @@ def demos_table(demos: Demos, title: str) -> Table:
     if demos.keep_rate < 1:
         table.add_row("kept", f"{len(demos.episodes)} of {demos.attempts} attempts ({demos.keep_rate:.1%})")
     table.add_row("steps", str(demos.total_steps))
-    table.add_row("success rate", f"{demos.success_rate:.1%}")
+    table.add_row("success rate", shown(demos.success_rate, digits=1))
+    table.add_row("success", demos.success_rule)
     table.add_row("episode length", f"{np.mean(lengths):.1f} mean, {min(lengths)}-{max(lengths)}")
     table.add_row("phases per episode", f"{np.mean([len(e.segment_starts) for e in demos.episodes]):.2f}")
     return table

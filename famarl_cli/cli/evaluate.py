@@ -9,7 +9,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import app, progress_bar, reports_errors, torch_on_one_thread
+from famarl_cli.cli import SuccessReturn, app, progress_bar, reports_errors, torch_on_one_thread
 from famarl_cli.cli.train import DEFAULT_ENV, DEFAULT_FAVAE, default_run_dir
 from famarl_cli.errors import FamarlError
 from famarl_cli.rl import Agent
@@ -60,6 +60,7 @@ def evaluate(
             file_okay=False,
         ),
     ] = None,
+    success_return: SuccessReturn = None,
 ) -> None:
     """Success rate, return, episode length, decisions and macro length of each run; pictures and a GIF of
     rollouts. Each run is evaluated twice on the same episodes: acting with the policy's mode (deterministic) and
@@ -77,6 +78,7 @@ def evaluate(
         read_run_file,
         read_training_log,
     )
+    from famarl_cli.envs.success import shown
     from famarl_cli.plots import plot_learning_curves
     from famarl_cli.rl.evaluation import summarise
     from famarl_cli.sweep.executors import make_executor
@@ -95,7 +97,14 @@ def evaluate(
         task = progress.add_task("evaluate", total=len(run))
         futures = [
             executor.submit(
-                "famarl_cli.stages:evaluate_run", str(folder), str(results[folder]), episodes, seed, rollouts, film
+                "famarl_cli.stages:evaluate_run",
+                str(folder),
+                str(results[folder]),
+                episodes,
+                seed,
+                rollouts,
+                film,
+                success_return,
             )
             for folder in run
         ]
@@ -115,7 +124,7 @@ def evaluate(
         table.add_row(
             folder.name,
             f"{evaluation['env_steps']:,}",
-            f"{m['success_rate']:.0%} ({ms['success_rate']:.0%})",
+            f"{shown(m['success_rate'])} ({shown(ms['success_rate'])})",
             f"{m['return_mean']:.1f} ({ms['return_mean']:.1f})",
             f"{m['episode_length']:.0f}",
             f"{m['decisions']:.1f}",
@@ -126,6 +135,8 @@ def evaluate(
     write_json(curves.with_suffix(".json"), {"episodes": episodes, "seed": seed, "labels": summary})
     console = Console()
     console.print(table)
+    for rule in sorted({str(e.get("success_rule")) for e in evaluations}):
+        console.print(f"success: {rule}")
     by_label = Table(title="per label: mean (min to max) over runs")
     for column in ("label", "runs", "success", "return", "decisions", "macro length", "train wall s"):
         by_label.add_column(column, justify="left" if column == "label" else "right")
@@ -150,6 +161,8 @@ def evaluate(
 
 
 def _spread(values: dict, fmt: str) -> str:
+    if values["mean"] is None:
+        return "n/a"
     text = fmt.format(values["mean"])
     return (
         text

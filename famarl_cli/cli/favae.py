@@ -29,7 +29,11 @@ favae_app = typer.Typer(
 app.add_typer(favae_app, name="favae")
 
 SegmentsOption = Annotated[Path, typer.Option(help="Segments HDF5 file (from famarl segment).")]
-LaddersOption = Annotated[int, typer.Option(min=1, help="Number of ladders (latent groups, shallow to deep).")]
+MAX_LADDERS = 8
+"""The most ladders a FAVAE may have: each halves the sequence length, so 8 already needs 256-step segments."""
+LaddersOption = Annotated[
+    int, typer.Option(min=1, max=MAX_LADDERS, help="Number of ladders (latent groups, shallow to deep).")
+]
 LatentDimOption = Annotated[int, typer.Option(min=1, help="Latent variables per ladder.")]
 EpochsOption = Annotated[int, typer.Option(min=1, help="Training epochs (of each phase).")]
 SeedOption = Annotated[int, typer.Option(help="Seed of the initialisation, batches and sampling.")]
@@ -200,9 +204,13 @@ def favae_fit(
     table.add_row(
         "length", f"{scores['length_accuracy']:.1%} exact, mean error {scores['length_mean_abs_error']:.2f} steps"
     )
-    low, high = scores["mig_interval"]
-    table.add_row(
-        "MIG", f"{scores['mig']:.3f} [{low:.3f}, {high:.3f}] (95% bootstrap over segments; {scores['mig_bins']} bins)"
-    )
+    if scores["mig"] is None:
+        table.add_row("MIG", scores["mig_note"])
+    else:
+        low, high = scores["mig_interval"]
+        table.add_row(
+            "MIG",
+            f"{scores['mig']:.3f} [{low:.3f}, {high:.3f}] (95% bootstrap over segments; {scores['mig_bins']} bins)",
+        )
     table.add_row("written", ", ".join(map(str, fitted.written)))
     Console().print(table)

@@ -19,7 +19,7 @@ from famarl_cli.cli import (
     sweepable,
     torch_on_one_thread,
 )
-from famarl_cli.cli.favae import CalibrationBetaOption, DecoderOption, MeasureOption, ProgressiveOption
+from famarl_cli.cli.favae import MAX_LADDERS, CalibrationBetaOption, DecoderOption, MeasureOption, ProgressiveOption
 from famarl_cli.favae import CALIBRATION_BETA, DECODER, MEASURE, PROGRESSIVE, Capacity, Head
 
 
@@ -47,7 +47,7 @@ def macros(
     segment_epochs: Annotated[int, typer.Option(min=1, help="Training epochs of the segmenter.")] = 300,
     beta: Annotated[float, typer.Option(min=0.0, help="FAVAE's weight of the capacity term.")] = 50.0,
     epochs: Annotated[int, typer.Option(min=1, help="Epochs of the pre-run and of the fit.")] = 1500,
-    ladders: Annotated[int, typer.Option(min=1, help="FAVAE ladders.")] = 3,
+    ladders: Annotated[int, typer.Option(min=1, max=MAX_LADDERS, help="FAVAE ladders.")] = 3,
     latent_dim: Annotated[int, typer.Option(min=1, help="Latent variables per ladder.")] = 2,
     head: Annotated[Head, typer.Option(help="FAVAE heads (famarl favae fit --head).")] = Head.FLATTEN,
     capacity: Annotated[
@@ -99,7 +99,7 @@ def macros(
     table.add_row("KL per ladder", ", ".join(f"{k:.3f}" for k in metrics["kl_per_ladder"]))
     table.add_row("information per ladder", ", ".join(f"{k:.3f}" for k in metrics["information_per_ladder"]))
     table.add_row("length accuracy", f"{metrics['length_accuracy']:.1%}")
-    table.add_row("MIG", f"{metrics['mig']:.3f}")
+    table.add_row("MIG", metrics["mig_note"] if metrics["mig"] is None else f"{metrics['mig']:.3f}")
     table.add_row("written", str(out))
     Console().print(table)
 

@@ -88,8 +88,12 @@ def segment(
         )
     segments, metrics = result.segments, result.metrics
     table = segments_table(segments, f"segments of {demos}")
+    if metrics["boundaries_exact"] is None:
+        table.add_row("boundary F1", "not measured (the demos have no ground-truth phases)")
     for key in ("boundaries_exact", f"boundaries_within_{tolerance}"):
         score = metrics[key]
+        if score is None:
+            continue
         table.add_row(
             f"boundary F1 (±{score['tolerance']})",
             f"{score['f1']:.3f}  (precision {score['precision']:.3f}, recall {score['recall']:.3f}; "

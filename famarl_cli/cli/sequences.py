@@ -9,6 +9,7 @@ import typer
 from rich.console import Console
 
 from famarl_cli.cli import app, reports_errors
+from famarl_cli.cli.favae import MAX_LADDERS
 
 
 @app.command()
@@ -23,7 +24,8 @@ def sequences(
         int | None, typer.Option(min=1, help="Steps to pad to.  [default: T rounded up to a multiple of 2 ** ladders]")
     ] = None,
     ladders: Annotated[
-        int, typer.Option(min=1, help="Ladders of the FAVAE to be fitted (L must divide by 2 ** it).")
+        int,
+        typer.Option(min=1, max=MAX_LADDERS, help="Ladders of the FAVAE to be fitted (L must divide by 2 ** it)."),
     ] = 3,
     standardize: Annotated[
         bool, typer.Option(help="Scale each dimension to mean 0, std 1 (FAVAE's loss assumes unit-scale values).")

@@ -10,7 +10,16 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import EnvKwargs, JobRecipe, app, progress_bar, reports_errors, sweepable, torch_on_one_thread
+from famarl_cli.cli import (
+    EnvKwargs,
+    JobRecipe,
+    SuccessReturn,
+    app,
+    progress_bar,
+    reports_errors,
+    sweepable,
+    torch_on_one_thread,
+)
 from famarl_cli.errors import UsageError
 from famarl_cli.rl import HYBRID_ENTROPY_FLOOR, HYBRID_HORIZON, HYBRID_RESIDUAL, Agent, MacroDiscount, agent_defaults
 
@@ -138,6 +147,7 @@ def train(
             file_okay=False,
         ),
     ] = None,
+    success_return: SuccessReturn = None,
 ) -> None:
     """Train an agent with PPO; writes run.json, checkpoint.pt and train.csv into the run folder."""
     options = dict(locals())
@@ -213,6 +223,7 @@ def run_spec(options: dict):
         max_repeat=o["max_repeat"],
         favae=str(o["favae"]) if agent.decodes_macros else None,
         label=o["label"] or default_label(agent, o["favae"]),
+        success_return=o.get("success_return"),
     )
 
 
@@ -234,6 +245,7 @@ def train_job(params: dict) -> JobRecipe:
 
 def _train(run, out: Path, checkpoint_every: int, board=None) -> None:
     from famarl_cli.artifacts.runs import CHECKPOINT_FILE, LOG_FILE, RUN_FILE
+    from famarl_cli.envs.success import shown
 
     trainer = run.trainer
     with progress_bar() as progress:
@@ -244,7 +256,7 @@ def _train(run, out: Path, checkpoint_every: int, board=None) -> None:
                 task,
                 completed=min(row["env_steps"], trainer.config.total_steps),
                 description=f"{run.spec.label}: return {row['episode_return']:.1f} "
-                f"success {row['episode_success']:.0%}",
+                f"success {shown(row['episode_success'])}",
             )
             if board is not None:
                 board(row)
@@ -258,9 +270,10 @@ def _train(run, out: Path, checkpoint_every: int, board=None) -> None:
     )
     table.add_row(
         "last 100 episodes",
-        f"success {summary['episode_success']:.0%}, return {summary['episode_return']:.1f}, "
+        f"success {shown(summary['episode_success'])}, return {summary['episode_return']:.1f}, "
         f"length {summary['episode_length']:.0f}",
     )
+    table.add_row("success", str(trainer.env.success_rule or "no episode has ended"))
     table.add_row("wall time", f"{run.wall_s:.0f} s")
     table.add_row("written", ", ".join(str(out / name) for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE)))
     Console().print(table)

@@ -4,7 +4,8 @@ It runs :func:`~famarl_cli.envs.continuous_world.physics_step` on all worlds in 
 are those of :class:`~famarl_cli.envs.continuous_world.ContinuousWorldEnv` (a test checks it). Finished
 worlds reset in the same step (gymnasium's SAME_STEP autoreset): the returned observation is the new
 episode's first one and the last observation of the finished episode is in ``info["final_obs"]``, which is
-what a learner needs to bootstrap the value of a time-limit truncation.
+what a learner needs to bootstrap the value of a time-limit truncation; ``info["success"]`` says which ended
+episodes reached the goal.
 
 ``step(actions, active)`` moves only the worlds selected by ``active`` (the others keep their state and get
 reward 0): that is how macro actions of different lengths run side by side (:mod:`famarl_cli.rl.executor`).
@@ -31,7 +32,10 @@ from famarl_cli.envs.continuous_world import (
 
 
 class ContinuousWorldBatch:
-    """``n_envs`` ContinuousWorld episodes stepped together; actions are (n_envs, 2) arrays."""
+    """``n_envs`` ContinuousWorld episodes stepped together; actions are (n_envs, 2) arrays. An episode succeeds
+    when it terminates: only reaching the goal does."""
+
+    success_rule = "reaching the goal (famarl's ContinuousWorld reports it)"
 
     def __init__(
         self,
@@ -89,6 +93,7 @@ class ContinuousWorldBatch:
         done = terminated | truncated
         if done.any():
             info["final_obs"] = obs.copy()
+            info["success"] = terminated.astype(np.float64)
             fresh = sample_layouts(self.rng, int(done.sum()), self.task, self.goal_rows)
             self.layouts = self.layouts.assign(done, fresh)
             self.pos[done] = fresh.start

@@ -246,7 +246,8 @@ class ContinuousWorldEnv(gym.Env):
         self._pos, self._vel = physics_step(self._pos, self._vel, action, self.layout)
         dist = distance_to_goal(self._pos, self.layout)[0]
         obs = observe(self._pos, self._vel, self.layout, self.task.entrances_observed)[0]
-        return obs, -float(dist), bool(dist < GOAL_RADIUS), False, self._info()
+        reached = bool(dist < GOAL_RADIUS)
+        return obs, -float(dist), reached, False, {**self._info(), "success": reached}
 
     def _info(self) -> dict:
         return {"position": self._pos[0].copy(), "map_size": float(self.layout.size[0])}

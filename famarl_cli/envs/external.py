@@ -5,9 +5,9 @@
   gymnasium's ``module:Id`` form for any package that registers its ids on import.
 - **Errors.** An unknown id, keyword arguments the env does not take, a dependency that is not installed (named
   with the famarl extra that installs it) and an action space that is not a Box are one-line errors.
-- **Success.** Where an env reports it (``info["success"]``, gymnasium-robotics' and RobotHand's), success is what
-  it says; otherwise it is termination, except BipedalWalker, whose termination is a fall as often as the far end:
-  its success is reaching the end (:class:`ReportsBipedalSuccess`).
+- **Success** follows :mod:`famarl_cli.envs.success`: the env's report where it gives one (gymnasium-robotics',
+  famarl's), else its ``reward_threshold``, never termination. BipedalWalker's termination is a fall as often as
+  the far end: it reports reaching the end (:class:`ReportsBipedalSuccess`).
 - **Observations** of any space with a flat form are flattened by :class:`~famarl_cli.rl.vector.GymBatch` with
   ``gymnasium.spaces.flatten``: a Dict's entries in the space's key order, which gymnasium sorts (PointMaze:
   achieved_goal (2), desired_goal (2), observation (4)).
@@ -22,7 +22,7 @@ import warnings
 
 import gymnasium as gym
 
-from famarl_cli.errors import FamarlError, UsageError
+from famarl_cli.errors import FamarlError, ForeignError, UsageError, foreign
 
 EXTRAS = {
     "box2d": "Box2D (BipedalWalker, LunarLander, CarRacing)",
@@ -50,26 +50,22 @@ def _register_robotics() -> None:
 
 
 def make_env(env_id: str, env_kwargs: dict | None = None, **make_kwargs) -> gym.Env:
-    """``gymnasium.make(env_id, **env_kwargs, **make_kwargs)`` with famarl's errors and success report."""
+    """``gymnasium.make(env_id, **env_kwargs, **make_kwargs)`` with famarl's errors and success report. The env's
+    own constructor may fail in any way (an assertion on a keyword's range): that is one line naming the env."""
     kwargs = {**(env_kwargs or {}), **make_kwargs}
+    module, _, name = env_id.rpartition(":")
+    if ":" in env_id and (not module or not name):
+        raise UsageError(f"environment {env_id!r}: the module:Id form needs both a module and an id")
+    steps = kwargs.get("max_episode_steps")
+    if steps is not None and (isinstance(steps, bool) or not isinstance(steps, int) or steps < 1):
+        raise UsageError(f"{env_id}: max_episode_steps must be a positive integer, got {steps!r}")
     if ":" not in env_id and env_id not in gym.registry:
         _register_robotics()
     try:
-        env = gym.make(env_id, **kwargs)
-    except gym.error.DependencyNotInstalled as exc:
-        text = str(exc).lower()
-        extra = "mujoco" if "mujoco" in text else "box2d" if ("box2d" in text or "pygame" in text) else None
-        if extra is None:
-            raise FamarlError(f"{env_id}: a dependency is missing: {exc}") from exc
-        raise MissingExtra(extra, env_id) from exc
-    except gym.error.Error as exc:
-        if importlib.util.find_spec("gymnasium_robotics") is None and "Maze" in env_id:
-            raise MissingExtra("mujoco", env_id) from exc
-        raise UsageError(f"unknown environment {env_id!r}: {str(exc).splitlines()[0]}") from exc
-    except TypeError as exc:
-        raise UsageError(f"{env_id} does not take the keyword arguments {kwargs}: {exc}") from exc
-    except ModuleNotFoundError as exc:
-        raise UsageError(f"{env_id}: cannot import {exc.name!r}") from exc
+        with foreign(f"env {env_id}"):
+            env = gym.make(env_id, **kwargs)
+    except ForeignError as exc:
+        raise _make_error(env_id, kwargs, exc.__cause__) or exc from exc.__cause__
     if not isinstance(env.action_space, gym.spaces.Box):
         env.close()
         raise UsageError(f"{env_id}: famarl needs a Box (continuous) action space, not {env.action_space}")
@@ -78,12 +74,24 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **make_kwargs) -> gym.
     return env
 
 
-def episode_success(info: dict, terminated: bool) -> bool:
-    """Whether a finished step succeeded: the env's own report where it gives one, else termination."""
-    for key in ("success", "is_success"):
-        if key in info:
-            return bool(info[key])
-    return bool(terminated)
+def _make_error(env_id: str, kwargs: dict, exc: BaseException) -> FamarlError | None:
+    """The error a failed ``gymnasium.make`` is known to mean (a missing extra, an unknown id, keyword arguments
+    the env does not take); None for any other failure of the env's own code."""
+    if isinstance(exc, gym.error.DependencyNotInstalled):
+        text = str(exc).lower()
+        extra = "mujoco" if "mujoco" in text else "box2d" if ("box2d" in text or "pygame" in text) else None
+        if extra is None:
+            return FamarlError(f"{env_id}: a dependency is missing: {exc}")
+        return MissingExtra(extra, env_id)
+    if isinstance(exc, gym.error.Error):
+        if importlib.util.find_spec("gymnasium_robotics") is None and "Maze" in env_id:
+            return MissingExtra("mujoco", env_id)
+        return UsageError(f"unknown environment {env_id!r}: {str(exc).splitlines()[0]}")
+    if isinstance(exc, TypeError) and "argument" in str(exc):
+        return UsageError(f"{env_id} does not take the keyword arguments {kwargs}: {exc}")
+    if isinstance(exc, ModuleNotFoundError):
+        return UsageError(f"{env_id}: cannot import {exc.name!r}")
+    return None
 
 
 BIPEDAL_FALL_REWARD = -100.0
@@ -107,6 +115,8 @@ def parse_env_kwargs(text: str | None) -> dict:
         return {}
     try:
         kwargs = json.loads(text)
+    except RecursionError as exc:
+        raise UsageError("--env-kwargs is nested too deeply to be keyword arguments") from exc
     except json.JSONDecodeError as exc:
         raise UsageError(f"--env-kwargs must be a JSON object like '{{\"continuing_task\": false}}': {exc}") from exc
     if not isinstance(kwargs, dict):

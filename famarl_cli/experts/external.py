@@ -23,7 +23,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from famarl_cli.errors import UsageError
+from famarl_cli.errors import UsageError, foreign, one_line
 
 
 def resolve(path: str) -> Any:
@@ -46,6 +46,32 @@ def resolve(path: str) -> Any:
     return target
 
 
+def _construct(path: str, target: type, env: gym.Env) -> Any:
+    """``target(env)`` when its constructor takes an argument, else ``target()``; one line when it needs more than
+    famarl can give, or fails."""
+    try:
+        parameters = list(inspect.signature(target).parameters.values())
+    except (TypeError, ValueError):  # a builtin or extension type without a signature
+        parameters = []
+    required = [
+        p.name
+        for p in parameters
+        if p.default is p.empty and p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
+    ]
+    if len(required) > 1 or any(p.kind == p.KEYWORD_ONLY and p.name in required for p in parameters):
+        raise UsageError(
+            f"expert {path}: {target.__name__}({', '.join(required)}) needs arguments famarl cannot give; famarl "
+            f"makes it as {target.__name__}(env) or {target.__name__}()"
+        )
+    with foreign(f"expert {path}: {target.__name__}()"):
+        return target(env) if parameters else target()
+
+
+def _shown(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 class ExternalExpert:
     """Any expert of the module docstring, behind famarl's expert protocol (reset, act, phase_starts,
     phase_factors, factor_names), with its actions checked against the env's action space."""
@@ -54,32 +80,51 @@ class ExternalExpert:
         self.path, self.shape = path, env.action_space.shape
         target = resolve(path)
         if inspect.isclass(target):
-            takes_env = len(inspect.signature(target).parameters) > 0
-            self.policy = target(env) if takes_env else target()
+            self.policy = _construct(path, target, env)
             if not callable(getattr(self.policy, "act", None)):
                 raise UsageError(f"expert {path}: {target.__name__} has no act(observation) method")
             self.act_fn = self.policy.act
         else:
             self.policy, self.act_fn = None, target
         self.own_phases = hasattr(self.policy, "factor_names")
-        self.factor_names: tuple[str, ...] = tuple(getattr(self.policy, "factor_names", ())) if self.own_phases else ()
+        names = getattr(self.policy, "factor_names", ()) if self.own_phases else ()
+        if not isinstance(names, list | tuple | np.ndarray) or not all(isinstance(name, str) for name in names):
+            raise UsageError(f"expert {path}: factor_names must be a sequence of strings, got {_shown(names)}")
+        self.factor_names: tuple[str, ...] = tuple(names)
 
     def reset(self, observation) -> None:
         if callable(getattr(self.policy, "reset", None)):
-            self.policy.reset(observation)
+            with foreign(f"expert {self.path}: reset"):
+                self.policy.reset(observation)
         self.step, self.label, self.starts = 0, object(), []
 
     def act(self, observation) -> np.ndarray:
-        out = self.act_fn(observation)
+        with foreign(f"expert {self.path}"):
+            out = self.act_fn(observation)
         action, label = out if isinstance(out, tuple) and len(out) == 2 else (out, None)
-        action = np.asarray(action, dtype=np.float32)
+        try:
+            values = np.asarray(action)
+        except ValueError as exc:  # ragged nested sequences
+            raise UsageError(f"expert {self.path} returned {_shown(action)}, not an array of numbers") from exc
+        if values.dtype.kind not in "biuf":
+            raise UsageError(
+                f"expert {self.path} returned {_shown(action)} ({values.dtype}), not real numbers; return a float array"
+            )
+        action = values.astype(np.float32)
         if action.shape != self.shape:
             raise UsageError(
                 f"expert {self.path} returned an action of shape {action.shape}; the env takes {self.shape}"
             )
         if not np.isfinite(action).all():
             raise UsageError(f"expert {self.path} returned a non-finite action {action}")
-        if self.step == 0 or (label is not None and label != self.label):
+        try:
+            changed = self.step == 0 or (label is not None and bool(label != self.label))
+        except (ValueError, TypeError) as exc:  # an array label: its comparison is elementwise
+            raise UsageError(
+                f"expert {self.path} returned the phase label {_shown(label)}; a label must be one value (a number "
+                "or a string), compared with ==",
+            ) from exc
+        if changed:
             self.starts.append(self.step)
         self.label, self.step = label, self.step + 1
         return action
@@ -90,6 +135,12 @@ class ExternalExpert:
 
     @property
     def phase_factors(self) -> np.ndarray:
-        if self.own_phases:
-            return np.asarray(self.policy.phase_factors, dtype=np.float64).reshape(len(self.phase_starts), -1)
-        return np.zeros((len(self.starts), 0))
+        if not self.own_phases:
+            return np.zeros((len(self.starts), 0))
+        try:
+            factors = np.asarray(self.policy.phase_factors, dtype=np.float64).reshape(len(self.phase_starts), -1)
+        except (TypeError, ValueError) as exc:
+            raise UsageError(
+                f"expert {self.path}: its phase_factors must be numbers, one row per phase start ({one_line(exc)})"
+            ) from exc
+        return factors

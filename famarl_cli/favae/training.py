@@ -192,6 +192,7 @@ def evaluate_fit(model: Favae, padded: np.ndarray, lengths: np.ndarray, factors:
         "mig_per_factor_interval": score["per_factor_interval"],
         "mig_bins": score["bins"],
         "mig_segments_for_half_width": score["samples_for_half_width"],
+        **({"mig_note": score["note"]} if "note" in score else {}),
     }
 
 

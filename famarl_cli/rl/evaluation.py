@@ -14,6 +14,7 @@ import numpy as np
 from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.envs.continuous_world import Layouts
 from famarl_cli.envs.external import make_env
+from famarl_cli.envs.success import as_bool
 from famarl_cli.rl.executor import run_open_loop
 from famarl_cli.rl.normalization import ObservationNormalizer
 from famarl_cli.rl.training import TrainedAgent, build_mode
@@ -55,15 +56,26 @@ class FrozenActor:
         return self.mode.to_open_loop(action.u.astype(np.float64), action.index)
 
 
-def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4, sample: bool = False) -> Evaluation:
+def evaluate(
+    agent: TrainedAgent,
+    episodes: int,
+    seed: int,
+    n_traces: int = 4,
+    sample: bool = False,
+    success_return: float | None = None,
+) -> Evaluation:
     """``episodes`` episodes (one per world, layouts from ``seed``) of the policy acting with its mode, or, with
-    ``sample``, drawing its actions as in training (from a generator seeded with ``seed``)."""
-    env = make_batch(agent.spec.env_id, episodes, seed, agent.spec.env_kwargs)
+    ``sample``, drawing its actions as in training (from a generator seeded with ``seed``). Success follows
+    :mod:`famarl_cli.envs.success` with ``success_return`` (default: the run's); ``success_rate`` is None and
+    ``success_rule`` says why where it is not defined."""
+    if success_return is None:
+        success_return = agent.spec.success_return
+    env = make_batch(agent.spec.env_id, episodes, seed, agent.spec.env_kwargs, success_return)
     act = FrozenActor(agent, env, np.random.default_rng(seed) if sample else None)
     obs = env.reset()
     alive = np.ones(episodes, dtype=bool)
     returns, lengths, decisions, chosen, macros, macro_steps = (np.zeros(episodes) for _ in range(6))
-    success = np.zeros(episodes, dtype=bool)
+    success = np.zeros(episodes)
 
     traced = min(n_traces, episodes) if isinstance(env, ContinuousWorldBatch) else 0
     paths: list[list[np.ndarray]] = [[obs[i, :2].copy()] for i in range(traced)]
@@ -90,14 +102,16 @@ def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4, s
         macro_steps += np.where(act.macro, result.steps, 0)
         decisions += alive
         chosen += length
-        success |= alive & result.success
+        ended = alive & (result.terminated | result.truncated)
+        success = np.where(ended, result.success, success)
         alive &= ~(result.terminated | result.truncated)
         obs = result.obs
         decision += 1
 
     metrics = {
         "episodes": episodes,
-        "success_rate": float(success.mean()),
+        "success_rate": None if np.isnan(success).all() else float(np.nanmean(success)),
+        "success_rule": env.success_rule,
         "return_mean": float(returns.mean()),
         "return_std": float(returns.std()),
         "episode_length": float(lengths.mean()),
@@ -108,7 +122,9 @@ def evaluate(agent: TrainedAgent, episodes: int, seed: int, n_traces: int = 4, s
         "macro_step_share": float(macro_steps.sum() / lengths.sum()),
     }
     traces = [
-        Trace(layouts[i], np.array(paths[i]), np.array(labels[i]), bool(success[i]), np.array(marks[i], dtype=bool))
+        Trace(
+            layouts[i], np.array(paths[i]), np.array(labels[i]), bool(success[i] == 1), np.array(marks[i], dtype=bool)
+        )
         for i in range(traced)
     ]
     return Evaluation(metrics, traces)
@@ -121,7 +137,8 @@ class Film:
 
     frames: list[np.ndarray]
     decision: list[int]
-    success: bool
+    success: bool | None
+    """None where success is not defined (:mod:`famarl_cli.envs.success`)."""
     fps: float
     """Frames per second of real time (the environment's ``render_fps``)."""
     macro: list[bool]
@@ -130,7 +147,10 @@ class Film:
 def film_episode(agent: TrainedAgent, seed: int) -> Film:
     """Render one deterministic episode of ``agent`` (its first frame is the reset state)."""
     batch = GymBatch(
-        [make_env(agent.spec.env_id, agent.spec.env_kwargs, render_mode="rgb_array")], seed, autoreset=False
+        [make_env(agent.spec.env_id, agent.spec.env_kwargs, render_mode="rgb_array")],
+        seed,
+        autoreset=False,
+        success_return=agent.spec.success_return,
     )
     env = batch.envs[0]
     act = FrozenActor(agent, batch)
@@ -146,7 +166,7 @@ def film_episode(agent: TrainedAgent, seed: int) -> Film:
         actions, length = act(batch.obs)
         result = run_open_loop(batch, batch.obs, actions, length, on_step=film)
         if result.terminated[0] or result.truncated[0]:
-            return Film(frames, decisions, bool(result.success[0]), float(env.metadata["render_fps"]), macros)
+            return Film(frames, decisions, as_bool(result.success[0]), float(env.metadata["render_fps"]), macros)
         decision += 1
 
 
@@ -154,7 +174,8 @@ SUMMARISED = ("success_rate", "return_mean", "episode_length", "decisions", "mac
 
 
 def summarise(evaluations: list[dict]) -> dict[str, dict]:
-    """Per label, each metric's mean, min and max over the label's runs (its seeds)."""
+    """Per label, each metric's mean, min and max over the label's runs (its seeds); None for a metric no run
+    defines (success, where it is not defined)."""
     grouped: dict[str, list[dict]] = {}
     for evaluation in evaluations:
         grouped.setdefault(evaluation["label"], []).append(evaluation)
@@ -162,6 +183,9 @@ def summarise(evaluations: list[dict]) -> dict[str, dict]:
     for label, runs in grouped.items():
         summary[label] = {"runs": len(runs)}
         for key in SUMMARISED:
-            values = np.array([run[key] for run in runs], dtype=float)
+            values = np.array([run[key] for run in runs if run[key] is not None], dtype=float)
+            if not len(values):
+                summary[label][key] = {"mean": None, "min": None, "max": None}
+                continue
             summary[label][key] = {"mean": float(values.mean()), "min": float(values.min()), "max": float(values.max())}
     return summary

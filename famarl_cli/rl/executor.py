@@ -29,7 +29,8 @@ class OpenLoopResult:
     terminated: np.ndarray
     truncated: np.ndarray
     success: np.ndarray
-    """(N,) the episode ended in success: ``info["success"]`` where the environment reports it, else terminated."""
+    """(N,) float: 1.0 where the episode ended in success, 0.0 where it ended otherwise or has not ended, NaN where
+    it ended and success is not defined (the batch's ``info["success"]``, :mod:`famarl_cli.envs.success`)."""
     final_obs: np.ndarray
     """(N, obs) last observation of an episode that ended (meaningful where terminated | truncated)."""
 
@@ -52,7 +53,7 @@ def run_open_loop(
     steps = np.zeros(n, dtype=np.int64)
     terminated = np.zeros(n, dtype=bool)
     truncated = np.zeros(n, dtype=bool)
-    success = np.zeros(n, dtype=bool)
+    success = np.zeros(n)
     final_obs = obs.copy()
     for k in range(int(lengths.max(initial=0))):
         active = (k < lengths) & ~terminated & ~truncated
@@ -67,7 +68,8 @@ def run_open_loop(
             final_obs[ended] = info["final_obs"][ended]
         terminated |= term
         truncated |= trunc
-        success |= info.get("success", term) & ended
+        if ended.any():  # a batch that says nothing of success does not define it
+            success = np.where(ended, info.get("success", np.nan), success)
         if on_step is not None:
             on_step(active, np.where(ended[:, None], final_obs, obs))
     return OpenLoopResult(obs, reward, rewards, steps, terminated, truncated, success, final_obs)

@@ -45,6 +45,9 @@ class RunSpec:
     """How plots and reports name this kind of run; seeds of one experiment share it."""
     env_kwargs: dict = field(default_factory=dict)
     """Keyword arguments of ``gymnasium.make`` (PointMaze's ``continuing_task``, say)."""
+    success_return: float | None = None
+    """``--success-return``: an episode succeeds when its return reaches this, whatever the env reports
+    (:mod:`famarl_cli.envs.success`); None: the env's report, else its reward_threshold, else not defined."""
 
     def to_dict(self) -> dict:
         return {**asdict(self), "agent": str(self.agent), "ppo": self.ppo.to_dict()}
@@ -91,7 +94,7 @@ class Run:
 
     def __init__(self, spec: RunSpec, favae: Favae | None, prov: dict, state: dict | None = None) -> None:
         self.spec, self.favae, self.provenance = spec, favae, prov
-        env = make_batch(spec.env_id, spec.ppo.n_envs, spec.seed, spec.env_kwargs)
+        env = make_batch(spec.env_id, spec.ppo.n_envs, spec.seed, spec.env_kwargs, spec.success_return)
         self.trainer = PPOTrainer(env, build_mode(spec, env, favae), spec.ppo, spec.seed)
         if state is not None:
             self.trainer.load_state_dict(state)
@@ -177,7 +180,7 @@ def load_agent(run_dir: str | os.PathLike) -> TrainedAgent:
     spec = RunSpec.from_dict(payload["config"])
     favae = _favae_from_state(payload["mode"])
     trainer = payload["trainer"]
-    env = make_batch(spec.env_id, 1, spec.seed, spec.env_kwargs)
+    env = make_batch(spec.env_id, 1, spec.seed, spec.env_kwargs, spec.success_return)
     mode = build_mode(spec, env, favae)
     policy = ActorCritic(env.observation_size, mode.policy_action_size, mode.choices, spec.ppo.hidden, mode.branches)
     policy.load_state_dict(trainer["policy"])

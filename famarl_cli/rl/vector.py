@@ -3,8 +3,9 @@ of different lengths can run side by side.
 
 Every batch follows gymnasium's SAME_STEP autoreset: an episode that ends is restarted in the same step, the
 returned observation is the new episode's first one and the finished episode's last observation is in
-``info["final_obs"]``. Where an environment can end an episode without success (RobotHand BallPlacing), the
-batch reports ``info["success"]``; elsewhere success is termination.
+``info["final_obs"]``, and ``info["success"]`` (N,) is each ended episode's success by
+:mod:`famarl_cli.envs.success`: 1.0, 0.0, or NaN where success is not defined. ``success_rule`` says, in words,
+which rule judged the episodes that ended so far (None before any has).
 
 ContinuousWorld has a numpy batch that steps all worlds in one call; any other gymnasium id with Box spaces
 (RobotHand included) runs as a Python loop over ``gymnasium.make`` copies.
@@ -19,12 +20,14 @@ import numpy as np
 
 from famarl_cli.envs import CONTINUOUS_WORLD_IDS
 from famarl_cli.envs.batched import ContinuousWorldBatch
-from famarl_cli.envs.external import episode_success, make_env
-from famarl_cli.errors import UsageError
+from famarl_cli.envs.external import make_env
+from famarl_cli.envs.success import SuccessRule, success_rule
+from famarl_cli.errors import FamarlError, ForeignError, UsageError, one_line
 
 
 class BatchedEnv(Protocol):
     n_envs: int
+    success_rule: str | None
 
     @property
     def observation_size(self) -> int: ...
@@ -53,9 +56,12 @@ class GymBatch:
     :class:`~famarl_cli.wrappers.MacroActionWrapper`.
     """
 
-    def __init__(self, envs: list[gym.Env], seed: int, autoreset: bool = True) -> None:
+    def __init__(
+        self, envs: list[gym.Env], seed: int, autoreset: bool = True, success_return: float | None = None
+    ) -> None:
         space, obs_space = envs[0].action_space, envs[0].observation_space
         name = envs[0].spec.id if envs[0].spec is not None else type(envs[0].unwrapped).__name__
+        self.name = name
         if not isinstance(space, gym.spaces.Box):
             raise UsageError(f"{name}: famarl needs a Box action space, not {space}")
         try:
@@ -68,10 +74,21 @@ class GymBatch:
         self.obs = np.zeros((self.n_envs, self.observation_size), np.float32)
         self.raw_obs: list = [None] * self.n_envs
         self.last_info: list[dict] = [{} for _ in envs]
+        self.rule: SuccessRule = success_rule(envs[0].spec, success_return)
+        self.success_rule: str | None = None
+        self.returns = np.zeros(self.n_envs)
 
     @staticmethod
-    def make(env_id: str, n_envs: int, seed: int, env_kwargs: dict | None = None, **make_kwargs) -> GymBatch:
-        return GymBatch([make_env(env_id, env_kwargs, **make_kwargs) for _ in range(n_envs)], seed)
+    def make(
+        env_id: str,
+        n_envs: int,
+        seed: int,
+        env_kwargs: dict | None = None,
+        success_return: float | None = None,
+        **make_kwargs,
+    ) -> GymBatch:
+        envs = [make_env(env_id, env_kwargs, **make_kwargs) for _ in range(n_envs)]
+        return GymBatch(envs, seed, success_return=success_return)
 
     def _observe(self, i: int, obs) -> None:
         self.raw_obs[i] = obs
@@ -79,8 +96,14 @@ class GymBatch:
 
     def reset_one(self, i: int, **reset_kwargs) -> tuple:
         """Reset environment ``i`` with gymnasium's own arguments; its raw observation and info."""
-        obs, info = self.envs[i].reset(**reset_kwargs)
-        self._observe(i, obs)
+        try:
+            obs, info = self.envs[i].reset(**reset_kwargs)
+            self._observe(i, obs)
+        except FamarlError:
+            raise
+        except Exception as exc:
+            raise ForeignError(f"env {self.name} reset raised {one_line(exc)}") from exc
+        self.returns[i] = 0.0
         return obs, info
 
     def reset(self) -> np.ndarray:
@@ -93,13 +116,20 @@ class GymBatch:
         rewards = np.zeros(self.n_envs)
         terminated = np.zeros(self.n_envs, dtype=bool)
         truncated = np.zeros(self.n_envs, dtype=bool)
-        success = np.zeros(self.n_envs, dtype=bool)
+        success = np.zeros(self.n_envs)
         final_obs = self.obs.copy()
         for i in np.flatnonzero(active):
-            obs, rewards[i], terminated[i], truncated[i], self.last_info[i] = self.envs[i].step(actions[i])
-            success[i] = episode_success(self.last_info[i], terminated[i])
-            self._observe(i, obs)
+            try:  # the env's own code: it may fail on a value its constructor took (a keyword of the wrong type)
+                obs, rewards[i], terminated[i], truncated[i], self.last_info[i] = self.envs[i].step(actions[i])
+                self._observe(i, obs)
+            except FamarlError:
+                raise
+            except Exception as exc:
+                raise ForeignError(f"env {self.name} step raised {one_line(exc)}") from exc
+            self.returns[i] += rewards[i]
             if terminated[i] or truncated[i]:
+                success[i] = self.rule.judge(self.last_info[i], self.returns[i])
+                self.success_rule = self.success_rule or self.rule.describe(self.last_info[i])
                 final_obs[i] = self.obs[i]
                 if self.autoreset:
                     self.reset_one(i)
@@ -116,9 +146,11 @@ class GymBatch:
 CONTINUOUS_WORLD_TASKS = {env_id: task for task, env_id in CONTINUOUS_WORLD_IDS.items()}
 
 
-def make_batch(env_id: str, n_envs: int, seed: int, env_kwargs: dict | None = None) -> BatchedEnv:
-    """The fastest batch for ``env_id`` (made with ``env_kwargs``); bad ids are one-line errors
-    (:func:`~famarl_cli.envs.external.make_env`)."""
-    if env_id in CONTINUOUS_WORLD_TASKS and not env_kwargs:
+def make_batch(
+    env_id: str, n_envs: int, seed: int, env_kwargs: dict | None = None, success_return: float | None = None
+) -> BatchedEnv:
+    """The fastest batch for ``env_id`` (made with ``env_kwargs``, success judged by :mod:`famarl_cli.envs.success`
+    with the user's ``success_return``); bad ids are one-line errors (:func:`~famarl_cli.envs.external.make_env`)."""
+    if env_id in CONTINUOUS_WORLD_TASKS and not env_kwargs and success_return is None:
         return ContinuousWorldBatch(CONTINUOUS_WORLD_TASKS[env_id], n_envs=n_envs, seed=seed)
-    return GymBatch.make(env_id, n_envs, seed, env_kwargs)
+    return GymBatch.make(env_id, n_envs, seed, env_kwargs, success_return)

@@ -1,0 +1,40 @@
+"""Envs as a user writes them, some broken, registered when gymnasium imports this module (``user_envs:Id``)."""
+
+import gymnasium as gym
+import numpy as np
+
+
+class Plain(gym.Env):
+    """A 1-D walk: the agent pushes a point; the episode terminates at step ``ends`` (never, with None), each step
+    costs 1, and nothing in ``info`` says whether it succeeded."""
+
+    observation_space = gym.spaces.Box(-np.inf, np.inf, (1,), np.float32)
+    action_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
+
+    def __init__(self, ends: int | None = 5, fail: str = "") -> None:
+        if fail == "init":
+            raise RuntimeError("no licence for the simulator")
+        self.ends, self.fail = ends, fail
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.t, self.x = 0, np.zeros(1, np.float32)
+        return self.x.copy(), {}
+
+    def step(self, action):
+        if self.fail == "step":
+            raise ValueError("physics exploded")
+        self.t += 1
+        self.x = self.x + np.asarray(action, np.float32)
+        return self.x.copy(), -1.0, self.ends is not None and self.t >= self.ends, False, {}
+
+
+for name, kwargs, threshold in (
+    ("Plain-v0", {}, None),
+    ("Crashing-v0", {}, -3.0),
+    ("BrokenInit-v0", {"fail": "init"}, None),
+    ("BrokenStep-v0", {"fail": "step"}, None),
+    ("Endless-v0", {"ends": None}, None),
+):
+    if name not in gym.registry:
+        gym.register(name, entry_point=Plain, kwargs=kwargs, reward_threshold=threshold)
