@@ -85,13 +85,15 @@ def main() -> None:
     returns = np.array([e.rewards.sum() for e in recorded.episodes])
     macros = work / "macros"
     famarl("macros", "--demos", demos, "--out", macros, "--epochs", args.epochs, "--segment-epochs", 100)
-    results = {"demos": {
-        "episodes": len(recorded.episodes),
-        "success_rate": recorded.success_rate,
-        "success_rule": recorded.success_rule,
-        "terminated": float(np.mean([e.terminations[-1] for e in recorded.episodes])),
-        "return_mean": float(returns.mean()),
-    }}
+    results = {
+        "demos": {
+            "episodes": len(recorded.episodes),
+            "success_rate": recorded.success_rate,
+            "success_rule": recorded.success_rule,
+            "terminated": float(np.mean([e.terminations[-1] for e in recorded.episodes])),
+            "return_mean": float(returns.mean()),
+        }
+    }
     for name, steps in (("untrained", 2048), ("trained", args.steps)):
         run = work / name
         famarl(
