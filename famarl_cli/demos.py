@@ -12,6 +12,7 @@ import gymnasium as gym
 import numpy as np
 
 from famarl_cli.artifacts import Demos, Episode, provenance
+from famarl_cli.artifacts.demos import content_fault
 from famarl_cli.envs.external import make_env
 from famarl_cli.envs.success import SuccessRule, as_bool, success_rule
 from famarl_cli.errors import FamarlError, UsageError, foreign
@@ -62,6 +63,10 @@ def record_episode(
         factors=np.asarray(expert.phase_factors, dtype=np.float64),
         success=as_bool(rule.judge(info, float(np.sum(rewards)))),
     )
+    # What a user's env or expert returned is checked as a demos file is when read: nothing unreadable is written.
+    fault = content_fault(episode, episode.factors.shape[1] if episode.factors.ndim == 2 else 0)
+    if fault is not None:
+        raise FamarlError(f"{name}, episode from seed {seed}: {fault}")
     return episode, rule.describe(info)
 
 

@@ -253,6 +253,16 @@ USER_CODE = {
         1,
         "env BrokenStep-v0 step raised ValueError: physics exploded",
     ),
+    "values-env-observations-overflow": (
+        ("--env", "user_envs:Overflowing-v0", "--expert", "user_experts:full_push"),
+        1,
+        "Overflowing-v0, episode from seed",
+    ),
+    "values-expert-phase-starts-out-of-order": (
+        ("--env", "Pendulum-v1", "--expert", "user_experts:Backwards"),
+        1,
+        "ground_truth/segment_starts must increase from 0",
+    ),
     # keyword arguments of the env
     "env-kwargs-wrong-type": (
         ("--env", "Pendulum-v1", "--expert", "user_experts:swing", "--env-kwargs", '{"g": "x"}'),

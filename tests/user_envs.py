@@ -25,7 +25,7 @@ class Plain(gym.Env):
         if self.fail == "step":
             raise ValueError("physics exploded")
         self.t += 1
-        self.x = self.x + np.asarray(action, np.float32)
+        self.x = self.x + np.asarray(action, np.float32) * (1e200 if self.fail == "overflow" else 1.0)
         return self.x.copy(), -1.0, self.ends is not None and self.t >= self.ends, False, {}
 
 
@@ -35,6 +35,7 @@ for name, kwargs, threshold in (
     ("BrokenInit-v0", {"fail": "init"}, None),
     ("BrokenStep-v0", {"fail": "step"}, None),
     ("Endless-v0", {"ends": None}, None),
+    ("Overflowing-v0", {"fail": "overflow"}, None),
 ):
     if name not in gym.registry:
         gym.register(name, entry_point=Plain, kwargs=kwargs, reward_threshold=threshold)

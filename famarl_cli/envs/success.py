@@ -37,20 +37,18 @@ class SuccessRule:
 
     def judge(self, info: dict, episode_return: float) -> float:
         """1.0 or 0.0 for an episode that ended with ``info`` on its last step, NaN where success is not defined."""
-        if not self.user:
-            for key in REPORTED_KEYS:
-                if key in info:
-                    return float(bool(info[key]))
+        key = None if self.user else reported(info)
+        if key is not None:
+            return float(bool(info[key]))
         if self.threshold is not None:
             return float(episode_return >= self.threshold)
         return NOT_DEFINED
 
     def describe(self, info: dict) -> str:
         """The rule that :meth:`judge` applies to an episode ending with ``info``, in words."""
-        if not self.user:
-            for key in REPORTED_KEYS:
-                if key in info:
-                    return f"info[{key!r}] reported by the env"
+        key = None if self.user else reported(info)
+        if key is not None:
+            return f"info[{key!r}] reported by the env"
         if self.user:
             return f"return >= {self.threshold:g} (--success-return)"
         if self.threshold is not None:
@@ -58,10 +56,13 @@ class SuccessRule:
         return UNDEFINED
 
 
+def reported(info: dict) -> str | None:
+    """The key under which ``info`` reports success, None where it does not."""
+    return next((key for key in REPORTED_KEYS if key in info), None)
+
+
 UNDEFINED = "not defined (the env reports no success and declares no reward_threshold; give --success-return R)"
 """The rule's description where success is not defined."""
-
-REPORTED = "info['success'] reported by the env"
 
 
 def success_rule(spec: gym.envs.registration.EnvSpec | None, success_return: float | None = None) -> SuccessRule:
