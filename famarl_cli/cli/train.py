@@ -15,6 +15,7 @@ from famarl_cli.cli import (
     JobRecipe,
     SuccessReturn,
     app,
+    console,
     progress_bar,
     reports_errors,
     sweepable,
@@ -158,7 +159,8 @@ def train(
     torch_on_one_thread()
     out = out or default_run_dir(env, agent, favae, seed)
     # A new run is built (its options and files checked) before the folder is claimed, so bad input writes nothing.
-    fresh = None if resume else Run.start(run_spec(options))
+    with console.status(f"making {env} and the agent"):  # a user's env may take long to construct
+        fresh = None if resume else Run.start(run_spec(options))
     board = None
     if tensorboard is not None:
         from famarl_cli.rl.tensorboard import TensorBoardLog
