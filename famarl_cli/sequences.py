@@ -78,6 +78,9 @@ def _check_header(handle: IO[bytes], size: int, where: str) -> None:
     """Refuse a .npy header whose shape and type need more bytes than the file (``size`` bytes) holds."""
     try:
         version = np.lib.format.read_magic(handle)
+    except ValueError as exc:
+        raise ArtifactError(f"{where}: not a numpy .npy or .npz file (no numpy header at its start)") from exc
+    try:
         read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
         shape, _, dtype = read(handle, max_header_size=HEADER_MAX)
     except (ValueError, SyntaxError, TypeError, OverflowError) as exc:

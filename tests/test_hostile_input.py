@@ -92,7 +92,7 @@ NEEDLES = {
     "sizes-npy-header-declares-terabytes": "its header declares a (1000000, 1000000, 2) float64 array",
     "sizes-npy-header-beyond-any-dimension": "its header declares",
     "sizes-npz-member-declares-terabytes": "sequences.npy: its header declares",
-    "structure-npz-that-is-text": "not a numpy",
+    "structure-npz-that-is-text": "not a numpy .npy or .npz file (no numpy header at its start)",
     "structure-npz-that-is-a-broken-zip": "not a numpy",
     "structure-npy-with-a-mangled-header": "not a numpy array file",
     "structure-string-factors": "factors must be a real-valued (12, F) array",
@@ -295,6 +295,11 @@ USER_CODE = {
         ),
         1,
         "env LunarLanderContinuous-v3 raised AssertionError: gravity (current value: 5.0) must be between",
+    ),
+    "options-success-return-not-a-number": (
+        ("--env", "Pendulum-v1", "--expert", "user_experts:swing", "--success-return", "nan"),
+        2,
+        "--success-return must be a finite return, got nan",
     ),
     "env-kwargs-nested-too-deeply": (
         (

@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import gymnasium as gym
 
+from famarl_cli.errors import UsageError
+
 REPORTED_KEYS = ("success", "is_success")
 """The info keys by which an env reports an episode's success."""
 
@@ -68,6 +70,8 @@ UNDEFINED = "not defined (the env reports no success and declares no reward_thre
 def success_rule(spec: gym.envs.registration.EnvSpec | None, success_return: float | None = None) -> SuccessRule:
     """The rule for an env with ``spec`` (None: unknown) and the user's ``--success-return``."""
     if success_return is not None:
+        if not math.isfinite(success_return):
+            raise UsageError(f"--success-return must be a finite return, got {success_return}")
         return SuccessRule(float(success_return), user=True)
     threshold = getattr(spec, "reward_threshold", None)
     env_id = getattr(spec, "id", "")
