@@ -33,6 +33,7 @@ def record_episode(
     (``gymnasium.spaces.flatten``: a Dict's entries in its key order). ``on_step(steps)`` is called every
     :data:`STEP_REPORT` steps, so that a long episode shows progress."""
     name = env.spec.id if env.spec is not None else type(env.unwrapped).__name__
+    stepping = f"env {name} step"
     with foreign(f"env {name} reset"):
         observation, info = env.reset(seed=int(seed))
     expert.reset(observation)
@@ -40,7 +41,7 @@ def record_episode(
     done = False
     while not done:
         action = expert.act(observation)
-        with foreign(f"env {name} step"):
+        with foreign(stepping):
             observation, reward, terminated, truncated, info = env.step(action)
         if on_step is not None and len(rewards) % STEP_REPORT == STEP_REPORT - 1:
             on_step(len(rewards) + 1)
