@@ -88,9 +88,13 @@ def reports_errors(command):
         except KeyboardInterrupt:
             if _debug:
                 raise
-            # Every artifact is written to a temporary name and renamed when complete: an interrupted stage
-            # leaves its previous output as it was.
-            typer.echo("error: interrupted; no output of this command was completed or changed", err=True)
+            # Every artifact is written to a temporary name and renamed when complete: an interrupted stage leaves
+            # each file as it was or complete, never half-written (a run's last checkpoint is one to resume from).
+            typer.echo(
+                "error: interrupted; no file was left half-written (files completed before stay; famarl train "
+                "--resume, or the same famarl macros or sweep, continues)",
+                err=True,
+            )
             raise typer.Exit(INTERRUPTED) from None
 
     return wrapper
