@@ -77,9 +77,11 @@ def create(dataset_id: str, buffers: list[EpisodeBuffer], **spaces) -> None:
     )
 
 
-def collected(dataset_id: str, env_id: str, seeds: list[int | None], steps: int = 12) -> str:
+def collected(
+    dataset_id: str, env_id: str, seeds: list[int | None], steps: int = 12, record_infos: bool = False
+) -> str:
     """A dataset of random-action episodes recorded by ``minari.DataCollector``, each cut after ``steps`` steps."""
-    env = minari.DataCollector(gym.wrappers.TimeLimit(gym.make(env_id), steps))
+    env = minari.DataCollector(gym.wrappers.TimeLimit(gym.make(env_id), steps), record_infos=record_infos)
     env.action_space.seed(0)
     for seed in seeds:
         env.reset(seed=seed)
@@ -329,3 +331,23 @@ def test_export_to_a_relative_root(tmp_path, monkeypatch):
     folder = export_minari(famarl_demos(), "famarl/relative-v0", root=Path("datasets"))
     assert folder == tmp_path / "datasets/famarl/relative-v0"
     assert import_minari("datasets/famarl/relative-v0").total_steps == famarl_demos().total_steps
+
+
+def test_imported_success_is_the_recorded_report_else_the_threshold_never_termination(tmp_path):
+    lander = import_minari(collected("lander/random-v0", "LunarLanderContinuous-v3", [1, 2, 3], steps=400))
+    returns = [e.rewards.sum() for e in lander.episodes]
+    assert any(e.terminations[-1] for e in lander.episodes)  # random landers crash, and a crash terminates
+    assert [e.success for e in lander.episodes] == [r >= 200 for r in returns] and lander.success_rate == 0.0
+    assert lander.success_rule == "return >= 200 (reward_threshold of LunarLanderContinuous-v3)"
+    pendulum = import_minari(collected("pendulum/none-v0", "Pendulum-v1", [1, 2]))
+    assert pendulum.success_rate is None and "not defined" in pendulum.success_rule
+    assert import_minari("pendulum/none-v0", success_return=-1e9).success_rate == 1.0
+    # Infos recorded with the episodes carry the env's own report, which outranks its threshold (-100 here).
+    import user_envs  # noqa: F401  (registers Reporting-v0)
+
+    reporting = import_minari(collected("reporting/random-v0", "Reporting-v0", [1, 2, 3, 4], record_infos=True))
+    data = list(minari.load_dataset("reporting/random-v0").iterate_episodes())
+    assert [e.success for e in reporting.episodes] == [bool(d.observations[-1][0] > 2) for d in data]
+    assert reporting.success_rule == "info['success'] reported by the env"
+    without = import_minari(collected("reporting/no-infos-v0", "Reporting-v0", [1, 2]))
+    assert without.success_rate == 1.0 and "reward_threshold" in without.success_rule  # return -5 >= -100

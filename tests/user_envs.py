@@ -11,22 +11,26 @@ class Plain(gym.Env):
     observation_space = gym.spaces.Box(-np.inf, np.inf, (1,), np.float32)
     action_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
 
-    def __init__(self, ends: int | None = 5, fail: str = "") -> None:
+    def __init__(self, ends: int | None = 5, fail: str = "", report: bool = False) -> None:
         if fail == "init":
             raise RuntimeError("no licence for the simulator")
-        self.ends, self.fail = ends, fail
+        self.ends, self.fail, self.report = ends, fail, report
+
+    def _info(self) -> dict:
+        """With ``report``: success is ending beyond x = 2 (Minari wants the same keys at reset and every step)."""
+        return {"success": bool(self.x[0] > 2)} if self.report else {}
 
     def reset(self, *, seed=None, options=None):
         super().reset(seed=seed)
         self.t, self.x = 0, np.zeros(1, np.float32)
-        return self.x.copy(), {}
+        return self.x.copy(), self._info()
 
     def step(self, action):
         if self.fail == "step":
             raise ValueError("physics exploded")
         self.t += 1
         self.x = self.x + np.asarray(action, np.float32) * (1e200 if self.fail == "overflow" else 1.0)
-        return self.x.copy(), -1.0, self.ends is not None and self.t >= self.ends, False, {}
+        return self.x.copy(), -1.0, self.ends is not None and self.t >= self.ends, False, self._info()
 
 
 for name, kwargs, threshold in (
@@ -36,6 +40,7 @@ for name, kwargs, threshold in (
     ("BrokenStep-v0", {"fail": "step"}, None),
     ("Endless-v0", {"ends": None}, None),
     ("Overflowing-v0", {"fail": "overflow"}, None),
+    ("Reporting-v0", {"report": True}, -100.0),
 ):
     if name not in gym.registry:
-        gym.register(name, entry_point=Plain, kwargs=kwargs, reward_threshold=threshold)
+        gym.register(name, entry_point="user_envs:Plain", kwargs=kwargs, reward_threshold=threshold)

@@ -47,7 +47,7 @@ import numpy as np
 
 from famarl_cli.artifacts.base import TEMP_MARKER, provenance
 from famarl_cli.artifacts.demos import SCHEMA, SCHEMA_VERSION, Demos, Episode, content_fault
-from famarl_cli.envs.success import SuccessRule, as_bool, success_rule
+from famarl_cli.envs.success import SuccessRule, as_bool, reported, success_rule
 from famarl_cli.errors import ArtifactError, FamarlError, UsageError
 
 FAMARL_KEY = "famarl"
@@ -70,9 +70,10 @@ def import_minari(dataset: str, success_return: float | None = None) -> Demos:
     """The demos in a Minari dataset: ``dataset`` is a folder (the dataset's, or its ``data/``) or, when no such
     folder exists, a dataset id in Minari's local storage (``MINARI_DATASETS_PATH``, else ``~/.minari/datasets``).
 
-    An episode's success is what a famarl export recorded; otherwise it is judged on its return by
-    :mod:`famarl_cli.envs.success` (Minari keeps no per-step infos to read a reported success from): the user's
-    ``success_return``, else the ``reward_threshold`` of the dataset's env, else not defined."""
+    An episode's success is what a famarl export recorded; otherwise :mod:`famarl_cli.envs.success` judges it: the
+    user's ``success_return``, else the env's report where the dataset recorded infos with ``success`` or
+    ``is_success`` (gymnasium-robotics' datasets do), else the ``reward_threshold`` of the dataset's env on the
+    return, else not defined."""
     minari = _minari(dataset)
     data_path = _data_path(dataset, minari)
     try:
@@ -89,16 +90,17 @@ def import_minari(dataset: str, success_return: float | None = None) -> Demos:
         spec = loaded.env_spec
         rule = success_rule(_registered_spec(facts["env_id"]) if facts is not None else spec, success_return)
         metadatas = list(loaded.storage.get_episode_metadata(loaded.episode_indices))
-        episodes = [
-            _episode(data, space, metadata, n_factors, dataset, rule)
-            for data, metadata in zip(loaded.iterate_episodes(), metadatas, strict=True)
-        ]
+        episodes, rules = [], set()
+        for data, metadata in zip(loaded.iterate_episodes(), metadatas, strict=True):
+            info = _last_info(data.infos, len(data.rewards))
+            rules.add(rule.describe(info))
+            episodes.append(_episode(data, space, metadata, n_factors, dataset, rule, info))
     except _UNREADABLE as exc:
         raise ArtifactError(f"{dataset}: not a readable Minari dataset ({' '.join(str(exc).split())})") from exc
     inputs = sorted(path for path in data_path.rglob("*") if path.is_file())
     params = {"from_minari": dataset, **({} if success_return is None else {"success_return": success_return})}
     made = provenance("famarl demos", params, None, inputs)
-    described = rule.describe({})
+    described = "; ".join(sorted(rules))
     if facts is not None:
         return Demos(
             episodes=episodes,
@@ -274,10 +276,11 @@ def _famarl_facts(facts: Any, dataset: str) -> dict | None:
 
 
 def _episode(
-    data: Any, space: gym.Space, metadata: dict, n_factors: int | None, dataset: str, rule: SuccessRule
+    data: Any, space: gym.Space, metadata: dict, n_factors: int | None, dataset: str, rule: SuccessRule, info: dict
 ) -> Episode:
     """One Minari episode as a famarl Episode; ``n_factors`` is None for a dataset without famarl ground truth.
-    Its success is the export's record where a famarl export has one, else ``rule``'s judgement of its return."""
+    Its success is the export's record where a famarl export has one, else ``rule``'s judgement of its last
+    ``info`` (what its recorded infos report) and its return."""
     where = f"{dataset}: episode {int(data.id)}"
     steps = len(data.rewards)
     if steps == 0:
@@ -294,7 +297,7 @@ def _episode(
         observations = np.stack(flat).astype(np.float32)
     starts, factors = np.zeros(1, dtype=np.int64), np.zeros((1, 0))
     rewards = np.asarray(data.rewards, dtype=np.float64)
-    success = as_bool(rule.judge({}, float(rewards.sum())))
+    success = as_bool(rule.judge(info, float(rewards.sum())))
     if n_factors is not None:
         truth = metadata.get(FAMARL_KEY)
         starts, factors = _ground_truth(truth, where)
@@ -315,6 +318,18 @@ def _episode(
     if fault is not None:
         raise ArtifactError(f"{where}: {fault}")
     return episode
+
+
+def _last_info(infos: Any, steps: int) -> dict:
+    """The success an episode's recorded infos report on its last step (Minari keeps T+1 rows of infos, the reset's
+    first, when the dataset was recorded with them), as an info dict; empty where it reports none."""
+    key = reported(infos) if isinstance(infos, dict) else None
+    if key is None:
+        return {}
+    values = np.asarray(infos[key])
+    if values.shape != (steps + 1,) or values.dtype.kind not in "biuf":
+        return {}  # not one success value per step: nothing the env reported, as far as famarl can tell
+    return {key: bool(values[-1])}
 
 
 def _ground_truth(truth: Any, where: str) -> tuple[np.ndarray, np.ndarray]:
