@@ -356,19 +356,35 @@ def test_a_long_episode_reports_its_steps(tmp_path):
     assert episode.success is None and "not defined" in rule
 
 
-def test_ctrl_c_in_an_endless_episode_is_one_line_and_keeps_the_old_output(tmp_path):
-    out = tmp_path / "demos.h5"
-    out.write_bytes(OLD)
-    endless = '{"max_episode_steps": 1000000000000}'
-    command = [sys.executable, "-m", "famarl_cli", "demos", "--env", "user_envs:Endless-v0", "--expert"]
-    command += ["user_experts:full_push", "--env-kwargs", endless, "--out", str(out)]
+ENDLESS = ("--env", "user_envs:Endless-v0", "--env-kwargs", '{"max_episode_steps": 1000000000000}')
+
+
+def _interrupted(*args) -> str:
+    """Run ``famarl ARGS`` into an endless episode, press Ctrl-C, and return its stderr once it has exited 130."""
     tests = Path(__file__).parent
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tests), os.environ.get("PYTHONPATH", "")])}
+    command = [sys.executable, "-m", "famarl_cli", *map(str, args)]
     process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     time.sleep(8)  # imports, then deep into the episode
     assert process.poll() is None, process.communicate()
     process.send_signal(signal.SIGINT)
-    _, stderr = process.communicate(timeout=60)
+    _, stderr = process.communicate(timeout=30)
     assert process.returncode == 130, stderr
     assert stderr.strip().splitlines()[-1].startswith("error: interrupted") and "Traceback" not in stderr
+    return stderr
+
+
+def test_ctrl_c_in_an_endless_episode_is_one_line_and_keeps_the_old_output(tmp_path):
+    out = tmp_path / "demos.h5"
+    out.write_bytes(OLD)
+    _interrupted("demos", *ENDLESS, "--expert", "user_experts:full_push", "--out", out)
     assert out.read_bytes() == OLD and sorted(p.name for p in tmp_path.iterdir()) == ["demos.h5"]
+
+
+def test_ctrl_c_stops_an_evaluation_whose_episode_never_ends(tmp_path):
+    """Evaluation runs in the serial executor's thread, which Ctrl-C does not reach: it must not be waited for."""
+    run = tmp_path / "run"
+    trained = famarl("train", *ENDLESS, "--agent", "ppo", "--steps", 64, "--n-envs", 1, "--n-steps", 64, "--out", run)
+    assert trained.exit_code == 0, trained.output
+    _interrupted("evaluate", "--run", run, "--episodes", 1, "--no-film", "--out", tmp_path / "eval")
+    assert not (tmp_path / "eval" / "run" / "eval.json").exists()

@@ -5,7 +5,8 @@ and returns a :class:`concurrent.futures.Future`. When the process or node runni
 with an exception for which :meth:`Executor.worker_died` is true, and the driver
 (:mod:`famarl_cli.sweep.driver`) resubmits the job; any other exception is the job's own.
 
-- :class:`SerialExecutor`: one job at a time in a thread of this process (``--jobs 1``).
+- :class:`SerialExecutor`: one job at a time in a daemon thread of this process (``--jobs 1``), which Ctrl-C
+  does not wait for.
 - :class:`LocalExecutor`: one long-lived worker process per core. Workers start by forkserver (never ``fork`` from
   a process whose torch may have started threads), import torch once, and use one torch thread each. A worker
   that dies breaks the whole pool (``BrokenProcessPool``); :meth:`LocalExecutor.restart` builds a new one.
@@ -17,7 +18,9 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor
+import queue
+import threading
+from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
 from famarl_cli.errors import UsageError
@@ -75,14 +78,46 @@ class Executor:
 
 
 class SerialExecutor(Executor):
+    """One job at a time in a daemon thread of this process: the caller's thread stays free for progress bars and
+    leases. Ctrl-C reaches only the main thread, so a pool's worker thread, which the interpreter waits for at exit,
+    would keep an endless job (a user's env that never ends an episode) running; a daemon thread ends with the
+    process, and every artifact is written atomically, so nothing is left half-written."""
+
     def __init__(self) -> None:
-        self.pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="famarl-job")
+        self.queue: queue.SimpleQueue = queue.SimpleQueue()
+        self.pending: list[Future] = []
+        self.thread = threading.Thread(target=self._work, name="famarl-job", daemon=True)
+        self.thread.start()
 
     def submit(self, function: str, *args) -> Future:
-        return self.pool.submit(_call, function, *args)
+        future: Future = Future()
+        self.pending = [*(f for f in self.pending if not f.done()), future]
+        self.queue.put((future, function, args))
+        return future
+
+    def _work(self) -> None:
+        while (job := self.queue.get()) is not None:
+            future, function, args = job
+            if not future.set_running_or_notify_cancel():
+                continue
+            try:
+                future.set_result(_call(function, *args))
+            except BaseException as exc:  # the job's own failure belongs to its future, as in a pool
+                future.set_exception(exc)
 
     def close(self) -> None:
-        self.pool.shutdown(wait=True, cancel_futures=True)
+        """Cancel the jobs not started and wait for the running one."""
+        for future in self.pending:
+            future.cancel()
+        self.queue.put(None)
+        self.thread.join()
+
+    def __exit__(self, kind, *exc) -> None:
+        if kind is not None and issubclass(kind, KeyboardInterrupt):
+            for future in self.pending:
+                future.cancel()
+            return  # the running job's thread ends with the process
+        self.close()
 
 
 def _init_worker() -> None:
