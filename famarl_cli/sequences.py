@@ -82,7 +82,7 @@ def _check_header(handle: IO[bytes], size: int, where: str) -> None:
         raise ArtifactError(f"{where}: not a numpy .npy or .npz file (no numpy header at its start)") from exc
     try:
         read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
-        shape, _, dtype = read(handle, max_header_size=HEADER_MAX)
+        shape, _, dtype = read(handle)  # numpy's own limit on the header's length
     except (ValueError, SyntaxError, TypeError, OverflowError) as exc:
         raise ArtifactError(f"{where}: not a numpy array file ({one_line(exc)})") from exc
     if dtype.hasobject:
@@ -93,10 +93,6 @@ def _check_header(handle: IO[bytes], size: int, where: str) -> None:
         raise ArtifactError(
             f"{where}: its header declares a {shape} {dtype} array ({needed:,} bytes); it holds {held:,}"
         )
-
-
-HEADER_MAX = 10_000
-"""numpy's own limit on a .npy header's length (a longer one is refused, as numpy refuses it)."""
 
 
 def to_segments(

@@ -151,6 +151,10 @@ MINARI = {
         lambda m: {**m, "famarl": {**m["famarl"], "factor_names": [1, 2]}},
         "factor_names must be strings",
     ),
+    "structure-minari-success-rule-is-a-number": (
+        lambda m: {**m, "famarl": {**m["famarl"], "success_rule": 7}},
+        "success_rule must be a str, got 7",
+    ),
     "structure-minari-schema-version-is-text": (
         lambda m: {**m, "famarl": {**m["famarl"], "schema_version": "one"}},
         "schema_version must be a int",
@@ -201,6 +205,8 @@ def test_demos_whose_episodes_differ_in_width_are_refused_by_every_reader(tmp_pa
 
 
 # The user's code: experts and envs that fail, and values they should not return
+
+PENDULUM = ("--env", "Pendulum-v1", "--expert", "user_experts:swing")
 
 USER_CODE = {
     "user-code-expert-constructor-raises": (
@@ -265,25 +271,18 @@ USER_CODE = {
     ),
     # keyword arguments of the env
     "env-kwargs-wrong-type": (
-        ("--env", "Pendulum-v1", "--expert", "user_experts:swing", "--env-kwargs", '{"g": "x"}'),
+        (*PENDULUM, "--env-kwargs", '{"g": "x"}'),
         1,
         "env Pendulum-v1 step raised",
     ),
-    "env-kwargs-zero-steps": (
-        ("--env", "Pendulum-v1", "--expert", "user_experts:swing", "--env-kwargs", '{"max_episode_steps": 0}'),
-        2,
-        "max_episode_steps must be a positive integer, got 0",
-    ),
-    "env-kwargs-negative-steps": (
-        ("--env", "Pendulum-v1", "--expert", "user_experts:swing", "--env-kwargs", '{"max_episode_steps": -5}'),
-        2,
-        "max_episode_steps must be a positive integer, got -5",
-    ),
-    "env-kwargs-fractional-steps": (
-        ("--env", "Pendulum-v1", "--expert", "user_experts:swing", "--env-kwargs", '{"max_episode_steps": 2.5}'),
-        2,
-        "max_episode_steps must be a positive integer, got 2.5",
-    ),
+    **{
+        f"env-kwargs-{name}-steps": (
+            (*PENDULUM, "--env-kwargs", f'{{"max_episode_steps": {steps}}}'),
+            2,
+            f"max_episode_steps must be a positive integer, got {steps}",
+        )
+        for name, steps in (("zero", 0), ("negative", -5), ("fractional", 2.5))
+    },
     "env-kwargs-the-envs-own-assertion": (
         (
             "--env",
@@ -297,7 +296,7 @@ USER_CODE = {
         "env LunarLanderContinuous-v3 raised AssertionError: gravity (current value: 5.0) must be between",
     ),
     "options-success-return-not-a-number": (
-        ("--env", "Pendulum-v1", "--expert", "user_experts:swing", "--success-return", "nan"),
+        (*PENDULUM, "--success-return", "nan"),
         2,
         "--success-return must be a finite return, got nan",
     ),
@@ -332,6 +331,16 @@ def test_debug_shows_the_users_own_traceback(tmp_path):
     )
     assert result.exit_code != 0
     assert "the policy server is down" in str(result.exception.__cause__)
+
+
+def test_a_success_return_that_is_not_a_number_is_refused_by_train_and_evaluate(tmp_path):
+    run, common = tmp_path / "run", ("--env", "user_envs:Plain-v0", "--agent", "ppo", "--steps", 64)
+    one_line_error(famarl("train", *common, "--out", run, "--success-return", "nan"), 2, "must be a finite return")
+    assert not run.exists()
+    assert famarl("train", *common, "--n-envs", 1, "--n-steps", 64, "--out", run).exit_code == 0
+    evaluated = famarl("evaluate", "--run", run, "--out", tmp_path / "eval", "--no-film", "--success-return", "inf")
+    one_line_error(evaluated, 2, "--success-return must be a finite return, got inf")
+    assert not list((tmp_path / "eval").rglob("*.json"))
 
 
 def test_training_in_an_env_whose_step_fails_writes_no_run(tmp_path):

@@ -267,6 +267,8 @@ def _famarl_facts(facts: Any, dataset: str) -> dict | None:
     attempts = facts.get("attempts")
     if attempts is not None and (not isinstance(attempts, int) or isinstance(attempts, bool) or attempts < 1):
         raise ArtifactError(f"{where}: attempts must be a positive integer, got {attempts!r:.60}")
+    if not isinstance(facts.get("success_rule", ""), str):
+        raise ArtifactError(f"{where}: success_rule must be a str, got {facts['success_rule']!r:.60}")
     if facts["schema"] != SCHEMA or facts["schema_version"] > SCHEMA_VERSION:
         raise ArtifactError(
             f"{where} is {facts['schema']!r} version {facts['schema_version']}; this famarl reads {SCHEMA!r} up to "

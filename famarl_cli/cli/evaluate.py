@@ -135,7 +135,7 @@ def evaluate(
     write_json(curves.with_suffix(".json"), {"episodes": episodes, "seed": seed, "labels": summary})
     console = Console()
     console.print(table)
-    for rule in sorted({str(e.get("success_rule")) for e in evaluations}):
+    for rule in sorted({e["success_rule"] for e in evaluations}):
         console.print(f"success: {rule}")
     by_label = Table(title="per label: mean (min to max) over runs")
     for column in ("label", "runs", "success", "return", "decisions", "macro length", "train wall s"):

@@ -14,7 +14,7 @@ import numpy as np
 from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.envs.continuous_world import Layouts
 from famarl_cli.envs.external import make_env
-from famarl_cli.envs.success import as_bool
+from famarl_cli.envs.success import as_bool, rate
 from famarl_cli.rl.executor import run_open_loop
 from famarl_cli.rl.normalization import ObservationNormalizer
 from famarl_cli.rl.training import TrainedAgent, build_mode
@@ -104,13 +104,13 @@ def evaluate(
         chosen += length
         ended = alive & (result.terminated | result.truncated)
         success = np.where(ended, result.success, success)
-        alive &= ~(result.terminated | result.truncated)
+        alive &= ~ended
         obs = result.obs
         decision += 1
 
     metrics = {
         "episodes": episodes,
-        "success_rate": None if np.isnan(success).all() else float(np.nanmean(success)),
+        "success_rate": rate(success.tolist()),
         "success_rule": env.success_rule,
         "return_mean": float(returns.mean()),
         "return_std": float(returns.std()),

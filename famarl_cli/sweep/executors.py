@@ -85,13 +85,11 @@ class SerialExecutor(Executor):
 
     def __init__(self) -> None:
         self.queue: queue.SimpleQueue = queue.SimpleQueue()
-        self.pending: list[Future] = []
         self.thread = threading.Thread(target=self._work, name="famarl-job", daemon=True)
         self.thread.start()
 
     def submit(self, function: str, *args) -> Future:
         future: Future = Future()
-        self.pending = [*(f for f in self.pending if not f.done()), future]
         self.queue.put((future, function, args))
         return future
 
@@ -105,18 +103,26 @@ class SerialExecutor(Executor):
             except BaseException as exc:  # the job's own failure belongs to its future, as in a pool
                 future.set_exception(exc)
 
+    def _cancel_waiting(self) -> None:
+        """Cancel every job still in the queue (not the one running)."""
+        while True:
+            try:
+                job = self.queue.get_nowait()
+            except queue.Empty:
+                return
+            if job is not None:
+                job[0].cancel()
+
     def close(self) -> None:
         """Cancel the jobs not started and wait for the running one."""
-        for future in self.pending:
-            future.cancel()
+        self._cancel_waiting()
         self.queue.put(None)
         self.thread.join()
 
     def __exit__(self, kind, *exc) -> None:
         if kind is not None and issubclass(kind, KeyboardInterrupt):
-            for future in self.pending:
-                future.cancel()
-            return  # the running job's thread ends with the process
+            self._cancel_waiting()  # and not wait: the running job's thread ends with the process
+            return
         self.close()
 
 
