@@ -23,7 +23,7 @@ import torch
 from common import RESULTS, peak_rss_mib, rate, timed, write_result
 
 from famarl_cli.cli.train import DECISIONS_PER_ROLLOUT
-from famarl_cli.favae.checkpoint import load_favae
+from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.rl import Agent
 from famarl_cli.rl.ppo import PPOConfig, PPOTrainer
 from famarl_cli.rl.training import RunSpec, build_mode

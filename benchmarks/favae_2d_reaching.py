@@ -21,7 +21,7 @@ import numpy as np
 from common import RESULTS, write_result
 from favae_designs import run_all, summary
 
-from famarl_cli.sequences import load_arrays, to_segments
+from famarl_cli.method.sequences import load_arrays, to_segments
 from famarl_cli.sweep.plan import parse_values
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "favae-2d-reaching"

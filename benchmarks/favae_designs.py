@@ -18,7 +18,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from famarl_cli.favae import CALIBRATION_BETA
+from famarl_cli.method.favae import CALIBRATION_BETA
 
 
 @dataclass(frozen=True)
@@ -61,9 +61,9 @@ def fit_design(job: dict) -> dict:
     import torch
 
     from famarl_cli.artifacts.segments import read_segments
-    from famarl_cli.favae.model import FavaeConfig
-    from famarl_cli.favae.training import TrainingParams, allocate_capacity, calibrate, evaluate_fit, train_favae
-    from famarl_cli.traversal import traverse, variables_of
+    from famarl_cli.method.favae.model import FavaeConfig
+    from famarl_cli.method.favae.training import TrainingParams, allocate_capacity, calibrate, evaluate_fit, train_favae
+    from famarl_cli.method.traversal import traverse, variables_of
 
     torch.set_num_threads(1)
     design = DESIGNS[job["design"]]

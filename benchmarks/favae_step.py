@@ -21,9 +21,9 @@ from common import RESULTS, write_result
 from favae_designs import DESIGNS
 
 from famarl_cli.artifacts.segments import read_segments
-from famarl_cli.favae.loss import favae_loss
-from famarl_cli.favae.model import Favae, FavaeConfig, to_input
-from famarl_cli.favae.training import ladder_weights
+from famarl_cli.method.favae.loss import favae_loss
+from famarl_cli.method.favae.model import Favae, FavaeConfig, to_input
+from famarl_cli.method.favae.training import ladder_weights
 from famarl_cli.sweep.plan import parse_values
 
 

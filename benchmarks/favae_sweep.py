@@ -18,9 +18,9 @@ import numpy as np
 import torch
 
 from famarl_cli.artifacts.segments import read_segments
-from famarl_cli.favae.checkpoint import read_calibration
-from famarl_cli.favae.model import FavaeConfig
-from famarl_cli.favae.training import TrainingParams, evaluate_fit, train_favae
+from famarl_cli.method.favae.checkpoint import read_calibration
+from famarl_cli.method.favae.model import FavaeConfig
+from famarl_cli.method.favae.training import TrainingParams, evaluate_fit, train_favae
 
 
 def spread(rows: list[dict], key: str, digits: int) -> str:

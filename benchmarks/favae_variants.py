@@ -25,7 +25,7 @@ from famarl_cli.sweep.plan import parse_values
 
 VALUES = [-3.0, -1.0, 1.0, 3.0]
 MOVES = 0.5
-"""Effect (m) from which a variable visibly changes the path (famarl_cli.experiments.traversal.MOVES)."""
+"""Effect (m) from which a variable visibly changes the path (famarl_cli.report.experiments.traversal.MOVES)."""
 
 
 def design_line(design: str, group: list[dict]) -> str:

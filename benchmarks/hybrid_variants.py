@@ -22,7 +22,7 @@ import numpy as np
 from common import RESULTS, write_result
 
 from famarl_cli.artifacts.runs import read_run_file, read_training_log
-from famarl_cli.statistics import mean_interval, normalised_auc, steps_to_threshold
+from famarl_cli.core.statistics import mean_interval, normalised_auc, steps_to_threshold
 from famarl_cli.sweep.plan import parse_values
 
 ENVS = {

@@ -35,11 +35,11 @@ AVX2_HOST = {
 WORK = r"""
 import hashlib, json, sys, time
 from pathlib import Path
-from famarl_cli.reproducibility import one_thread, platform_facts
+from famarl_cli.core.reproducibility import one_thread, platform_facts
 one_thread()
 import torch
-from famarl_cli import stages
-from famarl_cli.favae.training import TrainingParams
+from famarl_cli.stages import method as stages
+from famarl_cli.method.favae.training import TrainingParams
 from famarl_cli.rl import Agent
 from famarl_cli.rl.ppo import PPOConfig
 from famarl_cli.rl.training import Run, RunSpec

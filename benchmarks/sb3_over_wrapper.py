@@ -29,9 +29,9 @@ import torch
 from common import RESULTS, write_result
 from ppo_vs_sb3 import sb3_ppo
 
+from famarl_cli.core.statistics import mean_interval
 from famarl_cli.envs import ENV_IDS
-from famarl_cli.results import read_json
-from famarl_cli.statistics import mean_interval
+from famarl_cli.report.results import read_json
 from famarl_cli.sweep.plan import parse_values
 from famarl_cli.wrappers import MacroActionWrapper
 

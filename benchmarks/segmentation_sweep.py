@@ -19,7 +19,13 @@ import torch
 
 from famarl_cli.artifacts import read_demos
 from famarl_cli.experts.scripts import Environment, Script
-from famarl_cli.segmentation import AutoencoderConfig, SegmentParams, TrainingConfig, segment_demos, train_autoencoder
+from famarl_cli.method.segmentation import (
+    AutoencoderConfig,
+    SegmentParams,
+    TrainingConfig,
+    segment_demos,
+    train_autoencoder,
+)
 
 SCRIPTS = [s for s in Script if s.environment == Environment.CONTINUOUS_WORLD]
 

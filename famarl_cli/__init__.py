@@ -2,7 +2,7 @@
 
 from importlib.metadata import PackageNotFoundError, version
 
-from famarl_cli.reproducibility import apply_environment
+from famarl_cli.core.reproducibility import apply_environment
 
 # Before anything below loads numpy or torch: their kernels are chosen when they load.
 apply_environment()

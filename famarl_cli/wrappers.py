@@ -30,7 +30,7 @@ import gymnasium
 import numpy as np
 
 from famarl_cli.envs.success import as_bool
-from famarl_cli.favae.checkpoint import load_favae
+from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.rl.action_modes import LatentMacroActions, RepeatedActions
 from famarl_cli.rl.executor import discounted_sum, run_open_loop
 from famarl_cli.rl.vector import GymBatch

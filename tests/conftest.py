@@ -2,8 +2,8 @@ import pytest
 import torch
 from cli_helpers import famarl
 
-from famarl_cli.demos import record_demos
 from famarl_cli.experts import Script
+from famarl_cli.stages.demos import record_demos
 
 # Small networks run fastest on one thread; with two, torch competes with any other process for the 2 cores and
 # the suite slows down many times over.

@@ -8,7 +8,7 @@ import pytest
 from famarl_cli.artifacts import atomic_path, read_demos, write_demos
 from famarl_cli.artifacts.base import TEMP_MARKER
 from famarl_cli.artifacts.demos import SCHEMA_VERSION
-from famarl_cli.errors import ArtifactError
+from famarl_cli.core.errors import ArtifactError
 
 
 @pytest.fixture

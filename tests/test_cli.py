@@ -288,8 +288,8 @@ def assert_film(run, max_frames):
 
 def test_robot_hand_trains_and_evaluates_through_the_gymnasium_loop(tmp_path):
     """RobotHand runs through the generic batch: a 4-D FAVAE's macros, success from info, a rendered episode."""
-    from famarl_cli.favae.checkpoint import save_favae
-    from famarl_cli.favae.model import Favae, FavaeConfig
+    from famarl_cli.method.favae.checkpoint import save_favae
+    from famarl_cli.method.favae.model import Favae, FavaeConfig
 
     torch.manual_seed(0)
     favae = tmp_path / "hand.pt"
@@ -365,7 +365,7 @@ def test_tensorboard_without_its_extra_is_a_one_line_error_that_writes_nothing(t
 
 
 def test_favae_fit_gives_the_pre_runs_capacity_to_the_deepest_ladder_or_pools_its_heads(segments_file, tmp_path):
-    from famarl_cli.favae.checkpoint import load_favae
+    from famarl_cli.method.favae.checkpoint import load_favae
 
     deepest = tmp_path / "deepest.pt"
     result = famarl(
@@ -411,7 +411,7 @@ def test_traverse_without_a_model_takes_the_manual_chains_favae_else_the_main_jo
 
 
 def test_favae_design_options_are_bounded_and_recorded(segments_file, tmp_path):
-    from famarl_cli.favae.checkpoint import load_favae
+    from famarl_cli.method.favae.checkpoint import load_favae
 
     for option, value in (("--progressive", 0.9), ("--calibration-beta", -1), ("--decoder", "deep")):
         result = famarl("favae", "fit", "--segments", segments_file, "--epochs", 2, option, value)

@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from famarl_cli.demos import record_demos
 from famarl_cli.experts.continuous_world import FACTOR_NAMES, PUSH
 from famarl_cli.experts.scripts import Environment, Script
+from famarl_cli.stages.demos import record_demos
 
 
 @pytest.fixture(

@@ -19,8 +19,8 @@ from cli_helpers import digest, famarl, one_line_error, usage_error
 
 from famarl_cli.artifacts import read_demos
 from famarl_cli.artifacts.base import TEMP_MARKER
-from famarl_cli.favae.checkpoint import save_favae
-from famarl_cli.favae.model import Favae, FavaeConfig
+from famarl_cli.method.favae.checkpoint import save_favae
+from famarl_cli.method.favae.model import Favae, FavaeConfig
 
 TINY_TRAINING = ("--steps", 1500, "--n-envs", 4, "--n-steps", 8, "--epochs", 1, "--minibatches", 2)
 

@@ -4,10 +4,11 @@ import numpy as np
 import pytest
 import torch
 
+from famarl_cli.core.errors import ArtifactError, UsageError
+from famarl_cli.core.macro_actions import pad
 from famarl_cli.envs.continuous_world import DT, Layouts, physics_step, simulate_open_loop
-from famarl_cli.errors import ArtifactError, UsageError
-from famarl_cli.favae.checkpoint import load_favae, read_calibration, save_favae, write_calibration
-from famarl_cli.favae.loss import (
+from famarl_cli.method.favae.checkpoint import load_favae, read_calibration, save_favae, write_calibration
+from famarl_cli.method.favae.loss import (
     capacity,
     favae_loss,
     information_per_dim,
@@ -15,10 +16,9 @@ from famarl_cli.favae.loss import (
     kl_per_ladder,
     marginal_per_dim,
 )
-from famarl_cli.favae.model import Favae, FavaeConfig, FavaeOutput
-from famarl_cli.favae.training import TrainingParams, calibrate, evaluate_fit, ladder_weights, train_favae
-from famarl_cli.macro_actions import pad
-from famarl_cli.traversal import traverse, variables_of
+from famarl_cli.method.favae.model import Favae, FavaeConfig, FavaeOutput
+from famarl_cli.method.favae.training import TrainingParams, calibrate, evaluate_fit, ladder_weights, train_favae
+from famarl_cli.method.traversal import traverse, variables_of
 
 CONFIG = FavaeConfig(action_dim=2, length=16)
 
@@ -131,7 +131,7 @@ def test_checkpoint_and_calibration_round_trip(tmp_path):
 def test_a_checkpoint_of_the_layout_before_the_ladder_decoder_loads_and_decodes_as_it_did(tmp_path):
     """Version-1 checkpoints have no decoder in their config: they are the shared decoder, and decode as before."""
     from famarl_cli.artifacts.checkpoints import save_checkpoint
-    from famarl_cli.favae.checkpoint import SCHEMA
+    from famarl_cli.method.favae.checkpoint import SCHEMA
 
     torch.manual_seed(0)
     shared = Favae(FavaeConfig(action_dim=2, length=16, decoder="shared"))

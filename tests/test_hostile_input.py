@@ -351,10 +351,10 @@ def test_training_in_an_env_whose_step_fails_writes_no_run(tmp_path):
 
 
 def test_a_long_episode_reports_its_steps(tmp_path):
-    from famarl_cli.demos import STEP_REPORT, record_episode
     from famarl_cli.envs.external import make_env
     from famarl_cli.envs.success import success_rule
     from famarl_cli.experts.external import ExternalExpert
+    from famarl_cli.stages.demos import STEP_REPORT, record_episode
 
     env = make_env("user_envs:Endless-v0", {"max_episode_steps": 2 * STEP_REPORT + 5})
     reported = []

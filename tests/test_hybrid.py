@@ -7,7 +7,7 @@ from ppo_reference import autograd_ppo_loss
 from torch.distributions import Categorical
 
 from famarl_cli.envs import ENV_IDS
-from famarl_cli.favae.model import Favae, FavaeConfig
+from famarl_cli.method.favae.model import Favae, FavaeConfig
 from famarl_cli.rl.action_modes import HybridActions, LatentMacroActions, PrimitiveActions
 from famarl_cli.rl.policy import ActorCritic
 from famarl_cli.rl.ppo import Minibatch, PPOConfig, PPOTrainer, clipped_objective_gradient
@@ -262,7 +262,7 @@ def test_the_hybrid_trains_on_every_registered_env(env_id):
 def test_a_films_band_marks_macro_actions_in_colour_and_single_primitive_steps_in_black(tmp_path):
     from PIL import Image, ImageSequence
 
-    from famarl_cli.plots import save_film
+    from famarl_cli.report.plots import save_film
     from famarl_cli.rl.evaluation import Film
 
     # light grey frames, each a shade apart so that the GIF keeps them all; a 3-step macro, then two primitive steps

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from famarl_cli.macro_actions import OFF, ON, cut_lengths, pad, split_long
+from famarl_cli.core.macro_actions import OFF, ON, cut_lengths, pad, split_long
 
 
 def test_pad_adds_zero_steps_and_on_off_channels():

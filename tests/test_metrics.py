@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from famarl_cli.metrics import boundary_scores, match_boundaries
+from famarl_cli.method.metrics import boundary_scores, match_boundaries
 
 
 def test_matching_is_one_to_one_and_closest_first():
@@ -36,7 +36,7 @@ def test_mismatched_episode_counts_are_refused():
 def test_mig_sanity_checks_of_disentanglement_lib():
     import numpy as np
 
-    from famarl_cli.metrics import mig
+    from famarl_cli.method.metrics import mig
 
     rng = np.random.default_rng(0)
     factors = rng.uniform(size=(2000, 3))
@@ -53,7 +53,7 @@ def test_mig_sanity_checks_of_disentanglement_lib():
 def test_every_mig_interval_holds_its_estimate_where_the_resamples_do_not():
     """Resampling repeats samples and moves the histograms, so resampled MIGs sit off the estimate; the interval is
     centred on the estimate and must hold it, overall and per factor, whatever the data."""
-    from famarl_cli.metrics import mig, mig_bootstrap, mig_interval
+    from famarl_cli.method.metrics import mig, mig_bootstrap, mig_interval
 
     rng = np.random.default_rng(0)
     missed = 0

@@ -18,7 +18,7 @@ from minari.data_collector import EpisodeBuffer
 
 from famarl_cli.artifacts import Demos, Episode, read_demos, sha256, write_demos
 from famarl_cli.artifacts.minari_datasets import FAMARL_KEY, export_minari, import_minari
-from famarl_cli.errors import ArtifactError, FamarlError, UsageError
+from famarl_cli.core.errors import ArtifactError, FamarlError, UsageError
 
 
 @pytest.fixture(autouse=True)

@@ -7,10 +7,10 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from famarl_cli.artifacts import Demos, Episode, read_demos, write_demos
-from famarl_cli.macro_actions import cut_lengths, pad
+from famarl_cli.core.macro_actions import cut_lengths, pad
+from famarl_cli.method.segmentation import find_peaks
 from famarl_cli.rl.executor import run_open_loop
 from famarl_cli.rl.ppo import compute_gae
-from famarl_cli.segmentation import find_peaks
 
 finite = st.floats(-100, 100, allow_nan=False, width=32)
 

@@ -11,15 +11,15 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from famarl_cli import experiments as registry
 from famarl_cli.cli import app
-from famarl_cli.errors import ArtifactError
-from famarl_cli.experiments import experiments
-from famarl_cli.experiments.common import MAZE
-from famarl_cli.experiments.macro_length import REACHING_NO_PENALTY
-from famarl_cli.experiments.robothand import BALL_PLACING, REACHING
-from famarl_cli.report import write_report
-from famarl_cli.verdicts import Verdict
+from famarl_cli.core.errors import ArtifactError
+from famarl_cli.report import experiments as registry
+from famarl_cli.report.experiments import experiments
+from famarl_cli.report.experiments.common import MAZE
+from famarl_cli.report.experiments.macro_length import REACHING_NO_PENALTY
+from famarl_cli.report.experiments.robothand import BALL_PLACING, REACHING
+from famarl_cli.report.verdicts import Verdict
+from famarl_cli.report.writer import write_report
 
 BUDGET = 10_000
 

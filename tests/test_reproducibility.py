@@ -10,7 +10,7 @@ import sys
 import pytest
 import torch
 
-from famarl_cli.reproducibility import platform_facts
+from famarl_cli.core.reproducibility import platform_facts
 
 NATIVE = torch.backends.cpu.get_cpu_capability()
 
@@ -50,7 +50,7 @@ def test_a_portable_profile_set_too_late_is_refused(tmp_path):
     if not NATIVE.startswith("AVX512"):
         pytest.skip("on this CPU torch's kernels are AVX2 at most, so loading it early changes nothing")
     # torch fixes its kernels' instruction set at its first operation: after that the profile cannot hold.
-    code = "import torch; torch.ones(3).softmax(0); import famarl_cli.reproducibility as r; r.one_thread()"
+    code = "import torch; torch.ones(3).softmax(0); import famarl_cli.core.reproducibility as r; r.one_thread()"
     done = subprocess.run(
         [sys.executable, "-c", code], env={**os.environ, "FAMARL_REPRO": "portable"}, capture_output=True, text=True
     )

@@ -5,7 +5,7 @@ from ppo_reference import autograd_ppo_loss
 from torch.distributions import Categorical, Normal
 
 from famarl_cli.envs.batched import ContinuousWorldBatch
-from famarl_cli.favae.model import Favae, FavaeConfig
+from famarl_cli.method.favae.model import Favae, FavaeConfig
 from famarl_cli.rl import Agent
 from famarl_cli.rl.action_modes import LatentMacroActions, PrimitiveActions, RepeatedActions
 from famarl_cli.rl.evaluation import evaluate
@@ -216,7 +216,7 @@ def _spec(agent, favae_path=None, steps=3000, **ppo):
 
 @pytest.fixture(scope="module")
 def favae_file(tmp_path_factory):
-    from famarl_cli.favae.checkpoint import save_favae
+    from famarl_cli.method.favae.checkpoint import save_favae
 
     torch.manual_seed(0)
     path = tmp_path_factory.mktemp("favae") / "untrained.pt"

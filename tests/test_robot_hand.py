@@ -7,12 +7,12 @@ from cli_helpers import famarl, one_line_error
 from gymnasium.utils.env_checker import check_env
 
 from famarl_cli.artifacts import read_demos
-from famarl_cli.demos import record_demos
 from famarl_cli.envs import ROBOT_HAND_IDS
 from famarl_cli.envs import robot_hand as rh
 from famarl_cli.experts import PeggingExpert
+from famarl_cli.method.traversal import run_macro_actions
 from famarl_cli.rl.vector import GymBatch, make_batch
-from famarl_cli.traversal import run_macro_actions
+from famarl_cli.stages.demos import record_demos
 
 STILL = np.zeros(4)
 

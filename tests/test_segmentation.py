@@ -3,8 +3,8 @@ import pytest
 import torch
 
 from famarl_cli.artifacts.segments import read_segments, write_segments
-from famarl_cli.errors import ArtifactError, FamarlError, UsageError
-from famarl_cli.segmentation import (
+from famarl_cli.core.errors import ArtifactError, FamarlError, UsageError
+from famarl_cli.method.segmentation import (
     AutoencoderConfig,
     SegmentParams,
     TrainingConfig,

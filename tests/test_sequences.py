@@ -12,8 +12,8 @@ import torch
 from cli_helpers import famarl, one_line_error
 
 from famarl_cli.artifacts.segments import read_segments
-from famarl_cli.favae.checkpoint import load_favae, save_favae
-from famarl_cli.metrics import mig_interval
+from famarl_cli.method.favae.checkpoint import load_favae, save_favae
+from famarl_cli.method.metrics import mig_interval
 
 
 def curves(n: int = 12, steps: int = 20) -> tuple[np.ndarray, np.ndarray]:
@@ -127,8 +127,8 @@ def test_mig_interval_is_narrow_for_a_clean_code_and_shrinks_with_samples():
 
 
 def test_pooled_heads_and_capacity_to_the_deepest_ladder():
-    from famarl_cli.favae.model import Favae, FavaeConfig
-    from famarl_cli.favae.training import allocate_capacity
+    from famarl_cli.method.favae.model import Favae, FavaeConfig
+    from famarl_cli.method.favae.training import allocate_capacity
 
     pooled = Favae(FavaeConfig(action_dim=2, length=16, head="pool"))
     flat = Favae(FavaeConfig(action_dim=2, length=16))

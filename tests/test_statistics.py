@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from famarl_cli.statistics import (
+from famarl_cli.core.statistics import (
     aggregate_interval,
     difference_interval,
     floored_variance,

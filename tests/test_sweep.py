@@ -18,7 +18,7 @@ from cli_helpers import famarl, one_line_error
 
 from famarl_cli.artifacts.lock import claim_folder
 from famarl_cli.cli.sweep import plan
-from famarl_cli.errors import UsageError
+from famarl_cli.core.errors import UsageError
 from famarl_cli.sweep import plan as plans
 from famarl_cli.sweep.driver import run_sweep
 from famarl_cli.sweep.executors import LocalExecutor, SerialExecutor, make_executor

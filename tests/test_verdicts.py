@@ -4,7 +4,17 @@ from __future__ import annotations
 
 import pytest
 
-from famarl_cli.verdicts import Verdict, all_of, beats, best, bonferroni_level, equivalent, fails, improves, solves
+from famarl_cli.report.verdicts import (
+    Verdict,
+    all_of,
+    beats,
+    best,
+    bonferroni_level,
+    equivalent,
+    fails,
+    improves,
+    solves,
+)
 
 HIGH = [0.95, 0.97, 0.96, 0.98, 0.94]
 LOW = [0.10, 0.12, 0.08, 0.11, 0.09]

@@ -10,7 +10,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 from famarl_cli.envs import ENV_IDS
-from famarl_cli.favae.checkpoint import load_favae
+from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.wrappers import MacroActionWrapper, RepeatedActionWrapper
 
 MAZE = ENV_IDS["maze"]

@@ -21,8 +21,8 @@ import h5py
 import numpy as np
 
 from famarl_cli import __version__
-from famarl_cli.errors import ArtifactError
-from famarl_cli.reproducibility import platform_facts
+from famarl_cli.core.errors import ArtifactError
+from famarl_cli.core.reproducibility import platform_facts
 
 TEMP_MARKER = ".tmp-"
 """Part of the name of every temporary file; a name with it is never a finished artifact."""
@@ -109,7 +109,7 @@ def sha256(path: str | os.PathLike) -> str:
 
 def provenance(command: str, params: dict[str, Any], seed: int | None, inputs: list[Path] = ()) -> dict:
     """What made an artifact: command, parameters, seed, package version, the inputs' content hashes, and the
-    platform facts that decide its floats (:func:`famarl_cli.reproducibility.platform_facts`)."""
+    platform facts that decide its floats (:func:`famarl_cli.core.reproducibility.platform_facts`)."""
     return {
         "command": command,
         "params": params,

@@ -16,7 +16,7 @@ import torch
 
 from famarl_cli import __version__
 from famarl_cli.artifacts.base import atomic_path, check
-from famarl_cli.errors import ArtifactError
+from famarl_cli.core.errors import ArtifactError
 
 
 def arrays_to_tensors(tree: Any) -> Any:

@@ -17,7 +17,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-from famarl_cli.errors import ArtifactError, UsageError
+from famarl_cli.core.errors import ArtifactError, UsageError
 
 LOCK_FILE = ".famarl.lock"
 

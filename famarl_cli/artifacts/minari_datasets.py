@@ -47,8 +47,8 @@ import numpy as np
 
 from famarl_cli.artifacts.base import TEMP_MARKER, provenance
 from famarl_cli.artifacts.demos import SCHEMA, SCHEMA_VERSION, Demos, Episode, content_fault
+from famarl_cli.core.errors import ArtifactError, FamarlError, UsageError
 from famarl_cli.envs.success import SuccessRule, as_bool, reported, success_rule
-from famarl_cli.errors import ArtifactError, FamarlError, UsageError
 
 FAMARL_KEY = "famarl"
 """The key of famarl's facts in a dataset's metadata, and the prefix of its episode attributes."""

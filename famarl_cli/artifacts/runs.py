@@ -25,7 +25,7 @@ import numpy as np
 
 from famarl_cli.artifacts.base import check, write_csv, write_json
 from famarl_cli.artifacts.checkpoints import arrays_to_tensors, load_checkpoint, save_checkpoint, tensors_to_arrays
-from famarl_cli.errors import ArtifactError
+from famarl_cli.core.errors import ArtifactError
 
 RUN_SCHEMA = "famarl.run"
 RUN_SCHEMA_VERSION = 1

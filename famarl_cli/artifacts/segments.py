@@ -12,7 +12,7 @@ Layout (HDF5)::
         length              (S,)             int64, its number of real steps (1..L)
         actions             (sum length, D)  float32, the real steps of all macro actions, one after another
         padded              (S, L, D + 2)    float32, FAVAE's input: actions zero-padded to L, then action_on,
-                                             action_off (see famarl_cli/macro_actions.py)
+                                             action_off (see famarl_cli/core/macro_actions.py)
     /episodes/
         boundaries          (B,)             int64, detected boundaries (first steps of segments after the first)
         boundary_offsets    (E + 1,)         int64, episode e's boundaries are boundaries[offsets[e]:offsets[e+1]]
@@ -34,7 +34,7 @@ import h5py
 import numpy as np
 
 from famarl_cli.artifacts.base import atomic_path, check, open_artifact, write_header
-from famarl_cli.macro_actions import OFF, ON
+from famarl_cli.core.macro_actions import OFF, ON
 
 SCHEMA = "famarl.segments"
 SCHEMA_VERSION = 1

@@ -15,16 +15,35 @@ Layout (HDF5)::
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 
 import h5py
 import numpy as np
 
 from famarl_cli.artifacts.base import atomic_path, check, open_artifact, write_header
-from famarl_cli.traversal import TRAVERSAL_MAP_SIZE, Traversal
+from famarl_cli.envs.continuous_world import TRAVERSAL_MAP_SIZE
 
 SCHEMA = "famarl.traversal"
 SCHEMA_VERSION = 1
 FIELDS = ("variables", "values", "actions", "lengths", "paths", "effects")
+
+
+@dataclass
+class Traversal:
+    variables: np.ndarray
+    """(V, 2) (ladder, index) of each traversed variable, counted from 1."""
+    values: np.ndarray
+    """(K,) the values each variable takes."""
+    actions: np.ndarray
+    """(V, K, L, D) decoded actions (padding past each length included, as decoded)."""
+    lengths: np.ndarray
+    """(V, K) decoded macro-action lengths."""
+    paths: np.ndarray
+    """(V, K, L + 1, 2) positions of each macro action run from the map's centre."""
+    effects: np.ndarray
+    """(V,) effect size of each variable (m, or the drawn observation dimensions' units)."""
+    frames: np.ndarray | None = None
+    """(V, K, H, W, 3) what a gymnasium env renders at the end of each macro action, when asked for."""
 
 
 def write_traversal(path: str | os.PathLike, traversal: Traversal, provenance: dict) -> None:

@@ -1,6 +1,6 @@
 """The ``famarl`` command line: thin typer commands that parse options and call the library, one module per stage.
 
-Every command turns a :class:`~famarl_cli.errors.FamarlError` into one line on stderr and its exit code;
+Every command turns a :class:`~famarl_cli.core.errors.FamarlError` into one line on stderr and its exit code;
 ``famarl --debug ...`` shows the traceback instead.
 """
 
@@ -16,7 +16,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
 from famarl_cli import __version__
-from famarl_cli.errors import FamarlError
+from famarl_cli.core.errors import FamarlError
 
 app = typer.Typer(
     name="famarl",
@@ -65,7 +65,7 @@ SuccessReturn = Annotated[
 ObsDims = Annotated[
     str, typer.Option(help="The two dimensions of the flattened observation a traversal draws in a gymnasium env.")
 ]
-"""``--obs-dims`` (parsed by :func:`famarl_cli.traversal.parse_dims`)."""
+"""``--obs-dims`` (parsed by :func:`famarl_cli.method.traversal.parse_dims`)."""
 
 
 INTERRUPTED = 130
@@ -102,8 +102,8 @@ def reports_errors(command):
 
 def torch_on_one_thread() -> None:
     """Small networks train fastest on one thread (measured: a second adds nothing on a 2-core laptop); the
-    portable profile's backends when it is on (famarl_cli.reproducibility)."""
-    from famarl_cli.reproducibility import one_thread
+    portable profile's backends when it is on (famarl_cli.core.reproducibility)."""
+    from famarl_cli.core.reproducibility import one_thread
 
     one_thread()
 

@@ -12,7 +12,7 @@ from rich.table import Table
 
 from famarl_cli.artifacts import Demos
 from famarl_cli.cli import EnvKwargs, JobRecipe, SuccessReturn, app, progress_bar, reports_errors, sweepable
-from famarl_cli.errors import UsageError
+from famarl_cli.core.errors import UsageError
 from famarl_cli.experts.scripts import Environment, Script
 
 
@@ -72,7 +72,7 @@ def demos(
     """Record expert demos (with their true phase boundaries and factors, where the expert knows them) to an HDF5
     file: famarl's scripted experts, your expert in any gymnasium env, or a Minari dataset imported."""
     from famarl_cli.artifacts import prepare_output, write_demos
-    from famarl_cli.plots import plot_demos
+    from famarl_cli.report.plots import plot_demos
 
     sources = [
         name for name, given in (("--script", script), ("--expert", expert), ("--from-minari", from_minari)) if given
@@ -106,7 +106,7 @@ def demos(
                     )
                 if env is not None and env != script.environment:
                     raise UsageError(f"script {script.value} acts in {script.environment}, not in {env}")
-                from famarl_cli.demos import record_demos
+                from famarl_cli.stages.demos import record_demos
 
                 task = progress.add_task(f"demos {script.value}", total=episodes)
                 recorded = record_demos(script, episodes, seed, on_episode=lambda _: progress.advance(task))
@@ -124,8 +124,8 @@ def demos(
 
 
 def _record_expert(progress, env, env_kwargs, expert, episodes, seed, min_return, max_attempts, success_return):
-    from famarl_cli.demos import record_expert_demos
     from famarl_cli.envs.external import parse_env_kwargs
+    from famarl_cli.stages.demos import record_expert_demos
 
     if env is None:
         raise UsageError("--expert needs --env, the gymnasium id it acts in")
@@ -179,7 +179,7 @@ def demos_job(params: dict) -> JobRecipe:
     if env is not None and env != script.environment:
         raise UsageError(f"script {script.value} acts in {script.environment}, not in {env}")
     config = {"script": script.value, "episodes": params["episodes"], "seed": params["seed"], "plot": params["plot"]}
-    return JobRecipe("famarl_cli.demos:run_job", config)
+    return JobRecipe("famarl_cli.stages.demos:run_job", config)
 
 
 def demos_table(demos: Demos, title: str) -> Table:

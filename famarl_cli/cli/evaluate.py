@@ -11,7 +11,7 @@ from rich.table import Table
 
 from famarl_cli.cli import SuccessReturn, app, progress_bar, reports_errors, torch_on_one_thread
 from famarl_cli.cli.train import DEFAULT_ENV, DEFAULT_FAVAE, default_run_dir
-from famarl_cli.errors import FamarlError
+from famarl_cli.core.errors import FamarlError
 from famarl_cli.rl import Agent
 from famarl_cli.sweep.executors import default_jobs
 
@@ -79,7 +79,7 @@ def evaluate(
         read_training_log,
     )
     from famarl_cli.envs.success import shown
-    from famarl_cli.plots import plot_learning_curves
+    from famarl_cli.report.plots import plot_learning_curves
     from famarl_cli.rl.evaluation import summarise
     from famarl_cli.sweep.executors import make_executor
 
@@ -97,7 +97,7 @@ def evaluate(
         task = progress.add_task("evaluate", total=len(run))
         futures = [
             executor.submit(
-                "famarl_cli.stages:evaluate_run",
+                "famarl_cli.stages.method:evaluate_run",
                 str(folder),
                 str(results[folder]),
                 episodes,

@@ -11,7 +11,7 @@ from rich.progress import Progress
 from rich.table import Table
 
 from famarl_cli.cli import app, progress_bar, reports_errors, torch_on_one_thread
-from famarl_cli.favae import (
+from famarl_cli.method.favae import (
     CALIBRATION_BETA,
     DECODER,
     MAX_PROGRESSIVE,
@@ -117,8 +117,8 @@ def favae_calibrate(
 ) -> None:
     """The C_last pre-run: fit with a small beta and C = 0; each ladder's final information (or KL, with
     --capacity-measure kl) becomes its C_last."""
-    from famarl_cli import stages
-    from famarl_cli.favae.training import TrainingParams
+    from famarl_cli.method.favae.training import TrainingParams
+    from famarl_cli.stages import method as stages
 
     torch_on_one_thread()
     out = out or Path("data/favae") / f"{segments.stem}.calibration.json"
@@ -164,8 +164,8 @@ def favae_fit(
     calibration_beta: CalibrationBetaOption = CALIBRATION_BETA,
 ) -> None:
     """Fit FAVAE on segments (after the C_last pre-run unless --calibration is given) and score it."""
-    from famarl_cli import stages
-    from famarl_cli.favae.training import TrainingParams
+    from famarl_cli.method.favae.training import TrainingParams
+    from famarl_cli.stages import method as stages
 
     torch_on_one_thread()
     with progress_bar() as progress:

@@ -24,8 +24,8 @@ def inspect(
     from famarl_cli.artifacts.demos import SCHEMA as DEMOS
     from famarl_cli.artifacts.segments import SCHEMA as SEGMENTS
     from famarl_cli.artifacts.segments import read_segments
-    from famarl_cli.errors import ArtifactError
-    from famarl_cli.plots import plot_demos
+    from famarl_cli.core.errors import ArtifactError
+    from famarl_cli.report.plots import plot_demos
 
     schema = peek_schema(path)
     if schema == DEMOS:

@@ -20,7 +20,7 @@ from famarl_cli.cli import (
     torch_on_one_thread,
 )
 from famarl_cli.cli.favae import MAX_LADDERS, CalibrationBetaOption, DecoderOption, MeasureOption, ProgressiveOption
-from famarl_cli.favae import CALIBRATION_BETA, DECODER, MEASURE, PROGRESSIVE, Capacity, Head
+from famarl_cli.method.favae import CALIBRATION_BETA, DECODER, MEASURE, PROGRESSIVE, Capacity, Head
 
 
 @app.command()
@@ -80,7 +80,7 @@ def macros(
     continues at the step it was in. famarl sweep macros runs this for many seeds (independent replicates).
     """
     from famarl_cli.artifacts.lock import claim_folder
-    from famarl_cli.macros import learn_macros
+    from famarl_cli.stages.macros import learn_macros
 
     torch_on_one_thread()
     config = _config(locals())
@@ -106,8 +106,8 @@ def macros(
 
 def _config(params: dict):
     from famarl_cli.envs.external import parse_env_kwargs
-    from famarl_cli.macros import MacrosConfig
-    from famarl_cli.traversal import parse_dims, parse_values
+    from famarl_cli.method.traversal import parse_dims, parse_values
+    from famarl_cli.stages.macros import MacrosConfig
 
     def text(path: Path | None) -> str | None:
         return None if path is None else str(path)
@@ -142,4 +142,6 @@ def _config(params: dict):
 def macros_job(params: dict) -> JobRecipe:
     """``famarl sweep macros``: each replicate is what ``famarl macros`` with the same options would make."""
     config = _config(params)
-    return JobRecipe("famarl_cli.macros:run_job", config.to_dict(), tuple(map(str, config.inputs)), resumable=True)
+    return JobRecipe(
+        "famarl_cli.stages.macros:run_job", config.to_dict(), tuple(map(str, config.inputs)), resumable=True
+    )

@@ -10,7 +10,7 @@ from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.cli import app, reports_errors
-from famarl_cli.errors import UsageError
+from famarl_cli.core.errors import UsageError
 
 
 @app.command()
@@ -33,8 +33,8 @@ def report(
     a table per experiment of the paper, our numbers beside the paper's claims, and a three-way verdict per claim
     (reproduces, does not reproduce, inconclusive) from 95% intervals over seeds."""
     from famarl_cli import __version__
-    from famarl_cli.experiments import experiments
-    from famarl_cli.report import write_report
+    from famarl_cli.report.experiments import experiments
+    from famarl_cli.report.writer import write_report
 
     known = experiments()
     names = experiment or list(known)

@@ -68,8 +68,8 @@ def segment(
     ] = None,
 ) -> None:
     """Cut demos into macro actions at the peaks of an autoencoder's code distance (paper Alg. 1)."""
-    from famarl_cli import stages
-    from famarl_cli.segmentation import SegmentParams
+    from famarl_cli.method.segmentation import SegmentParams
+    from famarl_cli.stages import method as stages
 
     torch_on_one_thread()
     params = SegmentParams(peak_neighbours, margin, distance.value, length, long.value, tolerance, seed)

@@ -37,7 +37,7 @@ def sequences(
     """
     from famarl_cli.artifacts import prepare_output, provenance
     from famarl_cli.artifacts.segments import write_segments
-    from famarl_cli.sequences import load_arrays, to_segments
+    from famarl_cli.method.sequences import load_arrays, to_segments
 
     out = prepare_output(out)
     arrays = load_arrays(source, key)

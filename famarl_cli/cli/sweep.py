@@ -11,7 +11,7 @@ from rich.progress import Progress, TaskID
 from rich.table import Table
 
 from famarl_cli.cli import SWEEPABLE, app, progress_bar, reports_errors
-from famarl_cli.errors import FamarlError, UsageError
+from famarl_cli.core.errors import FamarlError, UsageError
 
 
 @app.command(no_args_is_help=True)

@@ -21,7 +21,7 @@ from famarl_cli.cli import (
     sweepable,
     torch_on_one_thread,
 )
-from famarl_cli.errors import UsageError
+from famarl_cli.core.errors import UsageError
 from famarl_cli.rl import HYBRID_ENTROPY_FLOOR, HYBRID_HORIZON, HYBRID_RESIDUAL, Agent, MacroDiscount, agent_defaults
 
 DEFAULT_ENV = "famarl/ContinuousWorld-Maze-v0"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
@@ -10,7 +11,10 @@ from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.cli import EnvKwargs, ObsDims, app, reports_errors, torch_on_one_thread
-from famarl_cli.errors import UsageError
+from famarl_cli.core.errors import UsageError
+from famarl_cli.envs import DEFAULT_WORLD, WORLDS
+
+World = StrEnum("World", {name.upper().replace("-", "_"): name for name in WORLDS})
 
 
 @app.command()
@@ -35,7 +39,7 @@ def traverse(
     draw: Annotated[
         str,
         typer.Option(
-            help="run: run the decoded macro actions in the environment that takes their size; values: draw the "
+            help="run: run the decoded macro actions in --world (or --env); values: draw the "
             "decoded sequences' first two dimensions as positions (sequences that are paths, e.g. 2D Reaching)."
         ),
     ] = "run",
@@ -43,9 +47,15 @@ def traverse(
         str | None,
         typer.Option(
             help="Run the macro actions in this gymnasium env (each from reset(seed=0)) and draw --obs-dims of its "
-            "observations.  [default: famarl's env that takes the actions' size]"
+            "observations.  [default: the empty --world]"
         ),
     ] = None,
+    world: Annotated[
+        World,
+        typer.Option(
+            help="famarl's env family whose empty world runs the macro actions from its centre (without --env)."
+        ),
+    ] = World(DEFAULT_WORLD),
     env_kwargs: EnvKwargs = None,
     obs_dims: ObsDims = "0,1",
     frames: Annotated[
@@ -57,9 +67,9 @@ def traverse(
     ] = False,
 ) -> None:
     """Decode sweeps of single latent variables and draw the paths their macro actions take (paper Fig. 5)."""
-    from famarl_cli import stages
     from famarl_cli.envs.external import parse_env_kwargs
-    from famarl_cli.traversal import EMPTY_LADDER_NATS, empty_ladders, parse_dims, parse_values
+    from famarl_cli.method.traversal import EMPTY_LADDER_NATS, empty_ladders, parse_dims, parse_values
+    from famarl_cli.stages import method as stages
 
     torch_on_one_thread()
     if model is None:
@@ -72,7 +82,17 @@ def traverse(
         raise UsageError("--env-kwargs goes with --env")
     dims = parse_dims(obs_dims)
     result, carried = stages.traverse(
-        model, out, parse_values(values), ladder, index, draw, env, parse_env_kwargs(env_kwargs), dims, frames
+        model,
+        out,
+        parse_values(values),
+        ladder,
+        index,
+        draw,
+        env,
+        parse_env_kwargs(env_kwargs),
+        dims,
+        frames,
+        str(world),
     )
     table = Table(title=f"traversal of {model}", show_header=True)
     table.add_column("(ladder, index)")

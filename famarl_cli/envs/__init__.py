@@ -21,11 +21,24 @@ ROBOT_HAND_IDS = {
     "ball-placing": "famarl/RobotHand-BallPlacing-v0",
 }
 ENV_IDS = {**CONTINUOUS_WORLD_IDS, **{f"robot-hand-{task}": env_id for task, env_id in ROBOT_HAND_IDS.items()}}
+WORLDS = {"continuous-world": continuous_world, "robot-hand": robot_hand}
+"""famarl's env families by name. Each module provides its env class, ``TASKS``, ``ACTION_SPACE`` and
+``traversal_paths(actions, lengths)``: the empty world a latent traversal runs macro actions in."""
+DEFAULT_WORLD = "continuous-world"
+"""Where a latent traversal runs macro actions when no world or env is given: the paper's env."""
+_FAMILIES = {
+    "continuous-world": ("ContinuousWorldEnv", CONTINUOUS_WORLD_IDS),
+    "robot-hand": ("RobotHandEnv", ROBOT_HAND_IDS),
+}
 
-for _module, _cls, _ids in (
-    (continuous_world, "ContinuousWorldEnv", CONTINUOUS_WORLD_IDS),
-    (robot_hand, "RobotHandEnv", ROBOT_HAND_IDS),
-):
+
+def world_of(env_id: str) -> str | None:
+    """The family (a key of WORLDS) of one of famarl's env ids; None for any other env."""
+    return next((name for name, (_, ids) in _FAMILIES.items() if env_id in ids.values()), None)
+
+
+for _world, (_cls, _ids) in _FAMILIES.items():
+    _module = WORLDS[_world]
     for _task, _env_id in _ids.items():
         if _env_id not in gymnasium.registry:
             gymnasium.register(
@@ -35,4 +48,13 @@ for _module, _cls, _ids in (
                 max_episode_steps=_module.TASKS[_task].max_episode_steps,
             )
 
-__all__ = ["CONTINUOUS_WORLD_IDS", "ENV_IDS", "ROBOT_HAND_IDS", "ContinuousWorldEnv", "RobotHandEnv"]
+__all__ = [
+    "CONTINUOUS_WORLD_IDS",
+    "DEFAULT_WORLD",
+    "ENV_IDS",
+    "ROBOT_HAND_IDS",
+    "WORLDS",
+    "ContinuousWorldEnv",
+    "RobotHandEnv",
+    "world_of",
+]

@@ -283,3 +283,14 @@ def simulate_open_loop(
         pos, vel = np.where(running, moved, pos), np.where(running, moved_vel, vel)
         path[:, t + 1] = pos
     return path
+
+
+TRAVERSAL_MAP_SIZE = 10.0
+"""Side (m) of the empty map latent traversals run in: twice Base's largest map."""
+
+
+def traversal_paths(actions: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """(n, L + 1, 2) paths of (n, L, 2) macro actions run open-loop from rest at the centre of an empty
+    TRAVERSAL_MAP_SIZE map, so that a macro action as long as the demos' longest legs never reaches an edge."""
+    centre = (TRAVERSAL_MAP_SIZE / 2, TRAVERSAL_MAP_SIZE / 2)
+    return simulate_open_loop(actions, lengths, centre, TRAVERSAL_MAP_SIZE)

@@ -22,7 +22,7 @@ import warnings
 
 import gymnasium as gym
 
-from famarl_cli.errors import FamarlError, ForeignError, UsageError, foreign
+from famarl_cli.core.errors import FamarlError, ForeignError, UsageError, foreign
 
 EXTRAS = {
     "box2d": "Box2D (BipedalWalker, LunarLander, CarRacing)",

@@ -447,3 +447,9 @@ def simulate_open_loop(actions: np.ndarray, lengths: np.ndarray, start: tuple[fl
                 hand.step(space, actions[i, t])
             paths[i, t + 1] = hand.grip
     return paths
+
+
+def traversal_paths(actions: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """(n, L + 1, 2) grip-point paths of (n, L, 4) macro actions run open-loop from the centre, the hand alone (no
+    objects): the world latent traversals run in."""
+    return simulate_open_loop(actions, lengths, (WIDTH / 2, HEIGHT / 2))

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import gymnasium as gym
 
-from famarl_cli.errors import UsageError
+from famarl_cli.core.errors import UsageError
 
 REPORTED_KEYS = ("success", "is_success")
 """The info keys by which an env reports an episode's success."""

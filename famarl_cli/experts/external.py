@@ -23,7 +23,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from famarl_cli.errors import UsageError, foreign, one_line
+from famarl_cli.core.errors import UsageError, foreign, one_line
 
 
 def resolve(path: str) -> Any:

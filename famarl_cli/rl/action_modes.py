@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from famarl_cli.favae.model import Favae
+from famarl_cli.method.favae.model import Favae
 
 
 class PrimitiveActions:

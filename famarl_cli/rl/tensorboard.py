@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import os
 
-from famarl_cli.errors import UsageError
+from famarl_cli.core.errors import UsageError
 
 SCALARS = {
     "charts/episodic_return": "episode_return",

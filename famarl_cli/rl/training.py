@@ -15,9 +15,9 @@ from pathlib import Path
 
 from famarl_cli.artifacts import provenance
 from famarl_cli.artifacts.runs import CHECKPOINT_FILE, read_run_checkpoint, write_run
-from famarl_cli.errors import ArtifactError, UsageError
-from famarl_cli.favae.checkpoint import load_favae
-from famarl_cli.favae.model import Favae, FavaeConfig
+from famarl_cli.core.errors import ArtifactError, UsageError
+from famarl_cli.method.favae.checkpoint import load_favae
+from famarl_cli.method.favae.model import Favae, FavaeConfig
 from famarl_cli.rl import Agent
 from famarl_cli.rl.action_modes import HybridActions, LatentMacroActions, PrimitiveActions, RepeatedActions
 from famarl_cli.rl.policy import ActorCritic

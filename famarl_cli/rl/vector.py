@@ -18,11 +18,11 @@ from typing import Protocol
 import gymnasium as gym
 import numpy as np
 
+from famarl_cli.core.errors import FamarlError, ForeignError, UsageError, foreign, one_line
 from famarl_cli.envs import CONTINUOUS_WORLD_IDS
 from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.envs.external import make_env
 from famarl_cli.envs.success import SuccessRule, success_rule
-from famarl_cli.errors import FamarlError, ForeignError, UsageError, foreign, one_line
 
 
 class BatchedEnv(Protocol):
@@ -116,7 +116,7 @@ class GymBatch:
         final_obs = self.obs.copy()
         for i in np.flatnonzero(active):
             # The env's own code, which may fail on a value its constructor took (a keyword of the wrong type). Not
-            # famarl_cli.errors.foreign: a context manager per step costs more than the try, which costs nothing.
+            # famarl_cli.core.errors.foreign: a context manager per step costs more than the try, which costs nothing.
             try:
                 obs, rewards[i], terminated[i], truncated[i], self.last_info[i] = self.envs[i].step(actions[i])
                 self._observe(i, obs)

@@ -23,7 +23,7 @@ import threading
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
-from famarl_cli.errors import UsageError
+from famarl_cli.core.errors import UsageError
 
 JOBS_VARIABLE = "FAMARL_JOBS"
 RAY_ADDRESS_VARIABLE = "RAY_ADDRESS"

@@ -30,7 +30,7 @@ from pathlib import Path
 
 from famarl_cli import __version__
 from famarl_cli.artifacts.base import sha256
-from famarl_cli.errors import ArtifactError, UsageError
+from famarl_cli.core.errors import ArtifactError, UsageError
 
 JOB_FILE = "job.json"
 """In every job folder, written by the driver only: the job's key, config and whether it is complete."""

@@ -16,7 +16,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from famarl_cli.errors import FamarlError
+from famarl_cli.core.errors import FamarlError
 
 LEASE_FILE = ".lease"
 PROGRESS_FILE = ".progress"
@@ -81,7 +81,7 @@ def execute(runner: str, config: dict, folder: str, token: str, resume: bool, cw
     paths in ``config`` are the driver's, so the job runs in the driver's folder ``cwd`` (on a cluster, a path
     that every node sees)."""
     from famarl_cli.artifacts.lock import claim_folder
-    from famarl_cli.reproducibility import one_thread
+    from famarl_cli.core.reproducibility import one_thread
 
     os.chdir(cwd)
     one_thread()

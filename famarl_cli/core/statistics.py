@@ -1,0 +1,200 @@
+"""Intervals and aggregates over seeds: what every verdict of the report (:mod:`famarl_cli.report.verdicts`) is
+judged on.
+
+- :func:`mean_interval` and :func:`difference_interval`: Student and Welch t intervals of one mean and of a
+  difference of means, over per-seed values. For success rates, each arm's variance is floored at the
+  evaluation's binomial noise, ``p (1 - p) / K`` with ``p = (successes + 1/2) / (n K + 1)`` over its n seeds of K
+  episodes each: without the floor, seeds that all score 1.00 give an interval of zero width.
+  :func:`ratio_interval`: a bootstrap interval of a ratio of means (one agent's cost or speed over another's).
+- :func:`aggregate_interval`, :func:`iqm`, :func:`probability_of_improvement`, :func:`performance_profile`:
+  aggregates over several tasks as rliable computes them (Agarwal et al. 2021), with the stratified bootstrap
+  (each task's runs resampled on their own) and percentile intervals. rliable itself does not import with numpy 2,
+  so this is numpy and scipy.
+- :func:`normalised_auc` and :func:`steps_to_threshold`: sample efficiency of a learning curve.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+LEVEL = 0.95
+BOOTSTRAP_RESAMPLES = 2000
+
+
+@dataclass(frozen=True)
+class Interval:
+    estimate: float
+    low: float
+    high: float
+    level: float = LEVEL
+
+    def within(self, bounds: tuple[float, float] | None) -> Interval:
+        """Cut to the quantity's range (a rate's [0, 1]): a t interval does not know it, and cutting keeps its
+        coverage."""
+        if bounds is None:
+            return self
+        return Interval(self.estimate, max(self.low, bounds[0]), min(self.high, bounds[1]), self.level)
+
+    def text(self, fmt: str = "{:.2f}") -> str:
+        return f"{fmt.format(self.estimate)} [{fmt.format(self.low)}, {fmt.format(self.high)}]"
+
+
+def floored_variance(values: Sequence[float], episodes: int | None = None) -> float:
+    """Sample variance of per-seed values; for success rates over ``episodes`` evaluation episodes each, at least
+    the binomial variance of one seed's rate."""
+    values = np.asarray(values, dtype=float)
+    variance = float(values.var(ddof=1)) if len(values) > 1 else 0.0
+    if episodes:
+        n = len(values)
+        p = (values.sum() * episodes + 0.5) / (n * episodes + 1)
+        variance = max(variance, p * (1 - p) / episodes)
+    return variance
+
+
+RATE = (0.0, 1.0)
+"""The range of a success rate (and of other shares: AUC, MIG, F1)."""
+
+
+def mean_interval(
+    values: Sequence[float], episodes: int | None = None, level: float = LEVEL, bounds: tuple | None = None
+) -> Interval:
+    """Student t interval of the mean over seeds (variance floored for success rates, and cut to [0, 1] for them
+    or to ``bounds``). One seed gives an unbounded interval: nothing is known of the spread."""
+    values = np.asarray(values, dtype=float)
+    mean = float(values.mean())
+    bounds = bounds or (RATE if episodes else None)
+    if len(values) < 2:
+        return Interval(mean, -np.inf, np.inf, level).within(bounds)
+    half = stats.t.ppf(0.5 + level / 2, len(values) - 1) * np.sqrt(floored_variance(values, episodes) / len(values))
+    return Interval(mean, mean - half, mean + half, level).within(bounds)
+
+
+def difference_interval(
+    a: Sequence[float], b: Sequence[float], episodes: int | None = None, level: float = LEVEL
+) -> Interval:
+    """Welch t interval of mean(a) - mean(b), each arm's variance floored for success rates (and the interval cut
+    to [-1, 1] for them)."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    bounds = (-1.0, 1.0) if episodes else None
+    estimate = float(a.mean() - b.mean())
+    if len(a) < 2 or len(b) < 2:
+        return Interval(estimate, -np.inf, np.inf, level).within(bounds)
+    va, vb = floored_variance(a, episodes) / len(a), floored_variance(b, episodes) / len(b)
+    se = np.sqrt(va + vb)
+    if se == 0:
+        return Interval(estimate, estimate, estimate, level)
+    df = (va + vb) ** 2 / (va**2 / (len(a) - 1) + vb**2 / (len(b) - 1))
+    half = stats.t.ppf(0.5 + level / 2, df) * se
+    return Interval(estimate, estimate - half, estimate + half, level).within(bounds)
+
+
+def ratio_interval(a: Sequence[float], b: Sequence[float], level: float = LEVEL, seed: int = 0) -> Interval:
+    """mean(a) / mean(b) with a bootstrap percentile interval (each group's seeds resampled on their own): how
+    many times one agent's cost or speed another's is. ``b``'s mean must be positive."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    estimate = float(a.mean() / b.mean())
+    if len(a) < 2 or len(b) < 2:
+        return Interval(estimate, -np.inf, np.inf, level)
+    return _stratified_bootstrap((a, b), lambda x, y: float(x.mean() / y.mean()), estimate, level, seed)
+
+
+def iqm(values: Sequence[float]) -> float:
+    """Interquartile mean: the mean of the middle 50% of the values (rliable's robust aggregate)."""
+    return float(stats.trim_mean(np.asarray(values, dtype=float), 0.25))
+
+
+def aggregate_interval(
+    per_task: Sequence[Sequence[float]],
+    statistic: Callable[[np.ndarray], float] = iqm,
+    level: float = LEVEL,
+    seed: int = 0,
+) -> Interval:
+    """``statistic`` of every run of every task pooled, with a stratified-bootstrap percentile interval (each task's
+    runs resampled with replacement on their own)."""
+    samples = tuple(np.asarray(task, dtype=float) for task in per_task)
+    estimate = float(statistic(np.concatenate(samples)))
+    if min(len(s) for s in samples) < 2:
+        return Interval(estimate, -np.inf, np.inf, level)
+
+    def pooled(*resampled: np.ndarray) -> float:
+        return float(statistic(np.concatenate(resampled)))
+
+    return _stratified_bootstrap(samples, pooled, estimate, level, seed)
+
+
+def _stratified_bootstrap(samples: tuple, statistic, estimate: float, level: float, seed: int) -> Interval:
+    """Percentile interval of ``statistic(*samples)``, each sample resampled with replacement on its own."""
+    result = stats.bootstrap(
+        samples,
+        statistic,
+        vectorized=False,
+        paired=False,
+        method="percentile",
+        confidence_level=level,
+        n_resamples=BOOTSTRAP_RESAMPLES,
+        rng=np.random.default_rng(seed),
+    )
+    return Interval(estimate, float(result.confidence_interval.low), float(result.confidence_interval.high), level)
+
+
+def _p_greater(x: np.ndarray, y: np.ndarray) -> float:
+    """P(X > Y) + P(X = Y) / 2 for a run X of one agent and a run Y of another (the Mann-Whitney U over n m)."""
+    greater = (x[:, None] > y[None, :]).mean()
+    ties = (x[:, None] == y[None, :]).mean()
+    return float(greater + 0.5 * ties)
+
+
+def probability_of_improvement(
+    x_per_task: Sequence[Sequence[float]],
+    y_per_task: Sequence[Sequence[float]],
+    level: float = LEVEL,
+    seed: int = 0,
+) -> Interval:
+    """The probability that a run of X scores higher than a run of Y on a task, averaged over tasks, with a
+    stratified-bootstrap percentile interval (both agents' runs of each task resampled on their own)."""
+    xs = [np.asarray(t, dtype=float) for t in x_per_task]
+    ys = [np.asarray(t, dtype=float) for t in y_per_task]
+    tasks = len(xs)
+
+    def average(*samples: np.ndarray) -> float:
+        return float(np.mean([_p_greater(samples[i], samples[tasks + i]) for i in range(tasks)]))
+
+    estimate = average(*xs, *ys)
+    if min(len(s) for s in xs + ys) < 2:
+        return Interval(estimate, -np.inf, np.inf, level)
+    return _stratified_bootstrap((*xs, *ys), average, estimate, level, seed)
+
+
+def performance_profile(scores: Sequence[float], thresholds: np.ndarray) -> np.ndarray:
+    """The fraction of runs (over every task) whose score exceeds each threshold."""
+    scores = np.asarray(scores, dtype=float)
+    return (scores[None, :] > np.asarray(thresholds, dtype=float)[:, None]).mean(axis=1)
+
+
+def normalised_auc(env_steps: np.ndarray, values: np.ndarray, budget: float, points: int = 101) -> float:
+    """Area under a learning curve of values in [0, 1] over a common grid of ``points`` env steps from 0 to
+    ``budget``, divided by the budget: 1 is a run that succeeds from the start, 0 one that never does. Before the
+    first logged value, and where nothing is known yet, the curve counts 0."""
+    grid = np.linspace(0, budget, points)
+    known = ~np.isnan(values)
+    if not known.any():
+        return 0.0
+    x, y = np.asarray(env_steps, dtype=float)[known], np.asarray(values, dtype=float)[known]
+    curve = np.interp(grid, x, y)
+    curve[grid < x[0]] = 0.0
+    return float(np.trapezoid(curve, grid) / budget)
+
+
+def steps_to_threshold(env_steps: np.ndarray, values: np.ndarray, threshold: float, window: int = 5) -> float | None:
+    """The env steps at which the curve, smoothed by a running mean over ``window`` logged values, first reaches
+    ``threshold``; None when it never does (a censored run: report it, never drop it)."""
+    values = np.nan_to_num(np.asarray(values, dtype=float), nan=0.0)
+    if len(values) < window:
+        window = max(1, len(values))
+    smooth = np.convolve(values, np.ones(window) / window, mode="valid")
+    reached = np.flatnonzero(smooth >= threshold)
+    return None if not len(reached) else float(np.asarray(env_steps)[reached[0] + window - 1])

@@ -1,0 +1,85 @@
+"""Paper Fig. 6a: FaMARL on the Maze with FAVAEs fitted at different beta, and their disentanglement (MIG)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from famarl_cli.core.statistics import RATE, mean_interval
+from famarl_cli.report.experiments import experiment
+from famarl_cli.report.experiments.common import (
+    FAILED,
+    MAZE,
+    SOLVED,
+    curves,
+    favae_metrics_of,
+    headline_famarl_runs,
+    success_measure,
+)
+from famarl_cli.report.results import Group, gather, group, results_table
+from famarl_cli.report.verdicts import Claim, all_of, beats, bonferroni_level, fails, not_run, solves
+
+MIG_DELTA = 0.05
+"""Smallest difference in MIG that counts as disentangling better."""
+LOW = 1.0
+"""The paper: beta >= 1 was enough for the Maze; below it, macro actions are entangled."""
+
+
+def _beta(label: str) -> float:
+    found = re.search(r"[-+]?\d*\.?\d+(?:e[-+]?\d+)?", label)
+    return float(found.group()) if found else float("inf")
+
+
+@experiment("beta", "pipelines/beta/dvc.yaml", order=3)
+def beta(data: Path, out: Path):
+    from famarl_cli.report.section import Section
+
+    groups = list(group(gather([data / "beta" / "eval"]), MAZE).values())
+    if not groups:
+        return None
+    headline = headline_famarl_runs(data)
+    if headline:
+        default_beta = favae_metrics_of(headline[:1])[0]["beta"]
+        groups.append(Group(f"beta {default_beta:g}", headline))
+    groups.sort(key=lambda g: _beta(g.label))
+    mig = {g.label: np.array([m["mig"] for m in favae_metrics_of(g.runs)]) for g in groups}
+    low = [g for g in groups if _beta(g.label) < LOW]
+    high = [g for g in groups if _beta(g.label) >= LOW]
+    claims = []
+    pairs = [(h, lo) for h in high for lo in low]
+    level = bonferroni_level(len(pairs))
+    claims.append(
+        Claim(
+            "FAVAE does not disentangle when beta is low",
+            "MIG of the seed's FAVAE (posterior means against the experts' factors)",
+            all_of(
+                [beats(h.label, mig[h.label], lo.label, mig[lo.label], MIG_DELTA, level=level) for h, lo in pairs],
+                f"MIG at each beta >= {LOW:g} beats MIG at each beta < {LOW:g} (Welch, {level:.1%}, Bonferroni), "
+                f"delta {MIG_DELTA:g}",
+            ),
+        )
+        if pairs
+        else not_run("FAVAE does not disentangle when beta is low", "MIG")
+    )
+    for paper, part, rule, tau in (
+        ("low beta deters FaMARL (entangled macro actions)", low, fails, FAILED),
+        ("beta >= 1.0 is enough to complete the Maze", high, solves, SOLVED),
+    ):
+        if not part:
+            claims.append(not_run(paper, success_measure(None)))
+            continue
+        level = bonferroni_level(len(part))
+        judgements = [rule(g.label, g.values("success"), tau, g.episodes, level) for g in part]
+        words = "mean <= " if rule is fails else "mean >= "
+        claims.append(
+            Claim(
+                paper,
+                success_measure(part[0]),
+                all_of(judgements, f"{words}{tau:g} at every such beta ({level:.1%} each, Bonferroni)"),
+            )
+        )
+    table = results_table(groups, {"MIG [95% CI]": lambda g: mean_interval(mig[g.label], bounds=RATE).text("{:.3f}")})
+    figures = [curves(groups, out / "beta-curves.png", "FaMARL on the Maze, FAVAE fitted at each beta")]
+    return Section("beta of the FAVAE (paper Fig. 6a)", claims, [table], figures, groups)

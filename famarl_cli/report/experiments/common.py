@@ -1,0 +1,143 @@
+"""What several experiments share: the thresholds fixed before any run, the claims about success rates, the
+FAVAE replicates' table and the learning curves.
+
+Every threshold and smallest effect of interest below was fixed before the 10-seed runs were made; the paper
+shows curves, not numbers, so each is our reading of its words.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from famarl_cli.core.statistics import LEVEL, RATE, mean_interval
+from famarl_cli.report.results import Group, RunResult, gather, group, macros_folders, read_json
+from famarl_cli.report.verdicts import Claim, best, fails, not_run, solves
+
+MAZE = "famarl/ContinuousWorld-Maze-v0"
+SOLVED = 0.8
+"""Success rate from which a task counts as completed."""
+FAILED = 0.5
+"""Success rate at or below which an agent counts as having failed ("fails to converge")."""
+SUCCESS_DELTA = 0.05
+"""Smallest difference in success rate that counts as one agent being better."""
+AUC_DELTA = 0.05
+"""Smallest difference in normalised area under the success curve that counts as learning faster."""
+EQUIVALENCE_MARGIN = 0.1
+"""Largest difference in success rate that still counts as "does not impact"."""
+
+
+def success_measure(g: Group | None) -> str:
+    episodes = g.episodes if g is not None else "K"
+    return f"success over {episodes} evaluation episodes, policy sampling as in training"
+
+
+AUC_MEASURE = "area under the training success curve, normalised to [0, 1] over the budget"
+
+
+def solves_claim(paper: str, g: Group | None, level: float = LEVEL) -> Claim:
+    if g is None:
+        return not_run(paper, success_measure(g))
+    return Claim(paper, success_measure(g), solves(g.label, g.values("success"), SOLVED, g.episodes, level))
+
+
+def fails_claim(paper: str, g: Group | None, level: float = LEVEL) -> Claim:
+    if g is None:
+        return not_run(paper, success_measure(g))
+    return Claim(paper, success_measure(g), fails(g.label, g.values("success"), FAILED, g.episodes, level))
+
+
+def best_claim(paper: str, candidate: Group | None, rivals: list[Group], key: str = "success") -> Claim:
+    measure = success_measure(candidate) if key == "success" else AUC_MEASURE
+    if candidate is None or not rivals:
+        return not_run(paper, measure)
+    episodes = candidate.episodes if key == "success" else None
+    delta = SUCCESS_DELTA if key == "success" else AUC_DELTA
+    judgement = best(candidate.label, candidate.values(key), {r.label: r.values(key) for r in rivals}, delta, episodes)
+    return Claim(paper, measure, judgement)
+
+
+def favae_table(folder: Path) -> str | None:
+    """The FAVAE replicates of a ``famarl sweep macros`` folder: each score's mean and 95% interval over seeds."""
+    folders = macros_folders(folder)
+    if not folders:
+        return None
+    metrics = [read_json(f / "favae.metrics.json", "FAVAE metrics") for f in folders]
+    segments = [
+        read_json(f / "segments.metrics.json", "segmentation metrics")
+        for f in folders
+        if (f / "segments.metrics.json").is_file()
+    ]
+    rows = {
+        "MIG": [m["mig"] for m in metrics],
+        "length accuracy": [m["length_accuracy"] for m in metrics],
+        "reconstruction MSE": [m["reconstruction_mse"] for m in metrics],
+    }
+    for ladder in range(len(metrics[0]["kl_per_ladder"])):
+        rows[f"KL of ladder {ladder + 1} (nats)"] = [m["kl_per_ladder"][ladder] for m in metrics]
+        # the part of the KL that varies with the segments (FAVAEs fitted before it was measured lack it)
+        if all("information_per_ladder" in m for m in metrics):
+            rows[f"information of ladder {ladder + 1} (nats)"] = [m["information_per_ladder"][ladder] for m in metrics]
+    if segments:
+        rows["segments"] = [s["segments"] for s in segments]
+        rows["boundary F1 (±2 steps)"] = [s["boundaries_within_2"]["f1"] for s in segments]
+    lines = [
+        f"FAVAE replicates ({folder}), n = {len(folders)}:",
+        "",
+        "| score | mean [95% CI] | per seed |",
+        "|---|---|---|",
+    ]
+    shares = ("MIG", "length accuracy", "boundary F1 (±2 steps)")
+    for name, values in rows.items():
+        values = np.asarray(values, dtype=float)
+        fmt = "{:.4f}" if name == "reconstruction MSE" else "{:.3f}" if values.max() < 10 else "{:.0f}"
+        each = " ".join(fmt.format(v) for v in values)
+        interval = mean_interval(values, bounds=RATE if name in shares else (0.0, np.inf))
+        lines.append(f"| {name} | {interval.text(fmt)} | {each} |")
+    return "\n".join(lines)
+
+
+def favae_metrics_of(runs: list[RunResult]) -> list[dict]:
+    """Per run, the metrics of the FAVAE it decoded with."""
+    from famarl_cli.artifacts.runs import read_run_file
+
+    paths = [Path(read_run_file(run.evaluation["run"])["spec"]["favae"]).with_suffix(".metrics.json") for run in runs]
+    return [read_json(path, "FAVAE metrics") for path in paths]
+
+
+def headline_famarl_runs(data: Path) -> list[RunResult]:
+    """The default pipeline's FaMARL runs on the Maze: the experiments that vary one of its settings (script, beta,
+    number of demos) reuse them as that setting's variant instead of running it again."""
+    return [run for g in group(gather([data / "maze" / "eval"]), MAZE, "famarl").values() for run in g.runs]
+
+
+def demos_and_traversal(data: Path, out: Path, name: str, demos: str) -> list[str]:
+    """The demos' picture (``data/demos/<demos>.png``) and seed 0's traversal (``data/<name>/macros``) copied into
+    ``out`` as ``<name>-demos.png`` and ``<name>-traversal.png``: what the macro actions were learned from and what
+    they do. The names of those that exist."""
+    from famarl_cli.report.results import copy_figure
+
+    sources = {
+        "demos": data / "demos" / f"{demos}.png",
+        "traversal": data / name / "macros" / "seed0" / "traverse.png",
+    }
+    copied = [copy_figure(source, out / f"{name}-{kind}.png") for kind, source in sources.items()]
+    return [figure for figure in copied if figure]
+
+
+def per_seed(g: Group, measure) -> np.ndarray:
+    """``measure(run)`` for each seed's run of ``g``."""
+    return np.array([measure(run) for run in g.runs], dtype=float)
+
+
+def sampled_return(run: RunResult) -> float:
+    """A run's mean evaluation return, the policy sampling as in training."""
+    return float(run.evaluation["sampled"]["return_mean"])
+
+
+def curves(groups: list[Group], path: Path, title: str, panels: tuple[str, ...] | None = None) -> str:
+    from famarl_cli.report.plots import DEFAULT_PANELS, plot_learning_curves
+
+    plot_learning_curves({g.label: g.logs for g in groups}, path, panels or DEFAULT_PANELS, title)
+    return path.name

@@ -1,0 +1,61 @@
+"""Paper Fig. 8: FaMARL's macro length over training on Reaching, with and without the time penalty."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from famarl_cli.core.statistics import mean_interval
+from famarl_cli.report.experiments import experiment
+from famarl_cli.report.experiments.common import curves
+from famarl_cli.report.experiments.robothand import REACHING
+from famarl_cli.report.results import Group, gather, group, results_table
+from famarl_cli.report.verdicts import Claim, fails, not_run, solves
+
+REACHING_NO_PENALTY = "famarl/RobotHand-ReachingNoPenalty-v0"
+SHORTENED = 0.85
+"""Macro length at the end of training over that at the start, at or below which macros count as shortened."""
+KEPT = 0.9
+"""The same ratio from which macros count as not shortened."""
+MEASURE = "mean macro length chosen in the last 10% of training updates over that in the first 10%"
+
+
+SEMI_MDP = "famarl-semi-mdp"
+"""Label of the runs of the same two settings under semi-MDP discounting (pipelines/macro-length, semi-mdp)."""
+
+
+@experiment("macro-length", "pipelines/macro-length/dvc.yaml", order=7)
+def macro_length(data: Path, out: Path):
+    from famarl_cli.report.section import Section
+
+    results = gather([data / "robothand" / "eval", data / "macro-length" / "eval"])
+    parts = {}
+    for discount, label in (("", "famarl"), (", semi-MDP", SEMI_MDP)):
+        for name, env in (("time penalty", REACHING), ("no time penalty", REACHING_NO_PENALTY)):
+            g = group(results, env, "famarl").get(label)
+            if g is not None:
+                parts[name + discount] = Group(f"famarl, {name}{discount}", g.runs)
+    if "no time penalty" not in parts:
+        return None
+    claims = []
+    for discount, note in (("", ""), (", semi-MDP", " (semi-MDP discounting, not the paper's)")):
+        if discount and not any(name.endswith(discount) for name in parts):
+            continue
+        for name, paper, rule, tau in (
+            ("time penalty", "with the time penalty, macro actions gradually shorten", fails, SHORTENED),
+            ("no time penalty", "without the time penalty, they do not", solves, KEPT),
+        ):
+            key = name + discount
+            if key in parts:
+                claims.append(Claim(paper + note, MEASURE, rule("end / start", parts[key].ratio("macro_length"), tau)))
+            else:
+                claims.append(not_run(paper + note, MEASURE))
+    groups = list(parts.values())
+
+    def shown(g: Group) -> str:
+        return mean_interval(g.ratio("macro_length")).text()
+
+    table = results_table(groups, {"macro length, end / start [95% CI]": shown})
+    figures = [
+        curves(groups, out / "macro-length.png", "FaMARL on Reaching: macro length over training", ("macro_length",))
+    ]
+    return Section("Macro length with and without time penalty (paper Fig. 8)", claims, [table], figures, groups)

@@ -1,0 +1,246 @@
+"""The evaluated runs an experiment's report reads, grouped by label, and the per-seed values its verdicts use.
+
+A pipeline leaves, per run, a run folder (``run.json``, ``train.csv``) and an evaluation folder (``eval.json`` from
+``famarl evaluate --out``). One seed contributes one value to each measure:
+
+- **success**: the success rate of the final policy drawing its actions as in training, over the K evaluation
+  episodes (K = ``evaluate.episodes``), the end point of the paper's learning curves. Its interval's variance is
+  floored at the binomial noise of K episodes (:func:`famarl_cli.core.statistics.floored_variance`).
+- **deterministic success**: the same episodes with the policy acting with its mode, shown beside it.
+- **AUC**: the area under the training success curve (mean over the last 100 episodes, from ``train.csv``) on a
+  common grid of env steps up to the budget, normalised to [0, 1]: sample efficiency.
+- **steps to 0.8**: env steps until the training success, smoothed over 5 updates, first reaches 0.8. Runs that
+  never reach it are censored: tables give the fraction that did and the mean over those, and drop none.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from famarl_cli.artifacts import atomic_path
+from famarl_cli.artifacts.runs import EVAL_FILE, LOG_FILE, read_evaluation, read_run_file, read_training_log
+from famarl_cli.core.errors import ArtifactError
+from famarl_cli.core.statistics import RATE, mean_interval, normalised_auc, steps_to_threshold
+
+THRESHOLD = 0.8
+"""Training success that counts as learned, for steps-to-threshold."""
+SMOOTHING = 5
+"""Updates over which the training success is averaged before the threshold is looked for."""
+EDGE_FRACTION = 0.1
+"""Share of a run's logged updates averaged for the 'start' and the 'end' of its learning curve."""
+
+
+@dataclass
+class RunResult:
+    """One evaluated run: its ``eval.json``, its training log and its budget."""
+
+    evaluation: dict
+    log: dict[str, np.ndarray]
+    budget: int
+    folder: Path
+    """Where its evaluation was written (rollouts.png, episode.gif)."""
+
+    @property
+    def label(self) -> str:
+        return self.evaluation["label"]
+
+    @property
+    def success(self) -> float:
+        return float(self.evaluation["sampled"]["success_rate"])
+
+    @property
+    def auc(self) -> float:
+        return normalised_auc(self.log["env_steps"], self.log["episode_success"], self.budget)
+
+    @property
+    def steps_to_threshold(self) -> float | None:
+        return steps_to_threshold(self.log["env_steps"], self.log["episode_success"], THRESHOLD, SMOOTHING)
+
+    def edges(self, key: str) -> tuple[float, float]:
+        """Mean of ``key`` over the first and the last EDGE_FRACTION of the logged updates (at least one each)."""
+        values = self.log[key]
+        known = np.flatnonzero(~np.isnan(values))
+        if not len(known):
+            raise ArtifactError(f"{self.evaluation['run']}: no {key!r} values in its training log")
+        edge = max(1, round(len(known) * EDGE_FRACTION))
+        return float(values[known[:edge]].mean()), float(values[known[-edge:]].mean())
+
+
+@dataclass
+class Group:
+    """The runs of one label (one agent or variant over its seeds)."""
+
+    label: str
+    runs: list[RunResult]
+
+    @property
+    def agent(self) -> str:
+        return self.runs[0].evaluation["agent"]
+
+    @property
+    def episodes(self) -> int:
+        """K, the evaluation episodes behind each seed's success rate."""
+        return int(min(run.evaluation["episodes"] for run in self.runs))
+
+    def values(self, key: str) -> np.ndarray:
+        """Per seed: ``success``, ``auc``, or a key of eval.json (deterministic)."""
+        if key in ("success", "auc"):
+            return np.array([getattr(run, key) for run in self.runs], dtype=float)
+        return np.array([run.evaluation[key] for run in self.runs], dtype=float)
+
+    def ratio(self, key: str) -> np.ndarray:
+        """Per seed: ``key``'s end of training over its start."""
+        return np.array([end / start for start, end in (run.edges(key) for run in self.runs)], dtype=float)
+
+    @property
+    def logs(self) -> list[dict[str, np.ndarray]]:
+        return [run.log for run in self.runs]
+
+
+def gather(folders: list[Path]) -> list[RunResult]:
+    """Every evaluated run in ``folders`` (each a folder of per-run evaluation folders), in folder order."""
+    results = []
+    for folder in folders:
+        for path in sorted(folder.glob(f"*/{EVAL_FILE}")):
+            evaluation = read_evaluation(path)
+            run_folder = Path(evaluation["run"])
+            if not (run_folder / LOG_FILE).is_file():
+                raise ArtifactError(f"{path}: its run's training log {run_folder / LOG_FILE} is missing")
+            budget = int(read_run_file(run_folder)["spec"]["ppo"]["total_steps"])
+            results.append(RunResult(evaluation, read_training_log(run_folder), budget, path.parent))
+    return results
+
+
+def group(results: list[RunResult], env: str | None = None, agent: str | None = None) -> dict[str, Group]:
+    """Runs by label, keeping only those on ``env`` and of ``agent`` when given."""
+    groups: dict[str, Group] = {}
+    for result in results:
+        if (env is None or result.evaluation["env"] == env) and (agent is None or result.evaluation["agent"] == agent):
+            groups.setdefault(result.label, Group(result.label, [])).runs.append(result)
+    return groups
+
+
+def by_agent(groups: dict[str, Group]) -> dict[str, Group]:
+    return {g.agent: g for g in groups.values()}
+
+
+def _cell(values: np.ndarray, episodes: int | None = None, fmt: str = "{:.2f}") -> str:
+    if len(values) < 2:
+        return fmt.format(values.mean())
+    return mean_interval(values, episodes, bounds=RATE).text(fmt)
+
+
+def reached(g: Group) -> str:
+    steps = [run.steps_to_threshold for run in g.runs]
+    hit = [s for s in steps if s is not None]
+    mean = f", mean {np.mean(hit) / 1000:,.0f}k" if hit else ""
+    return f"{len(hit)}/{len(steps)}{mean}"
+
+
+def results_table(groups: list[Group], extra: dict | None = None) -> str:
+    """Per label: seeds, env steps, success (sampled) and deterministic success with their 95% intervals, AUC,
+    steps to 0.8, return, macro length and training wall time per run; then the rule that judged success (evaluations
+    before famarl recorded it say nothing)."""
+    extra = extra or {}
+    head = [
+        "n",
+        "env steps",
+        "success [95% CI]",
+        "deterministic success",
+        "AUC [95% CI]",
+        f"steps to {THRESHOLD:g} (reached, mean)",
+        "return",
+        "macro length",
+        "train wall / run",
+        *extra,
+    ]
+    lines = ["| label | " + " | ".join(head) + " |", "|---" * (len(head) + 1) + "|"]
+    for g in groups:
+        cells = [
+            str(len(g.runs)),
+            f"{g.values('env_steps').mean():,.0f}",
+            _cell(g.values("success"), g.episodes),
+            _cell(g.values("success_rate"), g.episodes),
+            _cell(g.values("auc")),
+            reached(g),
+            f"{g.values('return_mean').mean():.0f}",
+            f"{g.values('macro_length').mean():.1f}",
+            f"{g.values('train_wall_s').mean():.0f} s",
+            *(cell(g) for cell in extra.values()),
+        ]
+        lines.append(f"| {g.label} | " + " | ".join(cells) + " |")
+    rules = sorted(
+        {str(run.evaluation["success_rule"]) for g in groups for run in g.runs if "success_rule" in run.evaluation}
+    )
+    if rules:
+        lines += ["", f"Success: {'; '.join(rules)} (famarl_cli.envs.success)."]
+    return "\n".join(lines)
+
+
+CURVES = {"success": "episode_success", "return": "episode_return", "macro_length": "macro_length"}
+"""The training-log columns of a curves file (last 100 episodes' success and return; the macro length chosen)."""
+
+
+def series_names(groups: list[Group]) -> list[str]:
+    """Each group's name in curves and headline numbers: its label, with its env where ``groups`` span several."""
+    envs = {run.evaluation["env"] for g in groups for run in g.runs}
+    if len(envs) < 2:
+        return [g.label for g in groups]
+    return [f"{g.label} ({g.runs[0].evaluation['env'].split('/')[-1]})" for g in groups]
+
+
+def write_curves(groups: list[Group], path: Path) -> None:
+    """Every run's learning curve in one long CSV: ``series, run, seed, env_steps`` and the :data:`CURVES`
+    columns, one row per update. The pipelines' DVC plots draw it, one line per run coloured by series."""
+    with atomic_path(path) as temp, temp.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["series", "run", "seed", "env_steps", *CURVES])
+        for series, g in zip(series_names(groups), groups, strict=True):
+            for run in g.runs:
+                name, seed = Path(run.evaluation["run"]).name, run.evaluation["seed"]
+                columns = [run.log["env_steps"].astype(int)] + [run.log[key] for key in CURVES.values()]
+                for row in zip(*columns, strict=True):
+                    writer.writerow([series, name, seed, row[0], *(f"{v:.4g}" for v in row[1:])])
+
+
+def headline(groups: list[Group]) -> dict[str, dict[str, float]]:
+    """Per series, the numbers ``dvc exp show`` lists: n, success (sampled) with its 95% interval, AUC, return."""
+    numbers = {}
+    for series, g in zip(series_names(groups), groups, strict=True):
+        success = mean_interval(g.values("success"), g.episodes)
+        numbers[series] = {
+            "n": len(g.runs),
+            "success": round(success.estimate, 3),
+            "success_low": round(success.low, 3),
+            "success_high": round(success.high, 3),
+            "auc": round(float(g.values("auc").mean()), 3),
+            "return": round(float(g.values("return_mean").mean()), 1),
+        }
+    return numbers
+
+
+def copy_figure(source: Path, target: Path) -> str | None:
+    """Copy a picture into the report's folder; its name for the report, or None if there is none."""
+    if not source.is_file():
+        return None
+    with atomic_path(target) as temp:
+        shutil.copyfile(source, temp)
+    return target.name
+
+
+def read_json(path: Path, what: str) -> dict:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise ArtifactError(f"{path}: {what} missing or unreadable ({exc})") from exc
+
+
+def macros_folders(folder: Path) -> list[Path]:
+    """The replicate folders of a ``famarl sweep macros`` output, in name order."""
+    return sorted(path.parent for path in folder.glob("*/favae.metrics.json"))

@@ -1,0 +1,77 @@
+"""An experiment's part of the report: its claims with their three-way verdicts (from 95% intervals over seeds,
+:mod:`famarl_cli.report.verdicts`; each row shows the per-seed values, n, the interval and the rule), its tables,
+figures and the runs behind them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from famarl_cli.report.results import Group, headline
+from famarl_cli.report.verdicts import Claim, Verdict
+
+GOAL_WORDS = {Verdict.REPRODUCES: "met", Verdict.DOES_NOT: "missed", Verdict.INCONCLUSIVE: "inconclusive"}
+"""How a section of goals (not the paper's claims) words the three verdicts."""
+
+
+@dataclass
+class Section:
+    """An experiment's part of the report."""
+
+    title: str
+    claims: list[Claim]
+    tables: list[str] = field(default_factory=list)
+    figures: list[str] = field(default_factory=list)
+    groups: list[Group] = field(default_factory=list)
+    """The runs behind it: their learning curves go to ``<name>-curves.csv``, their numbers to summary.json."""
+    goals: bool = False
+    """Its claims are our goals beyond the paper (met, missed, inconclusive) rather than the paper's claims."""
+
+    def word(self, verdict: Verdict) -> str:
+        return GOAL_WORDS[verdict] if self.goals else verdict.value
+
+    def count(self, verdict: Verdict) -> int:
+        return sum(claim.verdict == verdict for claim in self.claims)
+
+    @property
+    def held(self) -> int:
+        """How many of the claims reproduce."""
+        return self.count(Verdict.REPRODUCES)
+
+    @property
+    def verdict(self) -> str:
+        n = len(self.claims)
+        counts = {v: self.count(v) for v in Verdict}
+        if not self.goals and counts[Verdict.REPRODUCES] == n:
+            return "reproduces"
+        if not self.goals and counts[Verdict.DOES_NOT] == n:
+            return "does not reproduce"
+        return ", ".join(f"{counts[v]} of {n} {self.word(v)}" for v in Verdict if counts[v])
+
+    def markdown(self) -> str:
+        first, last = ("goal", "met?") if self.goals else ("the paper says", "verdict")
+        lines = [
+            f"## {self.title}: {self.verdict}",
+            "",
+            f"| {first} | per seed we measure | rule (95% intervals) | per-seed values; estimate [95% CI] | {last} |",
+            "|---|---|---|---|---|",
+        ]
+        for c in self.claims:
+            word = self.word(c.verdict)
+            verdict = word if c.verdict == Verdict.REPRODUCES else f"**{word}**"
+            lines.append(f"| {c.paper} | {c.measure} | {c.judgement.rule} | {c.per_seed()} | {verdict} |")
+        for table in self.tables:
+            lines += ["", table]
+        lines += [""] + [f"![{name}]({name})" for name in self.figures]
+        return "\n".join(lines).rstrip() + "\n"
+
+    def summary(self) -> dict:
+        return {
+            "verdict": self.verdict,
+            "claims": len(self.claims),
+            "claims_reproduced": self.held,
+            "claims_not_reproduced": self.count(Verdict.DOES_NOT),
+            "claims_inconclusive": self.count(Verdict.INCONCLUSIVE),
+            "verdicts": {c.paper: self.word(c.verdict) for c in self.claims},
+            **({"headline": headline(self.groups)} if self.groups else {}),
+        }

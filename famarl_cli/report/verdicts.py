@@ -1,0 +1,190 @@
+"""Three-way verdicts: each claim of the paper *reproduces*, *does not reproduce*, or is *inconclusive*, judged from
+95% intervals over seeds (:mod:`famarl_cli.core.statistics`) and a smallest effect of interest fixed in advance.
+
+The rules (docs/verdicts.md shows why point comparisons of a few seeds are not enough):
+
+- **A solves the task** (mean >= tau): reproduces if the interval's lower end >= tau, does not if its upper end
+  < tau.
+- **B fails** (mean <= tau): reproduces if the upper end <= tau, does not if the lower end > tau.
+- **A beats B**: the Welch interval of mean(A) - mean(B); reproduces if its lower end > 0, does not if its upper
+  end < delta (A is not better by the smallest effect that matters).
+- **A performs best** among m agents: "beats" against every rival at level alpha / (m - 1) (Bonferroni);
+  reproduces if every comparison does, does not if any does not.
+- **The groups do not differ** (equivalence): every pairwise Welch interval, Bonferroni-adjusted; reproduces if
+  each lies inside (-margin, margin), does not if one lies wholly outside [-margin, margin].
+- **A improves on B over tasks** (aggregates): the probability of improvement's bootstrap interval; reproduces if
+  its lower end > 1/2, does not if its upper end < 1/2.
+- A claim made of several parts (``all_of``) reproduces when every part does and does not when any part does not.
+
+Everything else is inconclusive: the seeds do not settle it either way.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from enum import StrEnum
+from itertools import combinations
+
+from famarl_cli.core.statistics import LEVEL, Interval, difference_interval, mean_interval, probability_of_improvement
+
+
+class Verdict(StrEnum):
+    REPRODUCES = "reproduces"
+    DOES_NOT = "does not reproduce"
+    INCONCLUSIVE = "inconclusive"
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """One interval a verdict read, with the per-seed values behind it, for tables and interval plots."""
+
+    name: str
+    interval: Interval
+    values: tuple[float, ...] = ()
+    reference: float | None = None
+    """The threshold the interval is compared with (tau, delta, 1/2), drawn as a line."""
+
+
+@dataclass(frozen=True)
+class Judgement:
+    verdict: Verdict
+    rule: str
+    estimates: tuple[Estimate, ...] = ()
+
+
+def bonferroni_level(comparisons: int) -> float:
+    """The confidence level of each of ``comparisons`` intervals, so that all hold together at LEVEL."""
+    return 1 - (1 - LEVEL) / max(1, comparisons)
+
+
+def three_way(reproduces: bool, does_not: bool) -> Verdict:
+    if reproduces:
+        return Verdict.REPRODUCES
+    return Verdict.DOES_NOT if does_not else Verdict.INCONCLUSIVE
+
+
+def combine(verdicts: Sequence[Verdict]) -> Verdict:
+    """A claim of several parts reproduces when every part does and does not when any part does not."""
+    return three_way(bool(verdicts) and all(v == Verdict.REPRODUCES for v in verdicts), Verdict.DOES_NOT in verdicts)
+
+
+def solves(
+    name: str, values: Sequence[float], tau: float, episodes: int | None = None, level: float = LEVEL
+) -> Judgement:
+    interval = mean_interval(values, episodes, level)
+    return Judgement(
+        three_way(interval.low >= tau, interval.high < tau),
+        f"mean >= {tau:g}: lower end >= {tau:g} reproduces, upper end < {tau:g} does not",
+        (Estimate(name, interval, tuple(values), tau),),
+    )
+
+
+def fails(
+    name: str, values: Sequence[float], tau: float, episodes: int | None = None, level: float = LEVEL
+) -> Judgement:
+    interval = mean_interval(values, episodes, level)
+    return Judgement(
+        three_way(interval.high <= tau, interval.low > tau),
+        f"mean <= {tau:g}: upper end <= {tau:g} reproduces, lower end > {tau:g} does not",
+        (Estimate(name, interval, tuple(values), tau),),
+    )
+
+
+def beats(
+    a_name: str,
+    a: Sequence[float],
+    b_name: str,
+    b: Sequence[float],
+    delta: float,
+    episodes: int | None = None,
+    level: float = LEVEL,
+) -> Judgement:
+    interval = difference_interval(a, b, episodes, level)
+    return Judgement(
+        three_way(interval.low > 0, interval.high < delta),
+        f"{a_name} - {b_name} (Welch, {level:.1%}): lower end > 0 reproduces, upper end < {delta:g} does not",
+        (Estimate(f"{a_name} - {b_name}", interval, (), delta),),
+    )
+
+
+def all_of(parts: Sequence[Judgement], rule: str) -> Judgement:
+    return Judgement(
+        combine([part.verdict for part in parts]),
+        rule,
+        tuple(estimate for part in parts for estimate in part.estimates),
+    )
+
+
+def best(
+    name: str, values: Sequence[float], rivals: dict[str, Sequence[float]], delta: float, episodes: int | None = None
+) -> Judgement:
+    level = bonferroni_level(len(rivals))
+    parts = [beats(name, values, rival, other, delta, episodes, level) for rival, other in rivals.items()]
+    return all_of(parts, f"{name} beats each of {len(rivals)} rivals at {level:.1%} (Bonferroni), delta {delta:g}")
+
+
+def equivalent(groups: dict[str, Sequence[float]], margin: float, episodes: int | None = None) -> Judgement:
+    pairs = list(combinations(groups, 2))
+    level = bonferroni_level(len(pairs))
+    verdicts, estimates = [], []
+    for a, b in pairs:
+        interval = difference_interval(groups[a], groups[b], episodes, level)
+        inside = -margin < interval.low and interval.high < margin
+        outside = interval.low > margin or interval.high < -margin
+        verdicts.append(three_way(inside, outside))
+        estimates.append(Estimate(f"{a} - {b}", interval, (), margin))
+    verdict = combine(verdicts)
+    rule = (
+        f"every pairwise difference (Welch, {level:.1%}, Bonferroni over {len(pairs)}) inside "
+        f"(-{margin:g}, {margin:g}) reproduces; one wholly outside does not"
+    )
+    return Judgement(verdict, rule, tuple(estimates))
+
+
+def improves(
+    name: str,
+    per_task: Sequence[Sequence[float]],
+    rivals: dict[str, Sequence[Sequence[float]]],
+) -> Judgement:
+    """``name`` improves on every rival over the tasks: probability of improvement > 1/2 for each (Bonferroni)."""
+    level = bonferroni_level(len(rivals))
+    verdicts, estimates = [], []
+    for rival, theirs in rivals.items():
+        interval = probability_of_improvement(per_task, theirs, level)
+        verdicts.append(three_way(interval.low > 0.5, interval.high < 0.5))
+        estimates.append(Estimate(f"P({name} > {rival})", interval, (), 0.5))
+    verdict = combine(verdicts)
+    rule = (
+        f"probability of improvement over each rival (stratified bootstrap, {level:.1%}, Bonferroni): lower end "
+        "> 1/2 reproduces, upper end < 1/2 does not"
+    )
+    return Judgement(verdict, rule, tuple(estimates))
+
+
+@dataclass
+class Claim:
+    """One statement of the paper, what we measure per seed, and the judgement."""
+
+    paper: str
+    measure: str
+    """What each seed contributes (e.g. "success of the sampled policy over 100 evaluation episodes")."""
+    judgement: Judgement
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def verdict(self) -> Verdict:
+        return self.judgement.verdict
+
+    def per_seed(self) -> str:
+        """Each estimate's per-seed values and its interval, as the report's table shows them."""
+        parts = []
+        for estimate in self.judgement.estimates:
+            values = " ".join(f"{v:.2f}" for v in estimate.values)
+            n = f"n={len(estimate.values)}: {values}; " if estimate.values else ""
+            parts.append(f"{estimate.name}: {n}{estimate.interval.text()}")
+        return "<br>".join(parts)
+
+
+def not_run(paper: str, measure: str) -> Claim:
+    return Claim(paper, measure, Judgement(Verdict.INCONCLUSIVE, "no runs of this variant"))

@@ -1,0 +1,49 @@
+"""report.md, summary.json, the interval figures and the learning curves' CSV of the named experiments."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from famarl_cli.artifacts import atomic_path
+from famarl_cli.artifacts.base import write_json
+from famarl_cli.core.errors import ArtifactError
+from famarl_cli.report.experiments import experiments
+from famarl_cli.report.plots import plot_intervals
+from famarl_cli.report.results import write_curves
+from famarl_cli.report.section import Section
+
+
+def write_report(names: list[str], data: Path, out: Path, version: str) -> dict[str, Section]:
+    """Build the named experiments' sections from ``data`` into ``out``: report.md, the figures, summary.json
+    (each claim's verdict and the headline numbers, for ``dvc metrics show`` and ``dvc exp show``) and, for
+    experiments with runs, ``<name>-curves.csv`` (their learning curves, for ``dvc plots show``). Experiments
+    without data are listed with the command that makes them; it is an error when none of them has data."""
+    known = experiments()
+    out.mkdir(parents=True, exist_ok=True)
+    sections = {name: known[name].build(data, out) for name in names}
+    built = {name: section for name, section in sections.items() if section is not None}
+    if not built:
+        raise ArtifactError(
+            f"{data}: nothing to report for {', '.join(names)} (run `dvc repro` first, or `famarl evaluate --out`)"
+        )
+    for name, section in built.items():
+        path = out / f"{name}-intervals.png"
+        plot_intervals(section.claims, path, section.title)
+        section.figures.insert(0, path.name)
+        if section.groups:
+            write_curves(section.groups, out / f"{name}-curves.csv")
+    parts = [
+        f"# famarl report\n\nfamarl {version}; numbers from `{data}`. Every verdict is reproduces, does not reproduce "
+        "or inconclusive (a goal beyond the paper: met, missed or inconclusive), from 95% intervals over seeds with "
+        "the rule beside it (docs/verdicts.md).\n"
+    ]
+    parts += [section.markdown() for section in built.values()]
+    missing = [name for name in names if name not in built]
+    if missing:
+        parts.append(
+            "## Not run yet\n\n" + "\n".join(f"- {name}: `dvc repro {known[name].pipeline}`" for name in missing) + "\n"
+        )
+    with atomic_path(out / "report.md") as temp:
+        temp.write_text("\n".join(parts))
+    write_json(out / "summary.json", {name: section.summary() for name, section in built.items()})
+    return built

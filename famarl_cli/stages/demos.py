@@ -1,0 +1,215 @@
+"""The demos stage: run an expert and collect its episodes. famarl's scripted experts act in their Base task
+(ContinuousWorld or RobotHand); a user's expert acts in any gymnasium env with a Box action space."""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+from famarl_cli.artifacts import Demos, Episode, provenance
+from famarl_cli.artifacts.demos import content_fault
+from famarl_cli.core.errors import FamarlError, UsageError, foreign
+from famarl_cli.envs.external import make_env
+from famarl_cli.envs.success import SuccessRule, as_bool, success_rule
+from famarl_cli.experts import Script, demonstration, make_expert
+from famarl_cli.experts.external import ExternalExpert
+
+
+def episode_seeds(seed: int, n_episodes: int) -> np.ndarray:
+    """Reset seeds of the episodes of a demos run, stored per episode so any one can be replayed alone."""
+    return np.random.default_rng(seed).integers(0, 2**31 - 1, n_episodes)
+
+
+def record_episode(
+    env: gym.Env, expert, seed: int, rule: SuccessRule, on_step: Callable[[int], None] | None = None
+) -> tuple[Episode, str]:
+    """One episode of ``expert`` from ``env.reset(seed=seed)``, its success judged by ``rule`` (returned with the
+    episode, in words). The expert sees the env's own observations; the episode keeps them flattened
+    (``gymnasium.spaces.flatten``: a Dict's entries in its key order). ``on_step(steps)`` is called every
+    :data:`STEP_REPORT` steps, so that a long episode shows progress."""
+    name = env.spec.id if env.spec is not None else type(env.unwrapped).__name__
+    stepping = f"env {name} step"
+    with foreign(f"env {name} reset"):
+        observation, info = env.reset(seed=int(seed))
+    expert.reset(observation)
+    observations, actions, rewards, terminations, truncations = [observation], [], [], [], []
+    done = False
+    while not done:
+        action = expert.act(observation)
+        with foreign(stepping):
+            observation, reward, terminated, truncated, info = env.step(action)
+        if on_step is not None and len(rewards) % STEP_REPORT == STEP_REPORT - 1:
+            on_step(len(rewards) + 1)
+        for store, value in zip(
+            (observations, actions, rewards, terminations, truncations),
+            (observation, action, reward, terminated, truncated),
+            strict=True,
+        ):
+            store.append(value)
+        done = terminated or truncated
+    space = env.observation_space
+    episode = Episode(
+        observations=np.array([gym.spaces.flatten(space, o) for o in observations], dtype=np.float32),
+        actions=np.array(actions, dtype=np.float32),
+        rewards=np.array(rewards, dtype=np.float64),
+        terminations=np.array(terminations, dtype=bool),
+        truncations=np.array(truncations, dtype=bool),
+        seed=int(seed),
+        segment_starts=np.array(expert.phase_starts, dtype=np.int64),
+        factors=np.asarray(expert.phase_factors, dtype=np.float64),
+        success=as_bool(rule.judge(info, float(np.sum(rewards)))),
+    )
+    # What a user's env or expert returned is checked as a demos file is when read: nothing unreadable is written.
+    fault = content_fault(episode, episode.factors.shape[1] if episode.factors.ndim == 2 else 0)
+    if fault is not None:
+        raise FamarlError(f"{name}, episode from seed {seed}: {fault}")
+    return episode, rule.describe(info)
+
+
+STEP_REPORT = 1000
+"""Steps between two progress reports within an episode."""
+
+
+@dataclass
+class Collected:
+    episodes: list[Episode]
+    attempts: int
+    success_rule: str
+    """How the episodes' success was judged (:mod:`famarl_cli.envs.success`), in words."""
+
+
+def collect(
+    env: gym.Env,
+    expert,
+    n_episodes: int,
+    seed: int,
+    min_return: float | None = None,
+    max_attempts: int | None = None,
+    on_episode: Callable[[Episode | None], None] | None = None,
+    success_return: float | None = None,
+    on_step: Callable[[int], None] | None = None,
+) -> Collected:
+    """``n_episodes`` episodes of ``expert``, keeping only those whose return exceeds ``min_return`` (all when
+    None) and giving up after ``max_attempts`` (default: ``n_episodes``); success is judged by
+    :mod:`famarl_cli.envs.success` with the user's ``success_return``.
+
+    ``on_episode`` is called after each attempt with the episode kept, or None, and ``on_step`` within a long
+    episode (:func:`record_episode`): the CLI's progress bars."""
+    if n_episodes < 1:
+        raise UsageError(f"episodes must be >= 1, got {n_episodes}")
+    attempts = max_attempts or n_episodes
+    if attempts < n_episodes:
+        raise UsageError(f"max attempts ({attempts}) must be at least the episodes asked for ({n_episodes})")
+    rule = success_rule(env.spec, success_return)
+    kept, tried, described = [], 0, ""
+    for episode_seed in episode_seeds(seed, attempts):
+        episode, described = record_episode(env, expert, episode_seed, rule, on_step)
+        tried += 1
+        keep = min_return is None or episode.rewards.sum() > min_return
+        if keep:
+            kept.append(episode)
+        if on_episode:
+            on_episode(episode if keep else None)
+        if len(kept) == n_episodes:
+            break
+    if not kept:
+        raise FamarlError(f"none of {tried} episodes had a return above {min_return:g}: nothing written")
+    return Collected(kept, tried, described)
+
+
+def record_demos(
+    script: Script, n_episodes: int = 100, seed: int = 0, on_episode: Callable[[Episode], None] | None = None
+) -> Demos:
+    """``n_episodes`` demos of ``script``; the same ``seed`` always gives the same arrays.
+
+    ``on_episode`` is called after each episode (the CLI advances its progress bar with it).
+    """
+    script = Script(script)
+    spec = demonstration(script)
+    env = gym.make(spec.env_id, **spec.env_kwargs)
+    collected = collect(env, make_expert(script), n_episodes, seed, on_episode=on_episode)
+    env.close()
+    params = {"script": script.value, "episodes": n_episodes, "seed": seed}
+    return Demos(
+        episodes=collected.episodes,
+        env_id=spec.env_id,
+        script=script.value,
+        seed=seed,
+        factor_names=spec.factor_names,
+        env_kwargs=spec.env_kwargs,
+        provenance=provenance("famarl demos", params, seed),
+        success_rule=collected.success_rule,
+    )
+
+
+def record_expert_demos(
+    env_id: str,
+    expert: str,
+    n_episodes: int = 100,
+    seed: int = 0,
+    env_kwargs: dict | None = None,
+    min_return: float | None = None,
+    max_attempts: int | None = None,
+    on_episode: Callable[[Episode | None], None] | None = None,
+    success_return: float | None = None,
+    on_step: Callable[[int], None] | None = None,
+) -> Demos:
+    """Demos of a user's expert (``module:attribute``, :mod:`famarl_cli.experts.external`) in any gymnasium env
+    with a Box action space; with ``min_return``, only the episodes above it (see :func:`collect`)."""
+    env = make_env(env_id, env_kwargs)
+    try:
+        policy = ExternalExpert(expert, env)
+        collected = collect(
+            env, policy, n_episodes, seed, min_return, max_attempts, on_episode, success_return, on_step
+        )
+    finally:
+        with contextlib.suppress(Exception):  # the user's env may fail to close after failing to step
+            env.close()
+    params = {
+        "env": env_id,
+        "env_kwargs": env_kwargs or {},
+        "expert": expert,
+        "episodes": n_episodes,
+        "seed": seed,
+        "min_return": min_return,
+        "max_attempts": max_attempts,
+        "success_return": success_return,
+    }
+    return Demos(
+        episodes=collected.episodes,
+        env_id=env_id,
+        script=expert,
+        seed=seed,
+        factor_names=policy.factor_names,
+        env_kwargs=env_kwargs or {},
+        provenance=provenance("famarl demos", params, seed),
+        attempts=collected.attempts,
+        success_rule=collected.success_rule,
+    )
+
+
+DEMOS_FILE = "demos.h5"
+
+
+def run_job(config: dict, folder: Path, context) -> dict:
+    """Demos as a sweep job (:mod:`famarl_cli.sweep`): ``folder/demos.h5`` and, with ``plot``, ``demos.png``."""
+    from famarl_cli.artifacts.demos import write_demos
+    from famarl_cli.report.plots import plot_demos
+
+    episodes = config["episodes"]
+    done = []
+
+    def advance(episode: Episode) -> None:
+        done.append(episode)
+        context.progress(len(done), episodes)
+
+    recorded = record_demos(Script(config["script"]), episodes, config["seed"], on_episode=advance)
+    write_demos(folder / DEMOS_FILE, recorded)
+    if config["plot"]:
+        plot_demos(recorded, (folder / DEMOS_FILE).with_suffix(".png"))
+    return {"success": recorded.success_rate, "episodes": len(recorded.episodes)}
