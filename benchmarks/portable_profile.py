@@ -39,7 +39,6 @@ from famarl_cli.core.reproducibility import one_thread, platform_facts
 one_thread()
 import torch
 from famarl_cli.stages import method as stages
-from famarl_cli.method.favae.training import TrainingParams
 from famarl_cli.rl import Agent
 from famarl_cli.rl.ppo import PPOConfig
 from famarl_cli.rl.training import Run, RunSpec
@@ -47,8 +46,8 @@ from famarl_cli.rl.training import Run, RunSpec
 folder, epochs, steps = Path(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
 out = {"platform": platform_facts()}
 start = time.process_time()
-fitted = stages.fit(folder / "segments.h5", folder / "out" / "favae.pt", 50.0, folder / "calibration.json", 3, 2,
-                    TrainingParams(epochs=epochs, seed=0))
+fitted = stages.fit(stages.FitOptions(segments=folder / "segments.h5", out=folder / "out" / "favae.pt",
+                                      calibration=folder / "calibration.json", epochs=epochs, seed=0))
 out["favae_cpu_s"] = time.process_time() - start
 state = torch.load(folder / "out" / "favae.pt", weights_only=True)["state_dict"]
 out["favae_hash"] = hashlib.sha256(b"".join(v.numpy().tobytes() for v in state.values())).hexdigest()[:16]

@@ -22,6 +22,7 @@ def test_the_page_has_an_example_for_every_step():
         assert call in code
 
 
+@pytest.mark.slow
 def test_every_example_on_the_api_page_runs(tmp_path, monkeypatch, capsys):
     pytest.importorskip("stable_baselines3")
     monkeypatch.chdir(tmp_path)

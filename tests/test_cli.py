@@ -239,6 +239,7 @@ def test_favae_and_traverse_bad_inputs(demos_file, segments_file, tmp_path):
 TINY_TRAINING = ("--steps", 1500, "--n-envs", 4, "--n-steps", 8, "--epochs", 1, "--minibatches", 2)
 
 
+@pytest.mark.slow
 def test_train_and_evaluate_end_to_end(favae_file, tmp_path):
     runs = []
     agents = ("famarl", "ppo", "figar", "hybrid")
@@ -286,6 +287,7 @@ def assert_film(run, max_frames):
         assert strip.size[1] == height and strip.size[0] > 2 * height
 
 
+@pytest.mark.slow
 def test_robot_hand_trains_and_evaluates_through_the_gymnasium_loop(tmp_path):
     """RobotHand runs through the generic batch: a 4-D FAVAE's macros, success from info, a rendered episode."""
     from famarl_cli.method.favae.checkpoint import save_favae

@@ -184,6 +184,7 @@ def _swing(env):
 # BipedalWalker and PointMaze experts
 
 
+@pytest.mark.slow
 def test_bipedal_heuristic_phases_are_its_state_machine(tmp_path):
     demos = record_expert_demos(
         "BipedalWalker-v3", "famarl_cli.experts.bipedal:BipedalWalkerExpert", 1, seed=0, min_return=250, max_attempts=60
@@ -238,6 +239,7 @@ def test_pointmaze_planner_turns_at_corners():
 # Every stage on an external env
 
 
+@pytest.mark.slow
 def test_train_and_evaluate_on_pointmaze_with_env_kwargs(tmp_path, favae_file):
     run = tmp_path / "run"
     common = ("--env", "PointMaze_UMaze-v3", "--env-kwargs", NO_RESTART, "--steps", 600, "--n-envs", 2)
@@ -323,6 +325,7 @@ def test_traverse_cli_in_a_gymnasium_env(tmp_path, favae_file):
 # Minari datasets as demos
 
 
+@pytest.mark.slow
 def test_from_minari_imports_a_dataset_and_refuses_discrete_actions(tmp_path, monkeypatch, tiny_demos):
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "minari"))
     export_minari(tiny_demos, "famarl/pushed-down-only-v0")

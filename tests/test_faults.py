@@ -289,6 +289,7 @@ def kill_after(process: subprocess.Popen, seconds: float) -> bool:
         return True
 
 
+@pytest.mark.slow
 def test_kill_9_during_demos_leaves_the_old_file_or_a_complete_new_one(tmp_path):
     out = tmp_path / "demos.h5"
     assert famarl("demos", "--episodes", 3, "--out", out, "--no-plot").exit_code == 0
@@ -307,6 +308,7 @@ def test_kill_9_during_demos_leaves_the_old_file_or_a_complete_new_one(tmp_path)
     assert not [p for p in tmp_path.iterdir() if TEMP_MARKER in p.name]
 
 
+@pytest.mark.slow
 def test_kill_9_during_training_then_resume_ends_exactly_like_an_uninterrupted_run(tmp_path):
     options = ("--agent", "ppo", "--steps", 8000, "--n-envs", 4, "--n-steps", 32, "--epochs", 2, "--minibatches", 2)
     options += ("--checkpoint-every", 3)
@@ -328,6 +330,7 @@ def test_kill_9_during_training_then_resume_ends_exactly_like_an_uninterrupted_r
     assert not [p for p in killed.iterdir() if TEMP_MARKER in p.name]
 
 
+@pytest.mark.slow
 def test_kill_9_during_favae_fit_leaves_no_checkpoint_or_a_complete_one(segments_file, tmp_path):
     out = tmp_path / "favae.pt"
     process = famarl_process("favae", "fit", "--segments", segments_file, "--epochs", 400, "--out", out)
@@ -342,6 +345,7 @@ def test_kill_9_during_favae_fit_leaves_no_checkpoint_or_a_complete_one(segments
 # --- determinism -------------------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_traverse_and_evaluate_are_deterministic(artifacts, tmp_path):
     for name in ("a", "b"):
         assert famarl("traverse", "--model", artifacts["favae"], "--out", tmp_path / f"{name}.h5").exit_code == 0
@@ -357,6 +361,7 @@ def test_traverse_and_evaluate_are_deterministic(artifacts, tmp_path):
     assert results[0] == results[1]
 
 
+@pytest.mark.slow
 def test_no_stage_leaves_temporaries_behind(artifacts, tmp_path):
     shutil.copytree(artifacts["run"], tmp_path / "run")
     assert famarl("evaluate", "--run", tmp_path / "run", "--episodes", 2).exit_code == 0

@@ -78,6 +78,7 @@ def test_capacity_rises_linearly_from_zero_to_c_last():
     assert capacity([2.0], 0, 1) == [2.0]
 
 
+@pytest.mark.slow
 def test_fit_learns_and_is_deterministic():
     padded, lengths, factors = toy_segments()
     params = TrainingParams(epochs=45, batch_size=8, seed=3)

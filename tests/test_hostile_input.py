@@ -383,6 +383,7 @@ def _interrupted(*args) -> str:
     return stderr
 
 
+@pytest.mark.slow
 def test_ctrl_c_in_an_endless_episode_is_one_line_and_keeps_the_old_output(tmp_path):
     out = tmp_path / "demos.h5"
     out.write_bytes(OLD)
@@ -390,6 +391,7 @@ def test_ctrl_c_in_an_endless_episode_is_one_line_and_keeps_the_old_output(tmp_p
     assert out.read_bytes() == OLD and sorted(p.name for p in tmp_path.iterdir()) == ["demos.h5"]
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_an_evaluation_whose_episode_never_ends(tmp_path):
     """Evaluation runs in the serial executor's thread, which Ctrl-C does not reach: it must not be waited for."""
     run = tmp_path / "run"

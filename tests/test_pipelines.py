@@ -11,6 +11,8 @@ import pytest
 import yaml
 from cli_helpers import dvc, dvc_json
 
+pytestmark = pytest.mark.slow  # DVC repro of real pipelines
+
 ROOT = Path(__file__).resolve().parents[1]
 
 TINY_TRAIN = {"steps": 1500}

@@ -165,6 +165,7 @@ def test_beta_claims_use_each_seeds_favae(tmp_path):
     assert "beta 1 - beta 0.1: 0.15 [" in (tmp_path / "report/report.md").read_text()
 
 
+@pytest.mark.slow
 def test_robothand_aggregates_both_tasks(tmp_path):
     data = tmp_path / "data"
     for task in (REACHING, BALL_PLACING):

@@ -34,6 +34,7 @@ def test_platform_facts_name_what_decides_the_floats():
     assert isinstance(facts["numpy"], str) and isinstance(facts["knobs"], dict)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("profile", ["native", "portable"])
 def test_artifacts_record_their_profile(profile, tmp_path, segments_file):
     result = _famarl("favae", "calibrate", "--segments", segments_file, "--epochs", 2, "--out", tmp_path / "c.json",
@@ -57,6 +58,7 @@ def test_a_portable_profile_set_too_late_is_refused(tmp_path):
     assert done.returncode != 0 and "must be set before famarl (or torch) is imported" in done.stderr
 
 
+@pytest.mark.slow
 def test_an_unknown_profile_is_a_usage_error(tmp_path):
     result = _famarl("train", "--agent", "ppo", "--steps", 10, env={"FAMARL_REPRO": "fast"}, cwd=tmp_path)
     assert result.returncode == 2

@@ -244,11 +244,13 @@ def test_resume_after_a_kill_ends_exactly_where_an_uninterrupted_run_ends(agent,
     assert resumed.trainer.updates == 2
     resumed.train(tmp_path / "resumed", checkpoint_every=100)
     assert straight.trainer.updates > 2
-    for key, value in straight.trainer.policy.state_dict().items():
-        torch.testing.assert_close(resumed.trainer.policy.state_dict()[key], value, rtol=0, atol=0)
+    expected, found = straight.trainer.policy.state_dict(), resumed.trainer.policy.state_dict()
+    assert found["layout"] == expected["layout"]
+    torch.testing.assert_close(found["flat"], expected["flat"], rtol=0, atol=0)
     assert (tmp_path / "straight/train.csv").read_text() == (tmp_path / "resumed/train.csv").read_text()
 
 
+@pytest.mark.slow
 def test_ppo_learns_on_maze_and_evaluation_is_deterministic(tmp_path):
     """Primitive PPO's first updates on Maze: the return of recent episodes rises (a smoke test of learning)."""
     spec = _spec(Agent.PPO, steps=60_000, n_steps=128, learning_rate=1e-3)

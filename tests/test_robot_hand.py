@@ -187,7 +187,7 @@ def test_four_dimensional_macro_actions_move_the_hand():
     actions = np.zeros((2, 10, 4))
     actions[0, :, 0] = 1.0  # right at full speed
     actions[1, :, 1] = -1.0  # down
-    paths = run_macro_actions(actions, np.array([10, 5]))
+    paths = run_macro_actions(actions, np.array([10, 5]), "robot-hand")
     assert paths.shape == (2, 11, 2)
     assert paths[0, -1, 0] - paths[0, 0, 0] == pytest.approx(10 * rh.HAND_SPEED * rh.DT, rel=0.1)
     assert paths[1, -1, 1] - paths[1, 0, 1] == pytest.approx(-5 * rh.HAND_SPEED * rh.DT, rel=0.15)

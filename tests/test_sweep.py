@@ -156,6 +156,7 @@ def _executor(kind: str, request):
     return make_executor(ray_address=cluster.address)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["serial", "local", "ray"])
 def test_executor_contract(kind, tmp_path, request, monkeypatch):
     monkeypatch.syspath_prepend(str(TESTS))
@@ -208,6 +209,7 @@ def _assert_same_runs(out: Path, straight: Path, names) -> None:
         assert all(torch.equal(weights[k], expected_weights[k]) for k in expected_weights)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["local", "ray"])
 def test_a_dead_worker_is_resubmitted_and_resumes_exactly(kind, tmp_path, request, monkeypatch, straight_runs):
     monkeypatch.syspath_prepend(str(TESTS))
@@ -223,6 +225,7 @@ def test_a_dead_worker_is_resubmitted_and_resumes_exactly(kind, tmp_path, reques
     _assert_same_runs(tmp_path, straight_runs, ["seed0", "seed1"])
 
 
+@pytest.mark.slow
 def test_a_job_whose_worker_keeps_dying_fails_after_its_attempts(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(TESTS))
     with LocalExecutor(1) as executor:
@@ -241,6 +244,7 @@ def _node_running(nodes, pid: int):
     return next(node for node in nodes if node.all_processes["raylet"][0].process.pid in ancestors)
 
 
+@pytest.mark.slow
 def test_a_killed_node_loses_at_most_a_checkpoint_interval_and_the_results_match_the_local_path(
     tmp_path, ray_cluster, monkeypatch
 ):
@@ -278,6 +282,7 @@ def test_a_killed_node_loses_at_most_a_checkpoint_interval_and_the_results_match
     _assert_same_runs(out, tmp_path / "local", ["seed0", "seed1"])
 
 
+@pytest.mark.slow
 def test_kill_9_of_a_sweep_then_again_ends_exactly_like_an_uninterrupted_one(tmp_path, straight_runs):
     out = tmp_path / "runs"
     command = [sys.executable, "-m", "famarl_cli", "sweep", "train", "--seeds", "0-1", "--jobs", "2", "--out", str(out),
@@ -361,6 +366,7 @@ def test_a_retry_waits_for_a_zombie_to_let_go_of_the_folder(tmp_path):
     thread.join()
 
 
+@pytest.mark.slow
 def test_two_trainers_started_together_get_the_folder_once(tmp_path):
     folder = tmp_path / "run"
     command = [sys.executable, "-m", "famarl_cli", "train", *TINY_PPO, "--steps", "2000", "--out", str(folder)]

@@ -15,6 +15,8 @@ import pytest
 import yaml
 from cli_helpers import dvc, dvc_environment
 
+pytestmark = pytest.mark.slow  # DVC repro of real pipelines
+
 STAGE = {
     "stages": {
         "train": {

@@ -31,6 +31,8 @@ RUN_SCHEMA = "famarl.run"
 RUN_SCHEMA_VERSION = 1
 CHECKPOINT_SCHEMA = "famarl.agent"
 CHECKPOINT_SCHEMA_VERSION = 2  # 2: the policy is one flat parameter tensor (famarl_cli/rl/policy.py)
+TRAINER_STATE = ("policy", "optimizer", "torch_rng", "sampling_rng", "obs_norm", "reward_scaler", "episodes", "env")
+"""What a run checkpoint's trainer state must hold to resume or evaluate (famarl_cli.rl.ppo.PPOTrainer)."""
 RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE, FILM_FILE, STILLS_FILE = (
     "run.json",
     "checkpoint.pt",
@@ -133,9 +135,18 @@ def read_run_checkpoint(run_dir: str | os.PathLike) -> dict:
     """The checkpoint's payload with the trainer state's arrays back in numpy."""
     path = Path(run_dir) / CHECKPOINT_FILE
     payload = load_checkpoint(path, CHECKPOINT_SCHEMA, CHECKPOINT_SCHEMA_VERSION)
+    found = int(payload["schema_version"])
+    check(
+        found == CHECKPOINT_SCHEMA_VERSION,
+        path,
+        f"is a version {found} run checkpoint, from before the policy was one flat parameter vector; this famarl "
+        f"reads version {CHECKPOINT_SCHEMA_VERSION}: train the run again",
+    )
     for key in ("trainer", "mode", "status"):
         check(isinstance(payload.get(key), dict), path, f"has no {key!r}")
     trainer = payload["trainer"]
+    missing = [key for key in TRAINER_STATE if key not in trainer]
+    check(not missing, path, f"its trainer state lacks {', '.join(missing)}; not a run famarl can continue")
     # Network, optimiser and RNG states stay tensors; the rest was numpy when saved.
     payload["trainer"] = {
         k: v if k in ("policy", "optimizer", "torch_rng") else tensors_to_arrays(v) for k, v in trainer.items()

@@ -36,6 +36,8 @@ import numpy as np
 from famarl_cli.artifacts.base import atomic_path, check, open_artifact, write_header
 from famarl_cli.core.macro_actions import OFF, ON
 
+REPLICATE_FILE = "segments.h5"
+"""The segments' name in a replicate's folder (famarl macros), beside the FAVAE fitted on them."""
 SCHEMA = "famarl.segments"
 SCHEMA_VERSION = 1
 

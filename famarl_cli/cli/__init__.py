@@ -9,13 +9,14 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
 from famarl_cli import __version__
+from famarl_cli.core.declare import declared
 from famarl_cli.core.errors import FamarlError
 
 app = typer.Typer(
@@ -110,10 +111,11 @@ def torch_on_one_thread() -> None:
 
 @dataclass(frozen=True)
 class JobRecipe:
-    """What one point of ``famarl sweep COMMAND`` runs: a job runner, its config, its input files, and whether it
-    can continue unfinished work (famarl_cli.sweep.plan.Job gets its name and key from the sweep)."""
+    """What one point of ``famarl sweep COMMAND`` runs: a job runner (the function itself, so a renamed runner fails
+    when the sweep is planned, never in a worker), its config, its input files, and whether it can continue
+    unfinished work (famarl_cli.sweep.plan.Job gets its name and key from the sweep)."""
 
-    runner: str
+    runner: Callable[..., dict | None]
     config: dict
     inputs: tuple[str, ...] = ()
     resumable: bool = False
@@ -121,8 +123,10 @@ class JobRecipe:
 
 @dataclass(frozen=True)
 class Sweepable:
-    make: Callable[[dict], JobRecipe]
-    """From the command's parsed options to the job."""
+    options: type
+    """The command's declared options (famarl_cli.core.declare): a sweep's axes are typed by them."""
+    make: Callable[[Any], JobRecipe]
+    """From the command's options to the job."""
     owned: tuple[str, ...]
     """Options the sweep sets itself (the output folder), which the command's options must not give."""
     refused: dict[str, str]
@@ -133,9 +137,16 @@ SWEEPABLE: dict[str, Sweepable] = {}
 """Commands that ``famarl sweep`` can run many of; each registers itself with :func:`sweepable`."""
 
 
-def sweepable(command: str, owned: tuple[str, ...] = (), refused: dict[str, str] | None = None):
-    def register(make: Callable[[dict], JobRecipe]) -> Callable[[dict], JobRecipe]:
-        SWEEPABLE[command] = Sweepable(make, owned, refused or {})
+def sweepable(command: str, options: type, owned: tuple[str, ...] = (), refused: dict[str, str] | None = None):
+    """Register ``make(options) -> JobRecipe`` as what ``famarl sweep COMMAND`` runs per point; the options named in
+    ``owned`` and ``refused`` must be the declaration's."""
+    flags = {option.flag for option in declared(options)}
+    unknown = sorted((set(owned) | set(refused or {})) - flags)
+    if unknown:
+        raise TypeError(f"famarl {command} has no options {', '.join(unknown)}")
+
+    def register(make: Callable[[Any], JobRecipe]) -> Callable[[Any], JobRecipe]:
+        SWEEPABLE[command] = Sweepable(options, make, owned, refused or {})
         return make
 
     return register

@@ -3,77 +3,36 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
 
 import numpy as np
-import typer
 from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.artifacts import Demos
-from famarl_cli.cli import EnvKwargs, JobRecipe, SuccessReturn, app, progress_bar, reports_errors, sweepable
+from famarl_cli.cli import JobRecipe, app, progress_bar, sweepable
+from famarl_cli.cli.derived import command
+from famarl_cli.core.declare import to_json
 from famarl_cli.core.errors import UsageError
 from famarl_cli.experts.scripts import Environment, Script
+from famarl_cli.stages.demos import DemosOptions
 
 
-@app.command()
-@reports_errors
-def demos(
-    script: Annotated[
-        Script | None,
-        typer.Option(
-            "--script",
-            "-s",
-            help="famarl's expert script: the paper's four act in ContinuousWorld Base, pegging in RobotHand.  "
-            "[default: pushed-down-only, unless --expert or --from-minari]",
-        ),
-    ] = None,
-    env: Annotated[
-        str | None,
-        typer.Option(
-            help="With --expert: the gymnasium id the expert acts in (any id with a Box action space). With "
-            "--script: continuous-world or robot-hand, optional (the script implies it)."
-        ),
-    ] = None,
-    env_kwargs: EnvKwargs = None,
-    expert: Annotated[
-        str | None,
-        typer.Option(
-            help="Your expert, as module:attribute: a policy function or a class with act(observation) "
-            "(docs/external.md); it may return (action, phase) to mark its phases."
-        ),
-    ] = None,
-    from_minari: Annotated[
-        str | None,
-        typer.Option(
-            help="Import this Minari dataset instead of recording: an id in Minari's local storage "
-            "(MINARI_DATASETS_PATH) or a dataset folder. Needs the minari extra."
-        ),
-    ] = None,
-    episodes: Annotated[
-        int, typer.Option(min=1, help="Number of episodes to record (to keep, with --min-return).")
-    ] = 100,
-    seed: Annotated[int, typer.Option(help="Seed of the episodes' resets; same seed, same file.")] = 0,
-    min_return: Annotated[
-        float | None,
-        typer.Option(help="With --expert: keep only episodes whose return is above this (failed attempts dropped)."),
-    ] = None,
-    max_attempts: Annotated[
-        int | None,
-        typer.Option(min=1, help="With --min-return: give up after this many episodes.  [default: 50 x --episodes]"),
-    ] = None,
-    out: Annotated[
-        Path | None,
-        typer.Option(help="Output HDF5 file.  [default: data/demos/<script, env or dataset name>.h5]", dir_okay=False),
-    ] = None,
-    plot: Annotated[bool, typer.Option(help="Also draw the trajectories to <out>.png.")] = True,
-    success_return: SuccessReturn = None,
-) -> None:
+@command(app, DemosOptions, "demos")
+def demos(options: DemosOptions) -> None:
     """Record expert demos (with their true phase boundaries and factors, where the expert knows them) to an HDF5
     file: famarl's scripted experts, your expert in any gymnasium env, or a Minari dataset imported."""
     from famarl_cli.artifacts import prepare_output, write_demos
     from famarl_cli.report.plots import plot_demos
 
+    o = options
+    script, env, env_kwargs, expert, from_minari = o.script, o.env, o.env_kwargs, o.expert, o.from_minari
+    episodes, seed, min_return, max_attempts, success_return = (
+        o.episodes,
+        o.seed,
+        o.min_return,
+        o.max_attempts,
+        o.success_return,
+    )
     sources = [
         name for name, given in (("--script", script), ("--expert", expert), ("--from-minari", from_minari)) if given
     ]
@@ -111,10 +70,10 @@ def demos(
                 task = progress.add_task(f"demos {script.value}", total=episodes)
                 recorded = record_demos(script, episodes, seed, on_episode=lambda _: progress.advance(task))
                 name = script.value
-    out = prepare_output(out or Path("data/demos") / f"{name}.h5")
+    out = prepare_output(o.out or Path("data/demos") / f"{name}.h5")
     write_demos(out, recorded)
     written = [out]
-    if plot:
+    if o.plot:
         written.append(out.with_suffix(".png"))
         plot_demos(recorded, written[-1])
 
@@ -124,12 +83,10 @@ def demos(
 
 
 def _record_expert(progress, env, env_kwargs, expert, episodes, seed, min_return, max_attempts, success_return):
-    from famarl_cli.envs.external import parse_env_kwargs
     from famarl_cli.stages.demos import record_expert_demos
 
     if env is None:
         raise UsageError("--expert needs --env, the gymnasium id it acts in")
-    kwargs = parse_env_kwargs(env_kwargs)
     attempts = max_attempts or (50 * episodes if min_return is not None else episodes)
     description = f"demos {expert} in {env}"
     task = progress.add_task(f"{description} (making the env)", total=episodes)
@@ -149,7 +106,7 @@ def _record_expert(progress, env, env_kwargs, expert, episodes, seed, min_return
             progress.advance(task)
 
     recorded = record_expert_demos(
-        env, expert, episodes, seed, kwargs, min_return, attempts, advance, success_return, on_step=step
+        env, expert, episodes, seed, env_kwargs, min_return, attempts, advance, success_return, on_step=step
     )
     return recorded, env.split("/")[-1].split(":")[-1].lower()
 
@@ -159,6 +116,7 @@ _ONE_SOURCE = "a sweep records famarl's scripts; record other demos with famarl 
 
 @sweepable(
     "demos",
+    DemosOptions,
     owned=("--out",),
     refused={
         option: _ONE_SOURCE
@@ -172,14 +130,17 @@ _ONE_SOURCE = "a sweep records famarl's scripts; record other demos with famarl 
         )
     },
 )
-def demos_job(params: dict) -> JobRecipe:
+def demos_job(options: DemosOptions) -> JobRecipe:
     """``famarl sweep demos``: each job records what ``famarl demos`` with the same options would, into
     ``<job folder>/demos.h5`` (and ``.png``)."""
-    script, env = params["script"] or Script.PUSHED_DOWN_ONLY, params["env"]
+    from dataclasses import replace
+
+    from famarl_cli.stages.demos import run_job
+
+    script, env = options.script or Script.PUSHED_DOWN_ONLY, options.env
     if env is not None and env != script.environment:
         raise UsageError(f"script {script.value} acts in {script.environment}, not in {env}")
-    config = {"script": script.value, "episodes": params["episodes"], "seed": params["seed"], "plot": params["plot"]}
-    return JobRecipe("famarl_cli.stages.demos:run_job", config)
+    return JobRecipe(run_job, to_json(replace(options, script=script)))
 
 
 def demos_table(demos: Demos, title: str) -> Table:

@@ -2,66 +2,18 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-from typing import Annotated
-
-import typer
 from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import SuccessReturn, app, progress_bar, reports_errors, torch_on_one_thread
-from famarl_cli.cli.train import DEFAULT_ENV, DEFAULT_FAVAE, default_run_dir
+from famarl_cli.cli import app, progress_bar, torch_on_one_thread
+from famarl_cli.cli.derived import command
 from famarl_cli.core.errors import FamarlError
-from famarl_cli.rl import Agent
+from famarl_cli.stages.evaluate import EvaluateOptions
 from famarl_cli.sweep.executors import default_jobs
 
-DEFAULT_RUN = default_run_dir(DEFAULT_ENV, Agent.FAMARL, DEFAULT_FAVAE, 0)
 
-
-@app.command()
-@reports_errors
-def evaluate(
-    run: Annotated[
-        list[Path],
-        typer.Option(
-            "--run",
-            help="Run folder (from famarl train), or a folder of run folders; repeat for several.  [default: famarl "
-            "train's]",
-            file_okay=False,
-        ),
-    ] = None,
-    episodes: Annotated[int, typer.Option(min=1, help="Evaluation episodes per run.")] = 100,
-    seed: Annotated[
-        int, typer.Option(help="Seed of the evaluation episodes (differs from training seeds by default).")
-    ] = 100,
-    rollouts: Annotated[
-        int, typer.Option(min=0, help="Episodes drawn in each run's rollouts.png (ContinuousWorld).")
-    ] = 4,
-    film: Annotated[
-        bool, typer.Option(help="Also render one episode of each run: episode.gif and a strip of stills, episode.png.")
-    ] = True,
-    curves: Annotated[
-        Path | None,
-        typer.Option(
-            help="Learning curves of all runs by label.  [default: curves.png beside the runs' results, or with the "
-            "one run's]",
-            dir_okay=False,
-        ),
-    ] = None,
-    jobs: Annotated[
-        int | None,
-        typer.Option(min=1, help="Runs evaluated at once.  [default: $FAMARL_JOBS, else one per usable core]"),
-    ] = None,
-    out: Annotated[
-        Path | None,
-        typer.Option(
-            help="Write each run's results into OUT/<run folder name>/ instead of into the run folder (keeps a "
-            "pipeline's evaluation apart from its training outputs).",
-            file_okay=False,
-        ),
-    ] = None,
-    success_return: SuccessReturn = None,
-) -> None:
+@command(app, EvaluateOptions, "evaluate")
+def evaluate(options: EvaluateOptions) -> None:
     """Success rate, return, episode length, decisions and macro length of each run; pictures and a GIF of
     rollouts. Each run is evaluated twice on the same episodes: acting with the policy's mode (deterministic) and
     drawing its actions as in training (sampled)."""
@@ -81,10 +33,14 @@ def evaluate(
     from famarl_cli.envs.success import shown
     from famarl_cli.report.plots import plot_learning_curves
     from famarl_cli.rl.evaluation import summarise
+    from famarl_cli.stages.evaluate import evaluate_run
     from famarl_cli.sweep.executors import make_executor
+    from famarl_cli.sweep.worker import name_of
 
     torch_on_one_thread()
-    run = expand_run_folders(run or [DEFAULT_RUN])
+    o = options
+    episodes, seed, out, curves, film = o.episodes, o.seed, o.out, o.curves, o.film
+    run = expand_run_folders(o.runs)
     for folder in run:
         read_run_file(folder)
     results = {folder: (out / folder.name if out else folder) for folder in run}
@@ -93,18 +49,18 @@ def evaluate(
     table = Table(title=f"evaluation: {episodes} episodes per run, seed {seed}; deterministic (sampled)")
     for column in ("run", "env steps", "success", "return", "length", "decisions", "macro length"):
         table.add_column(column, justify="left" if column == "run" else "right")
-    with make_executor(min(jobs or default_jobs(), len(run))) as executor, progress_bar() as progress:
+    with make_executor(min(o.jobs or default_jobs(), len(run))) as executor, progress_bar() as progress:
         task = progress.add_task("evaluate", total=len(run))
         futures = [
             executor.submit(
-                "famarl_cli.stages.method:evaluate_run",
+                name_of(evaluate_run),
                 str(folder),
                 str(results[folder]),
                 episodes,
                 seed,
-                rollouts,
+                o.rollouts,
                 film,
-                success_return,
+                o.success_return,
             )
             for folder in run
         ]

@@ -21,7 +21,8 @@ def report(
         typer.Option(
             "--experiment",
             "-e",
-            help="Report only this experiment; repeat for several.  [default: every one in famarl_cli/experiments]",
+            help="Report only this experiment; repeat for several.  [default: every one in "
+            "famarl_cli/report/experiments]",
         ),
     ] = None,
     data: Annotated[Path, typer.Option(help="Where the pipelines wrote.", file_okay=False)] = Path("data"),

@@ -2,35 +2,33 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated
 
-import typer
 from rich.console import Console
 
-from famarl_cli.cli import app, reports_errors
-from famarl_cli.cli.favae import MAX_LADDERS
+from famarl_cli.cli import app
+from famarl_cli.cli.derived import command
+from famarl_cli.core.declare import option, same_as, to_json
+from famarl_cli.method.favae import FavaeOptions
 
 
-@app.command()
-@reports_errors
-def sequences(
-    source: Annotated[Path, typer.Argument(help="A .npy (N, T, D) array, or a .npz holding one (see below).")],
-    out: Annotated[Path, typer.Option(help="Output segments HDF5 (the input of famarl favae fit).", dir_okay=False)],
-    key: Annotated[
-        str | None, typer.Option(help="The .npz array of sequences.  [default: sequences, or trajectories]")
-    ] = None,
-    length: Annotated[
-        int | None, typer.Option(min=1, help="Steps to pad to.  [default: T rounded up to a multiple of 2 ** ladders]")
-    ] = None,
-    ladders: Annotated[
-        int,
-        typer.Option(min=1, max=MAX_LADDERS, help="Ladders of the FAVAE to be fitted (L must divide by 2 ** it)."),
-    ] = 3,
-    standardize: Annotated[
-        bool, typer.Option(help="Scale each dimension to mean 0, std 1 (FAVAE's loss assumes unit-scale values).")
-    ] = True,
-) -> None:
+@dataclass(frozen=True)
+class SequencesOptions:
+    """``famarl sequences``: plain arrays of sequences into a segments file."""
+
+    source: Path = option(help="A .npy (N, T, D) array, or a .npz holding one (see below).", argument=True)
+    out: Path = option(help="Output segments HDF5 (the input of famarl favae fit).", path="file")
+    key: str | None = option(None, "The .npz array of sequences.  [default: sequences, or trajectories]")
+    length: int | None = option(None, "Steps to pad to.  [default: T rounded up to a multiple of 2 ** ladders]", min=1)
+    ladders: int = same_as(
+        FavaeOptions, "ladders", help="Ladders of the FAVAE to be fitted (L must divide by 2 ** it)."
+    )
+    standardize: bool = option(True, "Scale each dimension to mean 0, std 1 (FAVAE's loss assumes unit-scale values).")
+
+
+@command(app, SequencesOptions, "sequences")
+def sequences(options: SequencesOptions) -> None:
     """Import sequences from outside as macro actions, one per sequence, to fit FAVAE on (docs/favae.md).
 
     A .npz may also hold ``lengths`` (N,) for shorter sequences, ``factors`` (N, F) for MIG and ``factor_names``.
@@ -39,11 +37,11 @@ def sequences(
     from famarl_cli.artifacts.segments import write_segments
     from famarl_cli.method.sequences import load_arrays, to_segments
 
-    out = prepare_output(out)
-    arrays = load_arrays(source, key)
-    options = {"key": key, "length": length, "ladders": ladders, "standardize": standardize}
-    made = provenance("famarl sequences", options, None, [source])
-    segments = to_segments(arrays, source, length, 2**ladders, made, standardize)
+    source, out = options.source, prepare_output(options.out)
+    arrays = load_arrays(source, options.key)
+    recorded = {key: value for key, value in to_json(options).items() if key not in ("source", "out")}
+    made = provenance("famarl sequences", recorded, None, [source])
+    segments = to_segments(arrays, source, options.length, 2**options.ladders, made, options.standardize)
     write_segments(out, segments)
     Console().print(
         f"{len(segments.length)} sequences of {segments.action_dim} dimensions, up to {segments.length.max()} steps "

@@ -87,14 +87,18 @@ def sweep(
 
 
 def plan(command: str, options: list[str], seeds: str, over: list[str], name: str | None):
-    """The sweep's jobs: one per combination of the axes, each parsed by COMMAND's own option parser."""
+    """The sweep's jobs: one per combination of the axes. COMMAND's options are parsed by its own command, derived
+    from its declaration; an axis named like one of its options gives that option a value typed by the declaration
+    (``--over agent=ppo,figar`` gives Agent values, ``--seeds`` ints) unless the options already give it."""
+    from famarl_cli.cli.derived import parse_options
+    from famarl_cli.core.declare import convert, declared
     from famarl_cli.sweep.plan import Axis, Job, default_name, expand, fill, parse_values
+    from famarl_cli.sweep.worker import name_of
 
     if command not in SWEEPABLE:
         raise UsageError(f"cannot sweep {command!r}; sweepable commands: {', '.join(sorted(SWEEPABLE))}")
     sweepable = SWEEPABLE[command]
-    parser = typer.main.get_command(app).commands[command]
-    accepted = {opt: param.name for param in parser.params for opt in param.opts}
+    fields = {option.name: option for option in declared(sweepable.options)}
     for option in sweepable.owned:
         if _given(option, options):
             raise UsageError(f"{option} is set by the sweep (its --out holds every run); leave it out of the options")
@@ -105,19 +109,14 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
     jobs = []
     for point in expand(axes):
         argv = [fill(option, point) for option in options]
+        values = parse_options(app, command, sweepable.options, argv)
         for axis, value in point.items():
-            option = "--" + axis.replace("_", "-")
-            if option in accepted and not _given(option, argv):
-                argv += [option, value]
-        try:
-            parsed = parser.make_context(f"famarl {command}", list(argv)).params
-        except Exception as exc:  # typer's (bundled click's) usage errors: they carry their message
-            if not hasattr(exc, "format_message"):
-                raise
-            raise UsageError(f"famarl {command} {' '.join(argv)}: {exc.format_message()}") from None
-        recipe = sweepable.make(parsed)
+            field = fields.get(axis.replace("-", "_"))
+            if field is not None and not _given(field.flag, argv):
+                values[field.name] = convert(field, value)
+        recipe = sweepable.make(sweepable.options(**values))
         job_name = fill(name, point) if name else default_name(point)
-        jobs.append(Job(job_name, recipe.runner, recipe.config, recipe.inputs, recipe.resumable, point))
+        jobs.append(Job(job_name, name_of(recipe.runner), recipe.config, recipe.inputs, recipe.resumable, point))
     return jobs
 
 

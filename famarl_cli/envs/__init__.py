@@ -3,6 +3,8 @@
 ``gymnasium.make("famarl_cli.envs:famarl/ContinuousWorld-Maze-v0")`` imports and registers in one call.
 """
 
+from enum import StrEnum
+
 import gymnasium
 
 from famarl_cli.envs import continuous_world, robot_hand
@@ -24,6 +26,8 @@ ENV_IDS = {**CONTINUOUS_WORLD_IDS, **{f"robot-hand-{task}": env_id for task, env
 WORLDS = {"continuous-world": continuous_world, "robot-hand": robot_hand}
 """famarl's env families by name. Each module provides its env class, ``TASKS``, ``ACTION_SPACE`` and
 ``traversal_paths(actions, lengths)``: the empty world a latent traversal runs macro actions in."""
+World = StrEnum("World", {name.upper().replace("-", "_"): name for name in WORLDS})
+"""The names of WORLDS, as a type that options take."""
 DEFAULT_WORLD = "continuous-world"
 """Where a latent traversal runs macro actions when no world or env is given: the paper's env."""
 _FAMILIES = {
@@ -56,5 +60,6 @@ __all__ = [
     "WORLDS",
     "ContinuousWorldEnv",
     "RobotHandEnv",
+    "World",
     "world_of",
 ]

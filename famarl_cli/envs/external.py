@@ -19,9 +19,11 @@ import contextlib
 import importlib.util
 import io
 import warnings
+from dataclasses import dataclass
 
 import gymnasium as gym
 
+from famarl_cli.core.declare import option
 from famarl_cli.core.errors import FamarlError, ForeignError, UsageError, foreign
 
 EXTRAS = {
@@ -122,3 +124,14 @@ def parse_env_kwargs(text: str | None) -> dict:
     if not isinstance(kwargs, dict):
         raise UsageError(f"--env-kwargs must be a JSON object, got {text!r}")
     return kwargs
+
+
+@dataclass(frozen=True)
+class MakeOptions:
+    """What ``gymnasium.make`` gets besides the id, declared once for every command that makes an env."""
+
+    env_kwargs: dict = option(
+        factory=dict,
+        help="Keyword arguments of gymnasium.make, as JSON: '{\"continuing_task\": false}'.",
+        parse=parse_env_kwargs,
+    )

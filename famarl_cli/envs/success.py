@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import gymnasium as gym
 
+from famarl_cli.core.declare import option
 from famarl_cli.core.errors import UsageError
 
 REPORTED_KEYS = ("success", "is_success")
@@ -94,3 +95,14 @@ def rate(values) -> float | None:
     """The share of successes among episodes whose success is defined; None where none is."""
     defined = [v for v in values if v is not None and not math.isnan(v)]
     return sum(defined) / len(defined) if defined else None
+
+
+@dataclass(frozen=True)
+class SuccessOptions:
+    """``--success-return``, declared once for every command that judges episodes."""
+
+    success_return: float | None = option(
+        None,
+        "An episode succeeds when its return reaches this, whatever the env reports.  [default: the env's own "
+        "success report, else its gymnasium reward_threshold, else success is not defined]",
+    )

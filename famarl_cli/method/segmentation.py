@@ -28,26 +28,26 @@ from torch import nn
 from famarl_cli.artifacts.checkpoints import load_checkpoint, save_checkpoint
 from famarl_cli.artifacts.demos import Demos
 from famarl_cli.artifacts.segments import Segments
+from famarl_cli.core.declare import default_of
 from famarl_cli.core.errors import ArtifactError, FamarlError, UsageError
 from famarl_cli.core.macro_actions import pad, split_long
 from famarl_cli.method.metrics import boundary_scores, length_summary
-
-DISTANCES = ("euclidean", "normalised")
+from famarl_cli.method.segment_params import LENGTH_MULTIPLE, Distance, LongSegments, SegmenterOptions, SegmentParams
 
 
 @dataclass(frozen=True)
 class AutoencoderConfig:
     """Everything needed to rebuild the window autoencoder; stored in its checkpoint."""
 
-    window: int = 4
+    window: int = default_of(SegmenterOptions, "window")
     action_dim: int = 2
-    hidden: int = 32
-    code_dim: int = 4
+    hidden: int = default_of(SegmenterOptions, "hidden")
+    code_dim: int = default_of(SegmenterOptions, "code_dim")
 
 
 @dataclass(frozen=True)
 class TrainingConfig:
-    epochs: int = 300
+    epochs: int = default_of(SegmenterOptions, "epochs")
     batch_size: int = 256
     learning_rate: float = 1e-3
 
@@ -116,8 +116,8 @@ def train_autoencoder(
 
 def distance_curve(codes: np.ndarray, kind: str = "euclidean") -> np.ndarray:
     """(n - 1,) distances between the codes of adjacent windows (see the module doc)."""
-    if kind not in DISTANCES:
-        raise UsageError(f"unknown distance {kind!r}; expected one of {DISTANCES}")
+    if kind not in tuple(Distance):
+        raise UsageError(f"unknown distance {kind!r}; expected one of {tuple(map(str, Distance))}")
     distance = np.linalg.norm(codes[1:] - codes[:-1], axis=1)
     if kind == "normalised":
         norms = np.linalg.norm(codes, axis=1)
@@ -206,33 +206,12 @@ def majority_phase(start: int, end: int, phase_starts: np.ndarray, episode_lengt
     return int(np.argmax(overlap))
 
 
-LONG_POLICIES = ("split", "drop", "fail")
-"""What to do with a segment longer than L: split it into pieces of at most L steps, drop it, or stop."""
-
-LENGTH_MULTIPLE = 8
-"""An automatic L is the longest segment rounded up to a multiple of this: FAVAE halves the length three times."""
-
-
-@dataclass(frozen=True)
-class SegmentParams:
-    """Every option of the segment stage (recorded in the output's provenance)."""
-
-    neighbours: int = 10
-    margin: float = 0.7
-    distance: str = "euclidean"
-    length: int | None = None
-    """L, FAVAE's input length; None picks the longest segment rounded up to LENGTH_MULTIPLE."""
-    long: str = "split"
-    tolerance: int = 2
-    """Boundary tolerance (steps) of the second set of scores."""
-    seed: int = 0
-
-
 def segment_demos(demos: Demos, model: WindowAutoencoder, params: SegmentParams) -> tuple[Segments, dict]:
     """Cut every demo episode into macro actions; returns the segments and their metrics (boundary scores
     against the experts' true boundaries, length statistics)."""
-    if params.long not in LONG_POLICIES:
-        raise UsageError(f"unknown long-segment policy {params.long!r}; expected one of {LONG_POLICIES}")
+    if params.long not in tuple(LongSegments):
+        expected = tuple(map(str, LongSegments))
+        raise UsageError(f"unknown long-segment policy {params.long!r}; expected one of {expected}")
     if params.length is not None and params.length < 1:
         raise UsageError(f"length must be >= 1, got {params.length}")
     actions = [e.actions.astype(np.float64) for e in demos.episodes]

@@ -1,7 +1,8 @@
 """Latent traversal: move one FAVAE latent variable over a range of values, keep the others fixed, decode, and
 run each decoded macro action to see what the variable controls (the paper's Figure 5). Macro actions run in the
 empty world of the env family they were learned in (:data:`famarl_cli.envs.WORLDS`: ContinuousWorld, or RobotHand,
-whose grip point's path is drawn); given an env id, they run in that gymnasium env and two chosen observation dimensions are drawn (:func:`run_in_env`).
+whose grip point's path is drawn); given an env id, they run in that gymnasium env and two chosen observation
+dimensions are drawn (:func:`run_in_env`).
 
 Variables are named (ladder, index), both counted from 1 as in the paper: (3, 1) is the first latent of the
 third, deepest ladder. The fixed latent vector is the prior's mean, 0. Each decoded macro action runs open-loop
@@ -16,12 +17,13 @@ learned a factor moves the path; one that learned nothing has an effect near 0.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from famarl_cli.artifacts.traversal import Traversal
 from famarl_cli.core.errors import FamarlError, UsageError, foreign
 from famarl_cli.envs import DEFAULT_WORLD, WORLDS
-from famarl_cli.method.favae.model import Favae
 
 EMPTY_LADDER_NATS = 0.1
 """A ladder whose variables together carry less information than this about the training segments (the part of
@@ -42,6 +44,9 @@ def variables_of(model: Favae, ladder: int | None, index: int | None) -> list[tu
     ladders = [ladder] if ladder else range(1, len(dims) + 1)
     return [(lad, i) for lad in ladders for i in ([index] if index else range(1, dims[lad - 1] + 1))]
 
+
+if TYPE_CHECKING:  # the model is only passed through: reading this module does not load torch
+    from famarl_cli.method.favae.model import Favae
 
 DRAWS = ("run", "values")
 """How a decoded sequence becomes a path: ``run`` it as actions in the environment that takes their size, or draw

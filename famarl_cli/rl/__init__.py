@@ -63,4 +63,4 @@ def agent_defaults(agent: Agent) -> dict:
             "macro_horizon": HYBRID_HORIZON,
             "residual": HYBRID_RESIDUAL,
         }
-    return {"macro_discount": MacroDiscount.DECISION, "type_entropy_floor": 0.0, "macro_horizon": None, "residual": 0.0}
+    return {"macro_discount": MacroDiscount.DECISION, "type_entropy_floor": 0.0, "macro_horizon": 0, "residual": 0.0}

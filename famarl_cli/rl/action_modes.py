@@ -13,9 +13,33 @@ which decisions were macro actions, for the logs.
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import numpy as np
 
 from famarl_cli.method.favae.model import Favae
+
+
+class ActionMode(Protocol):
+    """What PPO (:mod:`famarl_cli.rl.ppo`), evaluation and the gymnasium wrappers need of an action mode. A new
+    agent's way of acting is a class with these members; :func:`famarl_cli.rl.training.build_mode` makes it from the
+    run's spec."""
+
+    policy_action_size: int
+    """Outputs of the policy's Gaussian head: the size of ``u``."""
+    choices: int
+    """Options of the policy's categorical head (0: no such head)."""
+    branches: np.ndarray | None
+    """(choices, policy_action_size): which outputs each choice uses; None when every choice uses them all."""
+
+    def to_open_loop(self, u: np.ndarray, index: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """(actions (N, L, D), lengths (N,)) of the decisions ``u`` (N, policy_action_size) and ``index`` (N,),
+        for :func:`~famarl_cli.rl.executor.run_open_loop`; steps past a length are not executed."""
+        ...
+
+    def macro(self, index: np.ndarray) -> np.ndarray:
+        """(N,) bool: which decisions were macro actions (for the logs)."""
+        ...
 
 
 class PrimitiveActions:
@@ -52,15 +76,13 @@ class LatentMacroActions:
 
     The prior is N(0, 1), so the decoder has only seen latents within about 3 of 0; far outside that box its
     output is an extrapolation that no demonstration supports. ``horizon`` cuts every macro action after that
-    many steps, so the agent decides again sooner than the decoder would stop (None: the decoder's length).
+    many steps, so the agent decides again sooner than the decoder would stop (0: the decoder's length).
     """
 
     choices = 0
     branches = None
 
-    def __init__(
-        self, favae: Favae, low: np.ndarray, high: np.ndarray, bound: float, horizon: int | None = None
-    ) -> None:
+    def __init__(self, favae: Favae, low: np.ndarray, high: np.ndarray, bound: float, horizon: int = 0) -> None:
         if favae.config.action_dim != len(low):
             raise ValueError(
                 f"the FAVAE decodes {favae.config.action_dim}-D actions but the environment takes {len(low)}-D ones"
@@ -70,7 +92,7 @@ class LatentMacroActions:
 
     def to_open_loop(self, u: np.ndarray, index: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         actions, lengths = self.favae.decode_macro_actions(np.clip(u, -self.bound, self.bound))
-        if self.horizon is not None:
+        if self.horizon:
             lengths = np.minimum(lengths, self.horizon)
         return np.clip(actions, self.low, self.high), lengths
 

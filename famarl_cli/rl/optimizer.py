@@ -1,4 +1,5 @@
-"""Adam (Kingma & Ba 2015) on one flat parameter tensor, with PyTorch's defaults and update rule.
+"""Adam (Kingma & Ba 2015) on one flat parameter tensor, with PyTorch's defaults and update rule, and the gradient's
+norm clipped by ``torch.nn.utils.clip_grad_norm_``'s rule.
 
 ``torch.optim.Adam`` spends about twice as long in bookkeeping as in arithmetic on the ~10k parameters of a 64-64
 actor-critic, once per minibatch; here the step is five in-place tensor calls.
@@ -9,6 +10,14 @@ from __future__ import annotations
 import math
 
 import torch
+
+
+def clip_norm(gradient: torch.Tensor, max_norm: float) -> None:
+    """Scale the flat ``gradient`` in place so its norm is at most ``max_norm`` (clip_grad_norm_'s rule: the
+    factor is max_norm / (norm + 1e-6), applied only when below 1)."""
+    norm = float(gradient.norm())
+    if norm + 1e-6 > max_norm:
+        gradient.mul_(max_norm / (norm + 1e-6))
 
 
 class FlatAdam:

@@ -29,6 +29,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from famarl_cli.core.errors import ArtifactError
+
 LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
 ONE, MINUS_ONE = torch.tensor(1.0), torch.tensor(-1.0)
 
@@ -112,6 +114,8 @@ class ActorCritic:
         }
         if choices:
             shapes |= {"w_choice": (hidden, choices), "b_choice": (choices,)}
+        self.layout = [[name, list(shape)] for name, shape in shapes.items()]
+        """[name, shape] of each parameter, in the order they lie in :attr:`flat` (stored with it)."""
         size = sum(math.prod(shape) for shape in shapes.values())
         self.flat, self.gradient = torch.zeros(size), torch.zeros(size)
         self.params = self._views(self.flat, shapes)
@@ -142,12 +146,20 @@ class ActorCritic:
         if self.choices:
             orthogonal(p["w_choice"], 0.01)
 
-    def state_dict(self) -> dict[str, torch.Tensor]:
-        return {"flat": self.flat.clone()}
+    def state_dict(self) -> dict:
+        """The flat parameter vector and its layout (which parameter lies where, with its shape)."""
+        return {"flat": self.flat.clone(), "layout": self.layout}
 
-    def load_state_dict(self, state: dict[str, torch.Tensor]) -> None:
+    def load_state_dict(self, state: dict) -> None:
+        flat, layout = state.get("flat"), state.get("layout")
+        if not isinstance(flat, torch.Tensor) or flat.shape != self.flat.shape:
+            found = "none" if not isinstance(flat, torch.Tensor) else f"{flat.numel()} values"
+            raise ArtifactError(f"the stored policy ({found}) does not fit this network ({self.flat.numel()} values)")
+        # Checkpoints written before the layout was stored have none; their size was checked above.
+        if layout is not None and layout != self.layout:
+            raise ArtifactError(f"the stored policy's layout {layout} is not this network's {self.layout}")
         # In place: the views in params, grads and arrays stay valid.
-        self.flat.copy_(state["flat"])
+        self.flat.copy_(flat)
 
     @property
     def log_std(self) -> torch.Tensor:

@@ -29,9 +29,10 @@ import numpy as np
 import torch
 
 from famarl_cli.rl import MacroDiscount
+from famarl_cli.rl.action_modes import ActionMode
 from famarl_cli.rl.executor import OpenLoopResult, run_open_loop
 from famarl_cli.rl.normalization import ObservationNormalizer, RewardScaler
-from famarl_cli.rl.optimizer import FlatAdam
+from famarl_cli.rl.optimizer import FlatAdam, clip_norm
 from famarl_cli.rl.policy import LOG_SQRT_2PI, ActorCritic
 from famarl_cli.rl.semi_mdp import decision_reward
 from famarl_cli.rl.vector import BatchedEnv
@@ -280,7 +281,7 @@ class EpisodeTracker:
 class PPOTrainer:
     """Owns everything that changes while training; :meth:`state_dict` captures all of it for exact resumes."""
 
-    def __init__(self, env: BatchedEnv, mode, config: PPOConfig, seed: int) -> None:
+    def __init__(self, env: BatchedEnv, mode: ActionMode, config: PPOConfig, seed: int) -> None:
         self.env, self.mode, self.config = env, mode, config
         torch.manual_seed(seed)  # initialisation and the minibatch shuffles
         self.rng = np.random.default_rng(seed)  # the rollouts' sampling
@@ -371,10 +372,7 @@ class PPOTrainer:
             for i in range(cfg.minibatches):
                 batch = Minibatch(**{name: parts[i] for name, parts in minibatches.items()})
                 totals += clipped_objective_gradient(self.policy, batch, cfg, floor)
-                # clip_grad_norm_'s rule, on the one flat gradient
-                norm = float(gradient.norm())
-                if norm + 1e-6 > cfg.max_grad_norm:
-                    gradient.mul_(cfg.max_grad_norm / (norm + 1e-6))
+                clip_norm(gradient, cfg.max_grad_norm)
                 self.optimizer.step(gradient)
         stats = dict(zip(STATS, (totals / (cfg.epochs * cfg.minibatches)).tolist(), strict=True))
         variance = np.var(rollout.returns)

@@ -19,7 +19,7 @@ from famarl_cli.core.errors import ArtifactError, UsageError
 from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.method.favae.model import Favae, FavaeConfig
 from famarl_cli.rl import Agent
-from famarl_cli.rl.action_modes import HybridActions, LatentMacroActions, PrimitiveActions, RepeatedActions
+from famarl_cli.rl.action_modes import ActionMode, HybridActions, LatentMacroActions, PrimitiveActions, RepeatedActions
 from famarl_cli.rl.policy import ActorCritic
 from famarl_cli.rl.ppo import PPOConfig, PPOTrainer
 from famarl_cli.rl.vector import BatchedEnv, make_batch
@@ -33,8 +33,8 @@ class RunSpec:
     ppo: PPOConfig
     latent_bound: float = 3.0
     """FaMARL and hybrid: latents are clipped to [-bound, bound] before decoding."""
-    macro_horizon: int | None = None
-    """FaMARL and hybrid: macro actions are cut after this many steps (None: where the decoder stops them)."""
+    macro_horizon: int = 0
+    """FaMARL and hybrid: macro actions are cut after this many steps (0: where the decoder stops them)."""
     residual: float = 0.0
     """Hybrid: a macro decision adds this times the primitive output to each of its actions (0: off)."""
     max_repeat: int = 32
@@ -54,7 +54,10 @@ class RunSpec:
 
     @staticmethod
     def from_dict(values: dict) -> RunSpec:
-        return RunSpec(**{**values, "agent": Agent(values["agent"]), "ppo": PPOConfig.from_dict(values["ppo"])})
+        # Runs written before 0 meant "whole macros" stored None.
+        horizon = values.get("macro_horizon") or 0
+        agent, ppo = Agent(values["agent"]), PPOConfig.from_dict(values["ppo"])
+        return RunSpec(**{**values, "agent": agent, "ppo": ppo, "macro_horizon": horizon})
 
 
 def default_label(agent: Agent, favae: str | os.PathLike | None) -> str:
@@ -64,7 +67,7 @@ def default_label(agent: Agent, favae: str | os.PathLike | None) -> str:
     return f"{agent} ({Path(favae).stem})"
 
 
-def build_mode(spec: RunSpec, env: BatchedEnv, favae: Favae | None):
+def build_mode(spec: RunSpec, env: BatchedEnv, favae: Favae | None) -> ActionMode:
     low, high = env.action_bounds
     if spec.agent == Agent.PPO:
         return PrimitiveActions(low, high)

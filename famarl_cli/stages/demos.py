@@ -13,11 +13,53 @@ import numpy as np
 
 from famarl_cli.artifacts import Demos, Episode, provenance
 from famarl_cli.artifacts.demos import content_fault
+from famarl_cli.core.declare import from_json, option, same_as
 from famarl_cli.core.errors import FamarlError, UsageError, foreign
-from famarl_cli.envs.external import make_env
-from famarl_cli.envs.success import SuccessRule, as_bool, success_rule
+from famarl_cli.envs.external import MakeOptions, make_env
+from famarl_cli.envs.success import SuccessOptions, SuccessRule, as_bool, success_rule
 from famarl_cli.experts import Script, demonstration, make_expert
 from famarl_cli.experts.external import ExternalExpert
+
+
+@dataclass(frozen=True)
+class DemosOptions:
+    """``famarl demos``: record expert demos, or import a Minari dataset as demos."""
+
+    script: Script | None = option(
+        None,
+        "famarl's expert script: the paper's four act in ContinuousWorld Base, pegging in RobotHand.  [default: "
+        "pushed-down-only, unless --expert or --from-minari]",
+        flags=("--script", "-s"),
+    )
+    env: str | None = option(
+        None,
+        "With --expert: the gymnasium id the expert acts in (any id with a Box action space). With --script: "
+        "continuous-world or robot-hand, optional (the script implies it).",
+    )
+    env_kwargs: dict = same_as(MakeOptions, "env_kwargs")
+    expert: str | None = option(
+        None,
+        "Your expert, as module:attribute: a policy function or a class with act(observation) (docs/external.md); "
+        "it may return (action, phase) to mark its phases.",
+    )
+    from_minari: str | None = option(
+        None,
+        "Import this Minari dataset instead of recording: an id in Minari's local storage (MINARI_DATASETS_PATH) or "
+        "a dataset folder. Needs the minari extra.",
+    )
+    episodes: int = option(100, "Number of episodes to record (to keep, with --min-return).", min=1)
+    seed: int = option(0, "Seed of the episodes' resets; same seed, same file.")
+    min_return: float | None = option(
+        None, "With --expert: keep only episodes whose return is above this (failed attempts dropped)."
+    )
+    max_attempts: int | None = option(
+        None, "With --min-return: give up after this many episodes.  [default: 50 x --episodes]", min=1
+    )
+    out: Path | None = option(
+        None, "Output HDF5 file.  [default: data/demos/<script, env or dataset name>.h5]", path="file"
+    )
+    plot: bool = option(True, "Also draw the trajectories to <out>.png.")
+    success_return: float | None = same_as(SuccessOptions, "success_return")
 
 
 def episode_seeds(seed: int, n_episodes: int) -> np.ndarray:
@@ -208,8 +250,9 @@ def run_job(config: dict, folder: Path, context) -> dict:
         done.append(episode)
         context.progress(len(done), episodes)
 
-    recorded = record_demos(Script(config["script"]), episodes, config["seed"], on_episode=advance)
+    options = from_json(DemosOptions, config)
+    recorded = record_demos(options.script, episodes, options.seed, on_episode=advance)
     write_demos(folder / DEMOS_FILE, recorded)
-    if config["plot"]:
+    if options.plot:
         plot_demos(recorded, (folder / DEMOS_FILE).with_suffix(".png"))
     return {"success": recorded.success_rate, "episodes": len(recorded.episodes)}

@@ -16,18 +16,119 @@ import numpy as np
 
 from famarl_cli.artifacts import prepare_output, provenance, read_demos, write_csv, write_json
 from famarl_cli.artifacts.segments import Segments, read_segments, write_segments
+from famarl_cli.core.declare import option, pick, same_as, to_json
 from famarl_cli.core.errors import ArtifactError, UsageError
-from famarl_cli.method.favae import CALIBRATION_BETA, DECODER
+from famarl_cli.envs import DEFAULT_WORLD, World
+from famarl_cli.envs.external import MakeOptions
+from famarl_cli.method.favae import FavaeOptions, FitChoices
+from famarl_cli.method.segment_params import SegmenterOptions, SegmentParams
+from famarl_cli.method.traversal import DRAWS, parse_dims, parse_values
+
+DEFAULT_DEMOS = Path("data/demos/pushed-down-only.h5")
+"""What famarl demos writes with its defaults."""
+DEFAULT_SEGMENTS = Path("data/segments/pushed-down-only.h5")
+"""What famarl segment writes with its defaults."""
 
 
 @dataclass(frozen=True)
-class SegmenterOptions:
-    """The window autoencoder's shape and training (the rest of the stage's options are SegmentParams)."""
+class SegmentOptions(SegmentParams, SegmenterOptions):
+    """``famarl segment``: cut demos into macro actions."""
 
-    window: int = 4
-    code_dim: int = 4
-    hidden: int = 32
-    epochs: int = 300
+    demos: Path = option(DEFAULT_DEMOS, "Demos HDF5 file to segment.")
+    out: Path | None = option(None, "Output segments HDF5.  [default: data/segments/<demos name>.h5]", path="file")
+    encoder: Path | None = option(None, "Use this trained segmenter (a .segmenter.pt) instead of training one.")
+    plot: bool = option(True, "Also draw distance curves and boundaries to <out>.png.")
+    episodes: int | None = option(None, "Only the first this many episodes of the demos.  [default: all]", min=1)
+
+    @property
+    def destination(self) -> Path:
+        return self.out or Path("data/segments") / f"{self.demos.stem}.h5"
+
+
+@dataclass(frozen=True)
+class CalibrateOptions(FavaeOptions):
+    """``famarl favae calibrate``: the C_last pre-run."""
+
+    segments: Path = option(DEFAULT_SEGMENTS, "Segments HDF5 file (from famarl segment).")
+    out: Path | None = option(None, "Calibration JSON.  [default: data/favae/<segments name>.calibration.json]")
+    calibration_beta: float = same_as(FavaeOptions, "calibration_beta", flags=("--beta",))
+
+    @property
+    def destination(self) -> Path:
+        return self.out or Path("data/favae") / f"{self.segments.stem}.calibration.json"
+
+
+@dataclass(frozen=True)
+class FitOptions(FitChoices, FavaeOptions):
+    """``famarl favae fit``: the FAVAE on segments, after the pre-run unless a calibration is given."""
+
+    segments: Path = option(DEFAULT_SEGMENTS, "Segments HDF5 file (from famarl segment).")
+    calibration: Path | None = option(None, "C_last from famarl favae calibrate; without it the pre-run runs first.")
+    out: Path | None = option(None, "Checkpoint.  [default: data/favae/<segments name>.pt]", path="file")
+
+    @property
+    def destination(self) -> Path:
+        return self.out or Path("data/favae") / f"{self.segments.stem}.pt"
+
+
+@dataclass(frozen=True)
+class TraversalPlace:
+    """Where a traversal runs its macro actions and which values it gives the variable."""
+
+    values: list[float] = option(
+        factory=lambda: [-3.0, -1.0, 1.0, 3.0],
+        help="Values the variable takes; write --values=-3,-1,1,3.",
+        text="-3,-1,1,3",
+        parse=parse_values,
+    )
+    world: World | None = option(
+        None,
+        "famarl's env family whose empty world runs the macro actions from its centre (without --env).  [default: "
+        f"the demos' env's, in famarl macros; else {DEFAULT_WORLD}]",
+    )
+    env: str | None = option(
+        None,
+        "Run the macro actions in this gymnasium env (each from reset(seed=0)) and draw --obs-dims of its "
+        "observations.  [default: the empty --world]",
+    )
+    env_kwargs: dict = same_as(MakeOptions, "env_kwargs")
+    obs_dims: tuple[int, int] = option(
+        (0, 1),
+        "The two dimensions of the flattened observation a traversal draws in a gymnasium env.",
+        text="0,1",
+        parse=parse_dims,
+    )
+
+
+@dataclass(frozen=True)
+class TraverseOptions(TraversalPlace):
+    """``famarl traverse``: latent traversal of a FAVAE."""
+
+    model: Path | None = option(
+        None,
+        "FAVAE checkpoint (from famarl favae fit).  [default: data/favae/pushed-down-only.pt, else the main job's "
+        "data/maze/macros/seed0/favae.pt]",
+    )
+    ladder: int | None = option(None, "Traverse this ladder's variables (from 1).  [default: all]")
+    index: int | None = option(None, "Only this variable of the ladder (from 1).")
+    out: Path | None = option(None, "Traversal HDF5.  [default: data/traverse/<model name>[-ladder<L>[-index<I>]].h5]")
+    draw: str = option(
+        DRAWS[0],
+        "run: run the decoded macro actions in --world (or --env); values: draw the decoded sequences' first two "
+        "dimensions as positions (sequences that are paths, e.g. 2D Reaching).",
+    )
+    frames: bool = option(
+        False,
+        "With --env: also draw what the env renders at the end of each macro action (<out>.frames.png). MuJoCo "
+        "envs need MUJOCO_GL=egl or osmesa without a display.",
+    )
+
+    @property
+    def destination(self) -> Path:
+        model = self.model or default_favae()
+        name = model.stem + (f"-ladder{self.ladder}" if self.ladder else "")
+        name += f"-index{self.index}" if self.index else ""
+        return self.out or Path("data/traverse") / f"{name}.h5"
 
 
 @dataclass
@@ -37,19 +138,10 @@ class Segmented:
     written: list[Path]
 
 
-def segment(
-    demos: Path,
-    out: Path,
-    params,
-    segmenter: SegmenterOptions | None = None,
-    encoder: Path | None = None,
-    plot: bool = True,
-    on_epoch: Callable[[int, float], None] | None = None,
-    episodes: int | None = None,
-) -> Segmented:
-    """Cut ``demos`` (only its first ``episodes`` episodes, when given) into macro actions; writes ``out``
-    (segments), ``.metrics.json``, the segmenter's ``.segmenter.pt`` (unless a trained ``encoder`` is given) and
-    ``.png``. ``params`` is a SegmentParams."""
+def segment(options: SegmentOptions, on_epoch: Callable[[int, float], None] | None = None) -> Segmented:
+    """Cut ``options.demos`` (only its first ``episodes`` episodes, when given) into macro actions; writes the
+    segments (``options.destination``), ``.metrics.json``, the segmenter's ``.segmenter.pt`` (unless a trained
+    ``encoder`` is given) and ``.png``."""
     from famarl_cli.method.segmentation import (
         AutoencoderConfig,
         TrainingConfig,
@@ -60,15 +152,16 @@ def segment(
     )
     from famarl_cli.report.plots import plot_segmentation
 
-    out = prepare_output(out)
-    segmenter = segmenter or SegmenterOptions()
+    demos, encoder, episodes = options.demos, options.encoder, options.episodes
+    params, segmenter = pick(SegmentParams, options), pick(SegmenterOptions, options)
+    out = prepare_output(options.destination)
     metrics_path, segmenter_path = out.with_suffix(".metrics.json"), out.with_suffix(".segmenter.pt")
     loaded = read_demos(demos)
     if episodes is not None:
         if not 1 <= episodes <= len(loaded.episodes):
             raise UsageError(f"{demos} holds {len(loaded.episodes)} episodes; cannot take the first {episodes}")
         loaded = replace(loaded, episodes=loaded.episodes[:episodes])
-    options = {**asdict(params), **asdict(segmenter), "episodes": episodes}
+    recorded = {**to_json(params), **to_json(segmenter), "episodes": episodes}
     inputs = [demos] + ([encoder] if encoder else [])
     if encoder:
         model, train_mse = load_autoencoder(encoder), None
@@ -84,14 +177,14 @@ def segment(
         )
     segments, metrics = segment_demos(loaded, model, params)
     metrics["autoencoder_mse"] = train_mse
-    segments.provenance = provenance("famarl segment", options, params.seed, inputs)
+    segments.provenance = provenance("famarl segment", recorded, params.seed, inputs)
     write_segments(out, segments)
     written = [out]
     if not encoder:
-        save_autoencoder(segmenter_path, model, provenance("famarl segment", options, params.seed, [demos]))
+        save_autoencoder(segmenter_path, model, provenance("famarl segment", recorded, params.seed, [demos]))
         written.append(segmenter_path)
     # The metrics last: their presence says the stage finished (famarl_cli.stages.macros resumes by it).
-    if plot:
+    if options.plot:
         plot_segmentation(loaded, segments, out.with_suffix(".png"))
         written.append(out.with_suffix(".png"))
     write_json(metrics_path, metrics)
@@ -99,7 +192,7 @@ def segment(
     return Segmented(segments, metrics, written)
 
 
-def favae_setup(segments: Path, ladders: int, latent_dim: int, head: str = "flatten", decoder: str = DECODER):
+def favae_setup(segments: Path, options: FavaeOptions):
     """The segments and the FAVAE config they call for (L and D come from the segments file)."""
     from famarl_cli.method.favae.model import FavaeConfig
 
@@ -108,39 +201,37 @@ def favae_setup(segments: Path, ladders: int, latent_dim: int, head: str = "flat
         config = FavaeConfig(
             action_dim=loaded.action_dim,
             length=loaded.max_length,
-            latent_dims=(latent_dim,) * ladders,
-            channels=tuple(min(32 * 2**i, 64) for i in range(ladders)),
-            head=head,
-            decoder=decoder,
+            latent_dims=(options.latent_dim,) * options.ladders,
+            channels=tuple(min(32 * 2**i, 64) for i in range(options.ladders)),
+            head=str(options.head),
+            decoder=str(options.decoder),
         )
     except ValueError as exc:
-        raise UsageError(f"{exc}; re-run famarl segment with a --length divisible by {2**ladders}") from exc
+        raise UsageError(f"{exc}; re-run famarl segment with a --length divisible by {2**options.ladders}") from exc
     return loaded, config
 
 
 def calibrate(
-    segments: Path,
-    out: Path,
-    ladders: int,
-    latent_dim: int,
-    params,
-    on_epoch: Callable[[dict], None] | None = None,
-    *,
-    head: str = "flatten",
-    decoder: str = DECODER,
-    beta: float = CALIBRATION_BETA,
+    options: CalibrateOptions, on_epoch: Callable[[dict], None] | None = None
 ) -> tuple[list[float], list[dict]]:
-    """The C_last pre-run on ``segments`` at ``beta``, written to ``out`` (JSON); returns
-    C_last and the pre-run's log. ``params`` is a TrainingParams."""
+    """The C_last pre-run on ``options.segments`` at ``options.calibration_beta``, written to its destination
+    (JSON); returns C_last and the pre-run's log."""
     from famarl_cli.method.favae.checkpoint import write_calibration
+    from famarl_cli.method.favae.training import TrainingParams
     from famarl_cli.method.favae.training import calibrate as run_calibration
 
-    out = prepare_output(out)
-    loaded, config = favae_setup(segments, ladders, latent_dim, head, decoder)
+    out = prepare_output(options.destination)
+    params, beta = TrainingParams.of(options), options.calibration_beta
+    loaded, config = favae_setup(options.segments, options)
     c_last, log = run_calibration(loaded.padded, config, params, on_epoch, beta)
-    options = {**asdict(params), "calibration_beta": beta, "config": config.to_dict()}
+    recorded = {**asdict(params), "calibration_beta": beta, "config": config.to_dict()}
     write_calibration(
-        out, c_last, config, provenance("famarl favae calibrate", options, params.seed, [segments]), params, beta
+        out,
+        c_last,
+        config,
+        provenance("famarl favae calibrate", recorded, params.seed, [options.segments]),
+        params,
+        beta,
     )
     return c_last, log
 
@@ -153,30 +244,25 @@ class Fitted:
     written: list[Path]
 
 
-def fit(
-    segments: Path,
-    out: Path,
-    beta: float,
-    calibration: Path | None,
-    ladders: int,
-    latent_dim: int,
-    params,
-    on_epoch: Callable[[str, dict], None] | None = None,
-    *,
-    head: str = "flatten",
-    capacity: str = "measured",
-    decoder: str = DECODER,
-    calibration_beta: float = CALIBRATION_BETA,
-) -> Fitted:
-    """Fit FAVAE on ``segments`` (after the C_last pre-run at ``calibration_beta``, written beside ``out``, unless
-    ``calibration`` is given) and score it; writes the checkpoint ``out``, ``.log.csv`` and ``.metrics.json``.
-    ``on_epoch`` gets the phase ("calibrate" or "fit") and the epoch's log row. ``capacity`` says how the pre-run's
-    C_last becomes the capacities the fit anneals to (:func:`famarl_cli.method.favae.training.allocate_capacity`)."""
+def fit(options: FitOptions, on_epoch: Callable[[str, dict], None] | None = None) -> Fitted:
+    """Fit FAVAE on ``options.segments`` (after the C_last pre-run, written beside the checkpoint, unless
+    ``options.calibration`` is given) and score it; writes the checkpoint, ``.log.csv`` and ``.metrics.json``.
+    ``on_epoch`` gets the phase ("calibrate" or "fit") and the epoch's log row. ``options.capacity`` says how the
+    pre-run's C_last becomes the capacities the fit anneals to
+    (:func:`famarl_cli.method.favae.training.allocate_capacity`)."""
     from famarl_cli.method.favae.checkpoint import read_calibration, save_favae
-    from famarl_cli.method.favae.training import allocate_capacity, evaluate_fit, train_favae, training_summary
+    from famarl_cli.method.favae.training import (
+        TrainingParams,
+        allocate_capacity,
+        evaluate_fit,
+        train_favae,
+        training_summary,
+    )
 
-    out = prepare_output(out)
-    loaded, config = favae_setup(segments, ladders, latent_dim, head, decoder)
+    out = prepare_output(options.destination)
+    segments, calibration, beta, capacity = options.segments, options.calibration, options.beta, str(options.capacity)
+    params = TrainingParams.of(options)
+    loaded, config = favae_setup(segments, options)
     inputs, log = [segments], []
 
     def phase(name: str):
@@ -186,27 +272,18 @@ def fit(
         c_last = read_calibration(calibration, config, params)
         inputs.append(calibration)
     else:
-        c_last, calibration_log = calibrate(
-            segments,
-            out.with_suffix(".calibration.json"),
-            ladders,
-            latent_dim,
-            params,
-            phase("calibrate"),
-            head=head,
-            decoder=decoder,
-            beta=calibration_beta,
-        )
+        pre_run = pick(CalibrateOptions, options, out=out.with_suffix(".calibration.json"))
+        c_last, calibration_log = calibrate(pre_run, phase("calibrate"))
         log += [{"phase": "calibrate", **row} for row in calibration_log]
     capacities = allocate_capacity(c_last, capacity)
     model, fit_log = train_favae(loaded.padded, config, beta, capacities, params, phase("fit"))
     log += [{"phase": "fit", **row} for row in fit_log]
     scores = evaluate_fit(model, loaded.padded, loaded.length, loaded.factors)
     training = {**training_summary(params, beta, c_last), "capacity": capacity, "capacities": capacities}
-    options = {**training, "ladders": ladders, "latent_dim": latent_dim}
+    recorded = {**training, "ladders": options.ladders, "latent_dim": options.latent_dim}
     # the information each latent carries travels with the model: famarl traverse names an empty ladder by it
     summary = {**training, "kl_per_dim": scores["kl_per_dim"], "information_per_dim": scores["information_per_dim"]}
-    save_favae(out, model, summary, provenance("famarl favae fit", options, params.seed, inputs))
+    save_favae(out, model, summary, provenance("famarl favae fit", recorded, params.seed, inputs))
     metrics = {
         **scores,
         "beta": beta,
@@ -240,38 +317,37 @@ def default_favae() -> Path:
     )
 
 
-def traverse(
-    model: Path,
-    out: Path,
-    values: list[float],
-    ladder: int | None = None,
-    index: int | None = None,
-    draw: str = "run",
-    env_id: str | None = None,
-    env_kwargs: dict | None = None,
-    dims: tuple[int, int] = (0, 1),
-    frames: bool = False,
-    world: str | None = None,
-):
-    """Traverse the FAVAE in ``model`` in the empty ``world`` of a famarl env family (default: the paper's), or in
-    the gymnasium env ``env_id`` when given, drawing observation ``dims``. Writes ``out``
-    (HDF5), ``.png`` and ``.json`` (effect per variable, in the path's units, and the information and KL each
-    carries, nats, where the checkpoint records them) and, with ``frames``, ``.frames.png`` (what the env renders
-    at the end of each macro action). Returns the Traversal and a Carried: what each traversed variable carries."""
+def traverse(options: TraverseOptions):
+    """Traverse the FAVAE ``options.model`` (:func:`default_favae` when None) in the empty ``world`` of a famarl env
+    family, or in the gymnasium env ``options.env`` when given, drawing observation ``obs_dims``. Writes the HDF5
+    (``options.destination``), ``.png`` and ``.json`` (effect per variable, in the path's units, and the
+    information and KL each carries, nats, where the checkpoint records them) and, with ``frames``,
+    ``.frames.png`` (what the env renders at the end of each macro action). Returns the Traversal and a Carried:
+    what each traversed variable carries."""
     from famarl_cli.artifacts.traversal import write_traversal
-    from famarl_cli.envs import DEFAULT_WORLD
     from famarl_cli.method.favae.checkpoint import load_favae
     from famarl_cli.method.traversal import traverse as run_traversal
     from famarl_cli.method.traversal import variables_of
     from famarl_cli.report.plots import plot_traversal, plot_traversal_frames
 
-    out = prepare_output(out)
-    favae, payload = load_favae(model)
-    if frames and env_id is None:
+    if options.env is None and options.env_kwargs:
+        raise UsageError("--env-kwargs goes with --env")
+    if options.frames and options.env is None:
         raise UsageError("--frames goes with --env: the frames are what that env renders")
-    world = world or DEFAULT_WORLD
-    variables = variables_of(favae, ladder, index)
-    result = run_traversal(favae, variables, values, draw, env_id, env_kwargs, dims, frames, world)
+    model, out = options.model or default_favae(), prepare_output(options.destination)
+    values, env_id, dims = options.values, options.env, options.obs_dims
+    favae, payload = load_favae(model)
+    result = run_traversal(
+        favae,
+        variables_of(favae, options.ladder, options.index),
+        values,
+        options.draw,
+        env_id,
+        options.env_kwargs,
+        dims,
+        options.frames,
+        str(options.world or DEFAULT_WORLD),
+    )
     variables = result.variables.tolist()
     training = payload.get("training", {})
 
@@ -280,12 +356,8 @@ def traverse(
         return None if values is None else [float(values[favae.config.latent_index(*v)]) for v in variables]
 
     carried = Carried(per_variable("information_per_dim"), per_variable("kl_per_dim"))
-    options = {"ladder": ladder, "index": index, "values": values, "draw": draw}
-    if env_id is None and draw == "run" and world != DEFAULT_WORLD:
-        options["world"] = world
-    if env_id is not None:
-        options.update(env=env_id, env_kwargs=env_kwargs or {}, dims=list(dims))
-    write_traversal(out, result, provenance("famarl traverse", options, None, [model]))
+    recorded = {key: value for key, value in to_json(options).items() if key not in ("model", "out")}
+    write_traversal(out, result, provenance("famarl traverse", recorded, None, [model]))
     where = "" if env_id is None else f" in {env_id}"
     plot_traversal(
         result,
@@ -333,57 +405,3 @@ class Carried:
 
 def format_values(values: list[float]) -> str:
     return ",".join(f"{v:g}" for v in np.asarray(values, dtype=float))
-
-
-def evaluate_run(
-    run: str, into: str, episodes: int, seed: int, rollouts: int, film: bool, success_return: float | None = None
-) -> dict:
-    """Evaluate the run folder ``run`` into the folder ``into``: ``eval.json`` (the policy acting with its mode,
-    and under ``sampled`` the same numbers for the policy drawing its actions as in training), ``rollouts.png``
-    (ContinuousWorld) and, with ``film``, one rendered episode. Success follows :mod:`famarl_cli.envs.success`
-    (``success_return`` overrides the run's); ``success_rule`` says which rule judged it. Returns what eval.json
-    holds, less provenance."""
-    from famarl_cli.artifacts.runs import (
-        CHECKPOINT_FILE,
-        EVAL_FILE,
-        FILM_FILE,
-        ROLLOUTS_FILE,
-        STILLS_FILE,
-        read_run_file,
-    )
-    from famarl_cli.report.plots import plot_rollouts, save_film
-    from famarl_cli.rl.evaluation import evaluate, film_episode
-    from famarl_cli.rl.training import load_agent
-
-    run_folder, into_folder = Path(run), Path(into)
-    agent = load_agent(run_folder)
-    result = evaluate(agent, episodes, seed, rollouts, success_return=success_return)
-    sampled = evaluate(agent, episodes, seed, 0, sample=True, success_return=success_return)
-    evaluation = {
-        **result.metrics,
-        "sampled": sampled.metrics,
-        "label": agent.spec.label,
-        "agent": str(agent.spec.agent),
-        "env": agent.spec.env_id,
-        "seed": agent.spec.seed,
-        "run": str(run_folder),
-        "env_steps": agent.env_steps,
-        "train_wall_s": read_run_file(run_folder)["wall_s"],
-    }
-    into_folder.mkdir(parents=True, exist_ok=True)
-    params = {
-        "episodes": episodes,
-        "seed": seed,
-        **({} if success_return is None else {"success_return": success_return}),
-    }
-    prov = provenance("famarl evaluate", params, seed, [run_folder / CHECKPOINT_FILE])
-    write_json(into_folder / EVAL_FILE, {**evaluation, "provenance": prov})
-    if result.traces:
-        title = (
-            f"{agent.spec.label}, seed {agent.spec.seed}: deterministic episodes, one colour per decision "
-            "(black dots: single primitive steps)"
-        )
-        plot_rollouts(result.traces, into_folder / ROLLOUTS_FILE, title)
-    if film:
-        save_film(film_episode(agent, seed), into_folder / FILM_FILE, into_folder / STILLS_FILE)
-    return evaluation

@@ -33,7 +33,7 @@ from famarl_cli.sweep.plan import (
     Job,
     reconcile,
 )
-from famarl_cli.sweep.worker import LEASE_FILE, PROGRESS_FILE, read_progress
+from famarl_cli.sweep.worker import LEASE_FILE, PROGRESS_FILE, execute, name_of, read_progress
 
 MAX_ATTEMPTS = 3
 MAX_REQUEUES = 10
@@ -142,9 +142,7 @@ def _run(out: Path, jobs: list[Job], executor: Executor, max_attempts: int, on_u
         write_json(folder / LEASE_FILE, {"token": job_state.token, "attempt": job_state.attempts + 1})
         resume = job_state.action == Action.RESUME or job_state.attempts > 0
         job = job_state.job
-        future = executor.submit(
-            "famarl_cli.sweep.worker:execute", job.runner, job.config, str(folder), job_state.token, resume, cwd
-        )
+        future = executor.submit(name_of(execute), job.runner, job.config, str(folder), job_state.token, resume, cwd)
         job_state.status, job_state.submitted = "queued", time.monotonic()
         running[future] = job_state
 

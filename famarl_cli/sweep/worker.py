@@ -68,6 +68,12 @@ def read_progress(folder: Path) -> dict | None:
     return values if isinstance(values, dict) else None
 
 
+def name_of(function) -> str:
+    """``module:function``, the name a worker imports a function by (:func:`resolve`): taken from the function
+    itself, so a renamed function fails where it is referenced, not in a worker."""
+    return f"{function.__module__}:{function.__qualname__}"
+
+
 def resolve(runner: str):
     module, _, name = runner.partition(":")
     try:

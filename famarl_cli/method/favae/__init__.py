@@ -6,7 +6,10 @@
 - :mod:`~famarl_cli.method.favae.checkpoint`: checkpoints and calibration files.
 """
 
+from dataclasses import dataclass
 from enum import StrEnum
+
+from famarl_cli.core.declare import option
 
 
 class Head(StrEnum):
@@ -57,3 +60,54 @@ MAX_PROGRESSIVE = 0.8
 """The largest share: with two ladders the second then finishes fading in at the last epoch."""
 CALIBRATION_BETA = 0.1
 """The paper's beta for the pre-run that measures C_last (with C = 0)."""
+MAX_LADDERS = 8
+"""The most ladders a FAVAE may have: each halves the sequence length, so 8 already needs 256-step segments."""
+
+
+@dataclass(frozen=True)
+class FavaeOptions:
+    """What a FAVAE is made from and trained with, declared once for ``famarl favae calibrate``, ``favae fit`` and
+    ``macros`` (:mod:`famarl_cli.core.declare`)."""
+
+    ladders: int = option(3, "Number of ladders (latent groups, shallow to deep).", min=1, max=MAX_LADDERS)
+    latent_dim: int = option(2, "Latent variables per ladder.", min=1)
+    epochs: int = option(1500, "Training epochs (of the pre-run and of the fit).", min=1)
+    seed: int = option(0, "Seed of the initialisation, batches and sampling.")
+    head: Head = option(
+        Head.FLATTEN,
+        "What each ladder's head reads: flatten (its whole feature map) or pool (the map's mean over time).",
+    )
+    decoder: Decoder = option(
+        DECODER,
+        "How the latents reach the output: ladder (each ladder's latent joins the transposed convolutions at its own "
+        "depth, so the deepest shapes the whole sequence) or shared (all through one MLP stack and the same "
+        "convolutions, the design before the ladder decoder); docs/favae.md.",
+    )
+    capacity_measure: Measure = option(
+        MEASURE,
+        "What each ladder's capacity C constrains: information (the part of its KL that varies with the segments; "
+        "the rest, a shift or narrowing shared by all, is penalised on its own) or kl (the paper's: the whole KL, "
+        "which a constant shift of the posterior can meet while carrying nothing).",
+    )
+    progressive: float = option(
+        PROGRESSIVE,
+        "Share of the epochs over which the ladders are added one at a time, deepest first, each faded in "
+        "(pro-VLAE); 0 trains all from the start.",
+        min=0.0,
+        max=MAX_PROGRESSIVE,
+    )
+    calibration_beta: float = option(
+        CALIBRATION_BETA, "The C_last pre-run's beta (the paper's 0.1), where the pre-run runs.", min=0.0, max=1e4
+    )
+
+
+@dataclass(frozen=True)
+class FitChoices:
+    """What the fit adds to the pre-run's options: its beta and how C_last becomes its capacities."""
+
+    beta: float = option(50.0, "Weight of the capacity term (paper: 50 on ContinuousWorld).", min=0.0)
+    capacity: Capacity = option(
+        Capacity.MEASURED,
+        "The fit's capacity per ladder: measured (the pre-run's C_last), deepest (their sum, all in the deepest "
+        "ladder) or half (half of each shallower ladder's moved to the deepest); docs/favae.md.",
+    )

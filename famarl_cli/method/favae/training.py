@@ -14,9 +14,10 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import torch
 
+from famarl_cli.core.declare import default_of
 from famarl_cli.core.errors import UsageError
 from famarl_cli.core.macro_actions import cut_lengths
-from famarl_cli.method.favae import CALIBRATION_BETA, MAX_PROGRESSIVE, MEASURE, PROGRESSIVE, Capacity, Measure
+from famarl_cli.method.favae import CALIBRATION_BETA, MAX_PROGRESSIVE, Capacity, FavaeOptions, Measure
 from famarl_cli.method.favae.loss import capacity, favae_loss, information_per_dim, kl_per_dim, marginal_per_dim
 from famarl_cli.method.favae.model import Favae, FavaeConfig, to_input
 from famarl_cli.method.metrics import mig_interval
@@ -48,15 +49,25 @@ def allocate_capacity(c_last: list[float], allocation: str) -> list[float]:
 
 @dataclass(frozen=True)
 class TrainingParams:
-    epochs: int = 1500
+    epochs: int = default_of(FavaeOptions, "epochs")
     batch_size: int = 64
     learning_rate: float = 1e-3
-    seed: int = 0
-    measure: str = MEASURE.value
+    seed: int = default_of(FavaeOptions, "seed")
+    measure: str = default_of(FavaeOptions, "capacity_measure").value
     """What the capacities constrain: the information each ladder carries, or its KL
     (:mod:`~famarl_cli.method.favae.loss`)."""
-    progressive: float = PROGRESSIVE
+    progressive: float = default_of(FavaeOptions, "progressive")
     """Share of the epochs over which the ladders are added one by one, deepest first (0: all from the start)."""
+
+    @staticmethod
+    def of(options: FavaeOptions) -> TrainingParams:
+        """The training that ``options`` declare (batch size and learning rate are the method's)."""
+        return TrainingParams(
+            epochs=options.epochs,
+            seed=options.seed,
+            measure=str(options.capacity_measure),
+            progressive=options.progressive,
+        )
 
     def __post_init__(self) -> None:
         if self.measure not in tuple(Measure):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +16,7 @@ from famarl_cli.report.experiments.common import (
     favae_metrics_of,
     headline_famarl_runs,
     success_measure,
+    swept,
 )
 from famarl_cli.report.results import Group, gather, group, results_table
 from famarl_cli.report.verdicts import Claim, all_of, beats, bonferroni_level, fails, not_run, solves
@@ -25,11 +25,6 @@ MIG_DELTA = 0.05
 """Smallest difference in MIG that counts as disentangling better."""
 LOW = 1.0
 """The paper: beta >= 1 was enough for the Maze; below it, macro actions are entangled."""
-
-
-def _beta(label: str) -> float:
-    found = re.search(r"[-+]?\d*\.?\d+(?:e[-+]?\d+)?", label)
-    return float(found.group()) if found else float("inf")
 
 
 @experiment("beta", "pipelines/beta/dvc.yaml", order=3)
@@ -43,10 +38,12 @@ def beta(data: Path, out: Path):
     if headline:
         default_beta = favae_metrics_of(headline[:1])[0]["beta"]
         groups.append(Group(f"beta {default_beta:g}", headline))
-    groups.sort(key=lambda g: _beta(g.label))
-    mig = {g.label: np.array([m["mig"] for m in favae_metrics_of(g.runs)]) for g in groups}
-    low = [g for g in groups if _beta(g.label) < LOW]
-    high = [g for g in groups if _beta(g.label) >= LOW]
+    metrics = {g.label: favae_metrics_of(g.runs) for g in groups}
+    beta_of = {g.label: swept(g.label, [m["beta"] for m in metrics[g.label]]) for g in groups}
+    groups.sort(key=lambda g: beta_of[g.label])
+    mig = {label: np.array([m["mig"] for m in values]) for label, values in metrics.items()}
+    low = [g for g in groups if beta_of[g.label] < LOW]
+    high = [g for g in groups if beta_of[g.label] >= LOW]
     claims = []
     pairs = [(h, lo) for h in high for lo in low]
     level = bonferroni_level(len(pairs))

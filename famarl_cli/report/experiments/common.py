@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from famarl_cli.core.errors import ArtifactError
 from famarl_cli.core.statistics import LEVEL, RATE, mean_interval
 from famarl_cli.report.results import Group, RunResult, gather, group, macros_folders, read_json
 from famarl_cli.report.verdicts import Claim, best, fails, not_run, solves
@@ -104,6 +105,24 @@ def favae_metrics_of(runs: list[RunResult]) -> list[dict]:
 
     paths = [Path(read_run_file(run.evaluation["run"])["spec"]["favae"]).with_suffix(".metrics.json") for run in runs]
     return [read_json(path, "FAVAE metrics") for path in paths]
+
+
+def demo_episodes_of(runs: list[RunResult]) -> list[int]:
+    """Per run, how many demo episodes the segments of its FAVAE were cut from (the segments in the FAVAE's
+    replicate folder, famarl macros)."""
+    from famarl_cli.artifacts.runs import read_run_file
+    from famarl_cli.artifacts.segments import REPLICATE_FILE, read_segments
+
+    folders = [Path(read_run_file(run.evaluation["run"])["spec"]["favae"]).parent for run in runs]
+    return [len(read_segments(folder / REPLICATE_FILE).boundaries) for folder in folders]
+
+
+def swept(label: str, values: list) -> float:
+    """The one value the runs ``label`` share of a setting a sweep varied, read from their results; an error when
+    they disagree (a group that mixes settings)."""
+    if len(set(values)) != 1:
+        raise ArtifactError(f"the runs labelled {label!r} differ in the setting their sweep varied: {values}")
+    return values[0]
 
 
 def headline_famarl_runs(data: Path) -> list[RunResult]:

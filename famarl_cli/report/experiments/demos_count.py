@@ -2,21 +2,20 @@
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 from famarl_cli.report.experiments import experiment
-from famarl_cli.report.experiments.common import EQUIVALENCE_MARGIN, MAZE, curves, headline_famarl_runs, success_measure
+from famarl_cli.report.experiments.common import (
+    EQUIVALENCE_MARGIN,
+    MAZE,
+    curves,
+    demo_episodes_of,
+    headline_famarl_runs,
+    success_measure,
+    swept,
+)
 from famarl_cli.report.results import Group, gather, group, results_table
 from famarl_cli.report.verdicts import Claim, equivalent
-
-HEADLINE_DEMOS = 100
-"""The default pipeline's number of demos (params.yaml, demos.episodes)."""
-
-
-def _count(label: str) -> int:
-    found = re.match(r"\d+", label)
-    return int(found.group()) if found else HEADLINE_DEMOS
 
 
 @experiment("demos-count", "pipelines/demos-count/dvc.yaml", order=4)
@@ -28,8 +27,9 @@ def demos_count(data: Path, out: Path):
         return None
     headline = headline_famarl_runs(data)
     if headline:
-        groups.append(Group(f"{HEADLINE_DEMOS} demos", headline))
-    groups.sort(key=lambda g: _count(g.label))
+        count = swept("the default pipeline's FaMARL runs", demo_episodes_of(headline))
+        groups.append(Group(f"{count} demos", headline))
+    groups.sort(key=lambda g: swept(g.label, demo_episodes_of(g.runs)))
     claims = [
         Claim(
             "the number of expert trajectories does not impact FaMARL's performance",

@@ -1,0 +1,97 @@
+"""A typer command derived from a stage's declared options (:mod:`famarl_cli.core.declare`): each field becomes
+an option with its type, default, help and bounds, and the command's function receives the options object."""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable
+from dataclasses import MISSING
+from typing import Annotated, Any
+
+import typer
+
+from famarl_cli.core.declare import Declared, declared
+
+
+def typer_option(option: Declared) -> tuple[Any, Any]:
+    """(annotation, default) of ``option`` as a typer parameter."""
+    settings: dict[str, Any] = {"help": option.help}
+    if option.min is not None:
+        settings["min"] = option.min
+    if option.max is not None:
+        settings["max"] = option.max
+    if option.path == "file":
+        settings["dir_okay"] = False
+    elif option.path == "dir":
+        settings["file_okay"] = False
+    if option.parse is not None:  # written as text on the command line
+        kind: Any = str | None if option.text is None else str
+        default = option.text
+    else:
+        kind, default = option.type, option.default
+    if option.argument:
+        return Annotated[kind, typer.Argument(**settings, show_default=default is not MISSING)], default
+    return Annotated[kind, typer.Option(*option.flags, **settings)], default
+
+
+def command(registrar: typer.Typer, options: type, name: str | None = None, **settings: Any):
+    """Register ``run(options) -> None`` as the command ``name`` of ``registrar`` whose options are the fields of the
+    declaration ``options``; its docstring is the command's help. ``run`` is returned unchanged."""
+    from famarl_cli.cli import reports_errors
+
+    fields = declared(options)
+    # --help lists the command's own options first, then those of the declarations it builds on.
+    owner = {
+        option.name: next(
+            i for i, cls in enumerate(options.__mro__) if option.name in vars(cls).get("__annotations__", {})
+        )
+        for option in fields
+    }
+    shown = sorted(fields, key=lambda option: owner[option.name])
+
+    def register(run: Callable[[Any], None]) -> Callable[[Any], None]:
+        parameters, annotations = [], {}
+        for option in shown:
+            annotation, default = typer_option(option)
+            default = inspect.Parameter.empty if default is MISSING else default
+            parameters.append(inspect.Parameter(option.name, inspect.Parameter.KEYWORD_ONLY, default=default))
+            annotations[option.name] = annotation
+        parameters = [p.replace(annotation=annotations[p.name]) for p in parameters]
+
+        def invoke(**given: Any) -> None:
+            return run(options(**parsed(fields, given)))
+
+        invoke.__signature__ = inspect.Signature(parameters, return_annotation=None)
+        invoke.__annotations__ = {**annotations, "return": None}
+        invoke.__doc__ = run.__doc__
+        invoke.__name__ = run.__name__
+        registrar.command(name, **settings)(reports_errors(invoke))
+        return run
+
+    return register
+
+
+def parse_options(registrar: typer.Typer, name: str, options: type, argv: list[str]) -> dict:
+    """The values of ``famarl NAME ARGV`` by option name, as the command derived from ``options`` parses them
+    (bounds checked, texts parsed), before the declaration is built; a usage error is one line."""
+    from famarl_cli.core.errors import UsageError
+
+    parser = typer.main.get_command(registrar).commands[name]
+    try:
+        given = parser.make_context(f"famarl {name}", list(argv)).params
+    except Exception as exc:  # typer's (bundled click's) usage errors: they carry their message
+        if not hasattr(exc, "format_message"):
+            raise
+        raise UsageError(f"famarl {name} {' '.join(argv)}: {exc.format_message()}") from None
+    return parsed(declared(options), given)
+
+
+def parsed(fields: list[Declared], given: dict) -> dict:
+    """The command line's values with the ones written as text parsed."""
+    values = {}
+    for option in fields:
+        value = given[option.name]
+        if option.parse is not None:
+            value = option.default if value is None else option.parse(value)
+        values[option.name] = value
+    return values

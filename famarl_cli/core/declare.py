@@ -1,0 +1,201 @@
+"""Options declared once: a stage's options are a frozen dataclass whose fields carry their type, default, help and
+bounds (:func:`option`). The ``famarl`` command (:mod:`famarl_cli.cli.derived`), a sweep's typed values and jobs
+(:func:`convert`, :func:`to_json`, :func:`from_json`) and the provenance the stage records all come from it, so a
+default changes in one line and shows up everywhere.
+
+Torch-free and typer-free: the declarations are imported when the CLI starts.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import types
+import typing
+from collections.abc import Callable
+from dataclasses import MISSING, dataclass, fields
+from pathlib import Path
+from typing import Any
+
+from famarl_cli.core.errors import UsageError
+
+
+def option(
+    default: Any = MISSING,
+    help: str = "",
+    *,
+    factory: Callable[[], Any] | None = None,
+    min: float | None = None,
+    max: float | None = None,
+    flags: tuple[str, ...] = (),
+    path: str | None = None,
+    text: str | None = None,
+    parse: Callable[[str], Any] | None = None,
+    argument: bool = False,
+) -> Any:
+    """One option's declaration (a dataclass field).
+
+    ``min``/``max`` bound numbers; ``flags`` replaces the option's name on the command line (``--peak-neighbours``
+    for ``neighbours``, or a short ``-s`` beside it); ``path`` is ``"file"`` or ``"dir"`` for a path that must be
+    one. A value that the command line writes as text (a list of numbers, JSON) has ``parse`` (text -> value) and
+    its default ``text``. An ``argument`` is given by its place, not by a flag (without a default, it is required).
+    """
+    metadata = {
+        "help": help,
+        "min": min,
+        "max": max,
+        "flags": flags,
+        "path": path,
+        "text": text,
+        "parse": parse,
+        "argument": argument,
+    }
+    if factory is not None:
+        return dataclasses.field(default_factory=factory, metadata=metadata)
+    return dataclasses.field(default=default, metadata=metadata)
+
+
+def same_as(owner: type, name: str, **changes: Any) -> Any:
+    """The field ``name`` of the declaration ``owner`` again, under another name or with another help (``changes``
+    as :func:`option` takes them): its default and bounds stay declared once."""
+    source = next(f for f in fields(owner) if f.name == name)
+    metadata = {**source.metadata, **changes}
+    if source.default_factory is not MISSING:
+        return dataclasses.field(default_factory=source.default_factory, metadata=metadata)
+    return dataclasses.field(default=source.default, metadata=metadata)
+
+
+def default_of(owner: type, name: str) -> Any:
+    """The default of ``owner``'s field ``name``, for a library class whose default must be the option's."""
+    source = next(f for f in fields(owner) if f.name == name)
+    return source.default_factory() if source.default_factory is not MISSING else source.default
+
+
+@dataclass(frozen=True)
+class Declared:
+    """One option as the command line and a sweep see it."""
+
+    name: str
+    type: Any
+    """The resolved type (``int | None``, an enum, ``Path``, ``list[float]``...)."""
+    default: Any
+    help: str
+    min: float | None
+    max: float | None
+    flags: tuple[str, ...]
+    path: str | None
+    text: str | None
+    parse: Callable[[str], Any] | None
+    argument: bool = False
+
+    @property
+    def flag(self) -> str:
+        long = [flag for flag in self.flags if flag.startswith("--")]
+        return long[0] if long else "--" + self.name.replace("_", "-")
+
+    @property
+    def base(self) -> Any:
+        """The type without ``None``: ``int | None`` -> ``int``."""
+        args = [a for a in typing.get_args(self.type) if a is not type(None)]
+        if isinstance(self.type, types.UnionType) or typing.get_origin(self.type) is typing.Union:
+            return args[0] if len(args) == 1 else self.type
+        return self.type
+
+
+def declared(cls: type) -> list[Declared]:
+    """The options of the declaration ``cls``, in their order."""
+    hints = typing.get_type_hints(cls)
+    out = []
+    for f in fields(cls):
+        meta = f.metadata
+        default = f.default_factory() if f.default_factory is not MISSING else f.default
+        out.append(
+            Declared(
+                f.name,
+                hints[f.name],
+                default,
+                meta.get("help", ""),
+                meta.get("min"),
+                meta.get("max"),
+                tuple(meta.get("flags", ())),
+                meta.get("path"),
+                meta.get("text"),
+                meta.get("parse"),
+                meta.get("argument", False),
+            )
+        )
+    return out
+
+
+def convert(option: Declared, text: str) -> Any:
+    """The typed value of ``text`` (a sweep axis's value, ``--over NAME=...``), as ``option`` takes it."""
+    if option.parse is not None:
+        return option.parse(text)
+    kind = option.base
+    try:
+        if kind is bool:
+            if text.lower() not in ("true", "false", "1", "0", "yes", "no"):
+                raise ValueError(f"not a yes/no value: {text!r}")
+            return text.lower() in ("true", "1", "yes")
+        if isinstance(kind, type) and issubclass(kind, (enum.Enum, int, float, str, Path)):
+            value = kind(text)
+        else:
+            return text
+    except ValueError as exc:
+        raise UsageError(f"{option.flag} {text}: {exc}") from None
+    for bound, beyond in ((option.min, lambda v, b: v < b), (option.max, lambda v, b: v > b)):
+        if bound is not None and isinstance(value, int | float) and beyond(value, bound):
+            raise UsageError(f"{option.flag} {text}: outside [{option.min}, {option.max}]")
+    return value
+
+
+def plain(value: Any) -> Any:
+    """``value`` as JSON writes it: paths and enums as their text, tuples as lists."""
+    if isinstance(value, enum.Enum):
+        return value.value
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, list | tuple):
+        return [plain(v) for v in value]
+    if isinstance(value, dict):
+        return {k: plain(v) for k, v in value.items()}
+    return value
+
+
+def to_json(options: Any) -> dict:
+    """Every option of ``options`` by name, as JSON writes it (a sweep job's config, a stage's provenance)."""
+    return {f.name: plain(getattr(options, f.name)) for f in fields(options)}
+
+
+def from_json(cls: type, values: dict) -> Any:
+    """The declaration ``cls`` back from :func:`to_json`'s dict: paths, enums and tuples typed again."""
+    known = {option.name: option for option in declared(cls)}
+    unknown = sorted(set(values) - set(known))
+    if unknown:
+        raise UsageError(f"{cls.__name__} has no options {', '.join(unknown)}")
+    return cls(**{name: _typed(known[name].base, value) for name, value in values.items()})
+
+
+def _typed(kind: Any, value: Any) -> Any:
+    if value is None:
+        return None
+    if isinstance(kind, type) and issubclass(kind, enum.Enum | Path):
+        return kind(value)
+    if typing.get_origin(kind) is tuple:
+        return tuple(value)
+    return value
+
+
+def pick(cls: type, source: Any, **values: Any) -> Any:
+    """The declaration ``cls`` with every option ``source`` also has taken from it, and ``values`` for the rest: a
+    stage's options narrowed to a part's (a FAVAE's options out of ``famarl macros``'s)."""
+    shared = {f.name: getattr(source, f.name) for f in fields(cls) if f.name not in values and hasattr(source, f.name)}
+    return cls(**shared, **values)
+
+
+def with_paths(options: Any) -> None:
+    """In a frozen declaration's ``__post_init__``: turn the paths given as text (by a library caller) into Paths."""
+    for option in declared(type(options)):
+        value = getattr(options, option.name)
+        if option.base is Path and isinstance(value, str):
+            object.__setattr__(options, option.name, Path(value))

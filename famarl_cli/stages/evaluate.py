@@ -1,0 +1,100 @@
+"""``famarl evaluate``'s options, declared once, and the evaluation of one run (what each worker runs)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from famarl_cli.artifacts import provenance, write_json
+from famarl_cli.core.declare import option, same_as
+from famarl_cli.envs.success import SuccessOptions
+from famarl_cli.stages.train import TrainOptions
+
+
+@dataclass(frozen=True)
+class EvaluateOptions:
+    """``famarl evaluate``: deterministic episodes of trained runs, and their learning curves side by side."""
+
+    run: list[Path] = option(
+        factory=list,
+        help="Run folder (from famarl train), or a folder of run folders; repeat for several.  [default: famarl "
+        "train's]",
+        flags=("--run",),
+        path="dir",
+    )
+    episodes: int = option(100, "Evaluation episodes per run.", min=1)
+    seed: int = option(100, "Seed of the evaluation episodes (differs from training seeds by default).")
+    rollouts: int = option(4, "Episodes drawn in each run's rollouts.png (ContinuousWorld).", min=0)
+    film: bool = option(True, "Also render one episode of each run: episode.gif and a strip of stills, episode.png.")
+    curves: Path | None = option(
+        None,
+        "Learning curves of all runs by label.  [default: curves.png beside the runs' results, or with the one run's]",
+        path="file",
+    )
+    jobs: int | None = option(None, "Runs evaluated at once.  [default: $FAMARL_JOBS, else one per usable core]", min=1)
+    out: Path | None = option(
+        None,
+        "Write each run's results into OUT/<run folder name>/ instead of into the run folder (keeps a pipeline's "
+        "evaluation apart from its training outputs).",
+        path="dir",
+    )
+    success_return: float | None = same_as(SuccessOptions, "success_return")
+
+    @property
+    def runs(self) -> list[Path]:
+        """The run folders given, else famarl train's default run."""
+        return self.run or [TrainOptions().destination]
+
+
+def evaluate_run(
+    run: str, into: str, episodes: int, seed: int, rollouts: int, film: bool, success_return: float | None = None
+) -> dict:
+    """Evaluate the run folder ``run`` into the folder ``into``: ``eval.json`` (the policy acting with its mode,
+    and under ``sampled`` the same numbers for the policy drawing its actions as in training), ``rollouts.png``
+    (ContinuousWorld) and, with ``film``, one rendered episode. Success follows :mod:`famarl_cli.envs.success`
+    (``success_return`` overrides the run's); ``success_rule`` says which rule judged it. Returns what eval.json
+    holds, less provenance."""
+    from famarl_cli.artifacts.runs import (
+        CHECKPOINT_FILE,
+        EVAL_FILE,
+        FILM_FILE,
+        ROLLOUTS_FILE,
+        STILLS_FILE,
+        read_run_file,
+    )
+    from famarl_cli.report.plots import plot_rollouts, save_film
+    from famarl_cli.rl.evaluation import evaluate, film_episode
+    from famarl_cli.rl.training import load_agent
+
+    run_folder, into_folder = Path(run), Path(into)
+    agent = load_agent(run_folder)
+    result = evaluate(agent, episodes, seed, rollouts, success_return=success_return)
+    sampled = evaluate(agent, episodes, seed, 0, sample=True, success_return=success_return)
+    evaluation = {
+        **result.metrics,
+        "sampled": sampled.metrics,
+        "label": agent.spec.label,
+        "agent": str(agent.spec.agent),
+        "env": agent.spec.env_id,
+        "seed": agent.spec.seed,
+        "run": str(run_folder),
+        "env_steps": agent.env_steps,
+        "train_wall_s": read_run_file(run_folder)["wall_s"],
+    }
+    into_folder.mkdir(parents=True, exist_ok=True)
+    params = {
+        "episodes": episodes,
+        "seed": seed,
+        **({} if success_return is None else {"success_return": success_return}),
+    }
+    prov = provenance("famarl evaluate", params, seed, [run_folder / CHECKPOINT_FILE])
+    write_json(into_folder / EVAL_FILE, {**evaluation, "provenance": prov})
+    if result.traces:
+        title = (
+            f"{agent.spec.label}, seed {agent.spec.seed}: deterministic episodes, one colour per decision "
+            "(black dots: single primitive steps)"
+        )
+        plot_rollouts(result.traces, into_folder / ROLLOUTS_FILE, title)
+    if film:
+        save_film(film_episode(agent, seed), into_folder / FILM_FILE, into_folder / STILLS_FILE)
+    return evaluation

@@ -1,0 +1,154 @@
+"""``famarl train``'s options, declared once (:mod:`famarl_cli.core.declare`), and the run they describe.
+
+The command, ``famarl sweep train``'s jobs and the run's ``run.json`` all come from :class:`TrainOptions`;
+:func:`run_spec` fills in what depends on the agent (:func:`famarl_cli.rl.agent_defaults`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from famarl_cli.core.declare import option, same_as
+from famarl_cli.core.errors import UsageError
+from famarl_cli.envs.external import MakeOptions
+from famarl_cli.envs.success import SuccessOptions
+from famarl_cli.rl import HYBRID_ENTROPY_FLOOR, HYBRID_HORIZON, HYBRID_RESIDUAL, Agent, MacroDiscount, agent_defaults
+
+DEFAULT_ENV = "famarl/ContinuousWorld-Maze-v0"
+DEFAULT_STEPS = 1_000_000
+DEFAULT_FAVAE = Path("data/favae/pushed-down-only.pt")
+DECISIONS_PER_ROLLOUT = {Agent.FAMARL: 16, Agent.FIGAR: 32, Agent.PPO: 128, Agent.HYBRID: 32}
+"""Default decisions per environment per rollout: a FaMARL decision lasts ~25 steps and a FiGAR one ~15, so
+fewer decisions give them rollouts (and updates per environment step) of a similar size to PPO's. A hybrid
+decision lasts 1 step or a macro's length: 32 keeps its first rollouts, mostly macros, near FaMARL's size and
+its later ones, where primitives take over, frequent enough."""
+
+
+@dataclass(frozen=True)
+class TrainOptions:
+    """``famarl train``: PPO over FAVAE latents (FaMARL), primitive actions, FiGAR's repeated actions, or the hybrid
+    of macro and primitive actions."""
+
+    env: str = option(DEFAULT_ENV, "Environment id (famarl's or any gymnasium id with Box spaces).")
+    env_kwargs: dict = same_as(MakeOptions, "env_kwargs")
+    agent: Agent = option(
+        Agent.FAMARL,
+        "famarl: search FAVAE latents; ppo: primitive actions; figar: action + repeat count; hybrid: each decision "
+        "a primitive action or a macro action.",
+    )
+    favae: Path = option(DEFAULT_FAVAE, "FAVAE checkpoint whose decoder makes the macro actions (famarl and hybrid).")
+    steps: int | None = option(
+        None, f"Budget in environment steps.  [default: {DEFAULT_STEPS:,}; on --resume, the run's own]", min=1
+    )
+    seed: int = option(0, "Seed of the networks, sampling and environments.")
+    out: Path | None = option(
+        None, "Run folder.  [default: data/runs/<env>-<agent>[-<favae name>]-seed<S>]", path="dir"
+    )
+    resume: bool = option(
+        False, "Continue the run in --out from its last checkpoint (other options are the run's own)."
+    )
+    overwrite: bool = option(False, "Replace a run already in --out.")
+    n_envs: int = option(16, "Environments stepped together.", min=1)
+    n_steps: int | None = option(
+        None, "Decisions per environment per rollout.  [default: famarl 16, figar 32, ppo 128, hybrid 32]", min=1
+    )
+    epochs: int = option(10, "PPO epochs per rollout.", min=1)
+    minibatches: int = option(8, "Minibatches per epoch.", min=1)
+    lr: float = option(3e-4, "Adam learning rate (annealed linearly to 0 over the budget).", min=0.0)
+    gamma: float = option(0.99, "Discount per decision (or per step with --macro-discount steps).", min=0.0, max=1.0)
+    gae_lambda: float = option(0.95, "GAE lambda.", min=0.0, max=1.0)
+    clip: float = option(0.2, "PPO clip range (policy ratio and value).", min=0.0)
+    ent_coef: float = option(0.0, "Entropy bonus weight.", min=0.0)
+    macro_discount: MacroDiscount | None = option(
+        None,
+        "decision: gamma per decision, rewards summed (the paper); steps: gamma ** length, rewards scaled and "
+        "discounted per step (semi-MDP).  [default: steps for hybrid, decision otherwise]",
+    )
+    latent_bound: float = option(3.0, "famarl, hybrid: clip latents to [-bound, bound] before decoding.", min=0.0)
+    macro_horizon: int | None = option(
+        None,
+        "famarl, hybrid: cut macro actions after this many steps and decide again (0: run them whole).  "
+        f"[default: {HYBRID_HORIZON} for hybrid, 0 otherwise]",
+        min=0,
+    )
+    residual: float | None = option(
+        None,
+        "hybrid: a macro decision adds this times the primitive output to each of its actions (0: off).  "
+        f"[default: {HYBRID_RESIDUAL}]",
+        min=0.0,
+    )
+    type_entropy_floor: float | None = option(
+        None,
+        "hybrid: keep the type head's entropy above this many nats early in training (0: off).  "
+        f"[default: {HYBRID_ENTROPY_FLOOR}]",
+        min=0.0,
+    )
+    type_entropy_until: float = option(
+        0.25, "hybrid: share of the budget during which the floor holds.", min=0.0, max=1.0
+    )
+    max_repeat: int = option(32, "figar: the largest repeat count J.", min=1)
+    normalize: bool = option(True, "Normalise observations and scale rewards by the return's std.")
+    clip_value: bool = option(True, "Clip the value loss like the policy ratio (CleanRL's default).")
+    checkpoint_every: int = option(20, "Save the run every this many updates (and at the end).", min=1)
+    label: str | None = option(None, "Name of this kind of run in plots.  [default: agent (favae name)]")
+    tensorboard: Path | None = option(
+        None,
+        "Also write the training log as TensorBoard scalars (CleanRL's names) into this folder; needs the "
+        "tensorboard extra.",
+        path="dir",
+    )
+    success_return: float | None = same_as(SuccessOptions, "success_return")
+
+    @property
+    def destination(self) -> Path:
+        env_name = self.env.split("/")[-1].rsplit("-v", 1)[0].lower()
+        suffix = f"-{self.favae.stem}" if self.agent.decodes_macros else ""
+        return self.out or Path("data/runs") / f"{env_name}-{self.agent}{suffix}-seed{self.seed}"
+
+
+def run_spec(options: TrainOptions):
+    """The RunSpec that ``famarl train``'s options describe (shared with ``famarl sweep train``): the options the
+    user left out take the agent's defaults."""
+    from famarl_cli.rl.ppo import PPOConfig
+    from famarl_cli.rl.training import RunSpec, default_label
+
+    o, defaults = options, agent_defaults(options.agent)
+
+    def given(value, name: str):
+        return defaults[name] if value is None else value
+
+    try:
+        ppo = PPOConfig(
+            total_steps=o.steps or DEFAULT_STEPS,
+            n_envs=o.n_envs,
+            n_steps=o.n_steps or DECISIONS_PER_ROLLOUT[o.agent],
+            epochs=o.epochs,
+            minibatches=o.minibatches,
+            learning_rate=o.lr,
+            gamma=o.gamma,
+            gae_lambda=o.gae_lambda,
+            clip=o.clip,
+            clip_value=o.clip_value,
+            ent_coef=o.ent_coef,
+            macro_discount=str(given(o.macro_discount, "macro_discount")),
+            type_entropy_floor=given(o.type_entropy_floor, "type_entropy_floor"),
+            type_entropy_until=o.type_entropy_until,
+            normalize_obs=o.normalize,
+            scale_rewards=o.normalize,
+        )
+    except ValueError as exc:
+        raise UsageError(str(exc)) from exc
+    return RunSpec(
+        env_id=o.env,
+        env_kwargs=o.env_kwargs,
+        agent=o.agent,
+        seed=o.seed,
+        ppo=ppo,
+        latent_bound=o.latent_bound,
+        macro_horizon=given(o.macro_horizon, "macro_horizon"),
+        residual=given(o.residual, "residual"),
+        max_repeat=o.max_repeat,
+        favae=str(o.favae) if o.agent.decodes_macros else None,
+        label=o.label or default_label(o.agent, o.favae),
+        success_return=o.success_return,
+    )
