@@ -23,11 +23,10 @@ import torch
 from common import RESULTS, peak_rss_mib, rate, timed, write_result
 
 from famarl_cli.method.favae.checkpoint import load_favae
-from famarl_cli.rl import Agent
+from famarl_cli.rl import DECISIONS_PER_ROLLOUT, Agent
 from famarl_cli.rl.ppo import PPOConfig, PPOTrainer
 from famarl_cli.rl.training import RunSpec, build_mode
 from famarl_cli.rl.vector import make_batch
-from famarl_cli.stages.train import DECISIONS_PER_ROLLOUT
 
 BATCHES = (1, 16, 64, 256)
 

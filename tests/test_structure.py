@@ -234,3 +234,30 @@ def test_the_traversal_world_is_named_not_guessed():
         run_macro_actions(four, np.array([5]))
     assert run_macro_actions(four, np.array([5]), "robot-hand").shape == (1, 6, 2)
     assert set(WORLDS) == {"continuous-world", "robot-hand"}
+
+
+def test_every_name_the_api_page_imports_imports():
+    """docs/api.md's imports, alone (the examples run in the slow tier): the page's public names and
+    famarl_cli.wrappers are where the page says."""
+    import re
+
+    page = (PACKAGE.parent / "docs" / "api.md").read_text()
+    lines = [line for line in page.splitlines() if re.match(r"from famarl_cli[.\w]* import ", line)]
+    assert any("famarl_cli.wrappers" in line for line in lines) and len(lines) > 10
+    for line in lines:
+        exec(line, {})  # noqa: S102
+
+
+def test_evaluating_or_resuming_a_run_with_an_old_checkpoint_is_one_line(tmp_path):
+    from cli_helpers import famarl, one_line_error
+
+    from famarl_cli.artifacts.checkpoints import save_checkpoint
+    from famarl_cli.artifacts.runs import CHECKPOINT_FILE, CHECKPOINT_SCHEMA
+
+    run = tmp_path / "run"
+    trained = famarl("train", "--agent", "ppo", "--steps", 64, "--n-envs", 1, "--n-steps", 64, "--out", run)
+    assert trained.exit_code == 0, trained.output
+    old = {"trainer": {"policy": {"w1": torch.zeros(2)}}, "mode": {}, "status": {"wall_s": 1.0}}
+    save_checkpoint(run / CHECKPOINT_FILE, CHECKPOINT_SCHEMA, 1, {}, {"w1": torch.zeros(2)}, {}, old)
+    for args in (("evaluate", "--run", run, "--no-film", "--episodes", 1), ("train", "--resume", "--out", run)):
+        one_line_error(famarl(*args), 1, "version 1 run checkpoint")

@@ -49,26 +49,6 @@ def _global_options(
     _debug = debug
 
 
-EnvKwargs = Annotated[
-    str | None,
-    typer.Option(help="Keyword arguments of gymnasium.make, as JSON: '{\"continuing_task\": false}'."),
-]
-"""``--env-kwargs``, the same on every command that makes a gymnasium env (parsed by
-:func:`famarl_cli.envs.external.parse_env_kwargs`)."""
-SuccessReturn = Annotated[
-    float | None,
-    typer.Option(
-        help="An episode succeeds when its return reaches this, whatever the env reports.  [default: the env's own "
-        "success report, else its gymnasium reward_threshold, else success is not defined]"
-    ),
-]
-"""``--success-return``, the same on every command that judges episodes (:mod:`famarl_cli.envs.success`)."""
-ObsDims = Annotated[
-    str, typer.Option(help="The two dimensions of the flattened observation a traversal draws in a gymnasium env.")
-]
-"""``--obs-dims`` (parsed by :func:`famarl_cli.method.traversal.parse_dims`)."""
-
-
 INTERRUPTED = 130
 """The exit code of a command stopped with Ctrl-C (128 + SIGINT, as shells report it)."""
 

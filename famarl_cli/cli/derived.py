@@ -50,13 +50,14 @@ def command(registrar: typer.Typer, options: type, name: str | None = None, **se
     shown = sorted(fields, key=lambda option: owner[option.name])
 
     def register(run: Callable[[Any], None]) -> Callable[[Any], None]:
-        parameters, annotations = [], {}
+        parameters = []
         for option in shown:
             annotation, default = typer_option(option)
             default = inspect.Parameter.empty if default is MISSING else default
-            parameters.append(inspect.Parameter(option.name, inspect.Parameter.KEYWORD_ONLY, default=default))
-            annotations[option.name] = annotation
-        parameters = [p.replace(annotation=annotations[p.name]) for p in parameters]
+            parameters.append(
+                inspect.Parameter(option.name, inspect.Parameter.KEYWORD_ONLY, default=default, annotation=annotation)
+            )
+        annotations = {parameter.name: parameter.annotation for parameter in parameters}
 
         def invoke(**given: Any) -> None:
             return run(options(**parsed(fields, given)))

@@ -10,7 +10,7 @@ from rich.table import Table
 
 from famarl_cli.cli import JobRecipe, app, progress_bar, sweepable, torch_on_one_thread
 from famarl_cli.cli.derived import command
-from famarl_cli.core.declare import option, pick
+from famarl_cli.core.declare import option, pick, to_json
 from famarl_cli.stages.macros import MacrosConfig
 
 
@@ -59,4 +59,4 @@ def macros_job(options: MacrosOptions) -> JobRecipe:
     from famarl_cli.stages.macros import run_job
 
     config = pick(MacrosConfig, options)
-    return JobRecipe(run_job, config.to_dict(), tuple(map(str, config.inputs)), resumable=True)
+    return JobRecipe(run_job, to_json(config), tuple(map(str, config.inputs)), resumable=True)

@@ -49,18 +49,34 @@ HYBRID_ENTROPY_FLOOR = 0.3
 """The hybrid's floor on its type head's entropy, in nats (p(type) stays above about 0.08)."""
 
 
+DECISIONS_PER_ROLLOUT = {Agent.FAMARL: 16, Agent.FIGAR: 32, Agent.PPO: 128, Agent.HYBRID: 32}
+"""Default decisions per environment per rollout: a FaMARL decision lasts ~25 steps and a FiGAR one ~15, so
+fewer decisions give them rollouts (and updates per environment step) of a similar size to PPO's. A hybrid
+decision lasts 1 step or a macro's length: 32 keeps its first rollouts, mostly macros, near FaMARL's size and
+its later ones, where primitives take over, frequent enough."""
+
+
 def agent_defaults(agent: Agent) -> dict:
-    """The settings that depend on the agent, as ``famarl train`` fills them in: ``macro_discount``,
-    ``type_entropy_floor`` (PPOConfig) and ``macro_horizon``, ``residual`` (RunSpec).
+    """The settings that depend on the agent, as ``famarl train`` fills them in: ``n_steps``, ``macro_discount``,
+    ``type_entropy_floor`` (PPOConfig) and ``macro_horizon``, ``residual`` (RunSpec). A new agent is a member of
+    :class:`Agent`, its settings here, an action mode (:class:`~famarl_cli.rl.action_modes.ActionMode`) and its
+    branch of :func:`~famarl_cli.rl.training.build_mode`.
 
     The hybrid's decisions last 1 step or a macro's length, and only the semi-MDP form values them alike
     (:mod:`famarl_cli.rl.semi_mdp`); the other agents keep the paper's convention and run whole macros.
     """
     if agent == Agent.HYBRID:
         return {
+            "n_steps": DECISIONS_PER_ROLLOUT[agent],
             "macro_discount": MacroDiscount.STEPS,
             "type_entropy_floor": HYBRID_ENTROPY_FLOOR,
             "macro_horizon": HYBRID_HORIZON,
             "residual": HYBRID_RESIDUAL,
         }
-    return {"macro_discount": MacroDiscount.DECISION, "type_entropy_floor": 0.0, "macro_horizon": 0, "residual": 0.0}
+    return {
+        "n_steps": DECISIONS_PER_ROLLOUT[agent],
+        "macro_discount": MacroDiscount.DECISION,
+        "type_entropy_floor": 0.0,
+        "macro_horizon": 0,
+        "residual": 0.0,
+    }

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from famarl_cli.artifacts.segments import REPLICATE_FILE as SEGMENTS
-from famarl_cli.core.declare import from_json, option, pick, same_as, to_json, with_paths
+from famarl_cli.core.declare import from_json, option, pick, same_as, with_paths
 from famarl_cli.core.errors import UsageError
 from famarl_cli.method.favae import FavaeOptions, FitChoices
 from famarl_cli.method.segment_params import SegmenterOptions, SegmentParams
@@ -54,13 +54,6 @@ class MacrosConfig(stages.TraversalPlace, FitChoices, FavaeOptions, SegmentParam
             raise UsageError("--episodes goes with --demos: it takes the first episodes of the demos")
         if self.calibration is not None and self.segments is None:
             raise UsageError("--calibration goes with --segments: it is C_last measured on those segments")
-
-    def to_dict(self) -> dict:
-        return to_json(self)
-
-    @staticmethod
-    def from_dict(values: dict) -> MacrosConfig:
-        return from_json(MacrosConfig, values)
 
     @property
     def inputs(self) -> list[Path]:
@@ -137,7 +130,7 @@ PHASES = ("segment", "calibrate", "fit")
 
 def run_job(config: dict, folder: Path, context) -> dict:
     """One replicate as a sweep job (:mod:`famarl_cli.sweep`); progress counts the epochs of all its steps."""
-    macros = MacrosConfig.from_dict(config)
+    macros = from_json(MacrosConfig, config)
     totals = {
         "segment": macros.segment_epochs if macros.segments is None else 0,
         "calibrate": macros.epochs if macros.calibration is None else 0,

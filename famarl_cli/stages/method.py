@@ -4,6 +4,8 @@ Each function reads its input files, runs the method (:mod:`~famarl_cli.method.s
 :mod:`~famarl_cli.method.favae.training`, :mod:`~famarl_cli.method.traversal`) and writes its outputs with their
 provenance. The CLI commands and :mod:`~famarl_cli.stages.macros` (all of them for one seed, into one folder) call
 these, so a stage writes the same files whichever way it runs. Progress goes to the optional ``on_epoch`` callbacks.
+Each stage takes its options as one declaration (:mod:`famarl_cli.core.declare`): :class:`SegmentOptions`,
+:class:`CalibrateOptions`, :class:`FitOptions`, :class:`TraverseOptions`; the commands are derived from them.
 """
 
 from __future__ import annotations

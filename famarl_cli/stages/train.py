@@ -12,16 +12,19 @@ from famarl_cli.core.declare import option, same_as
 from famarl_cli.core.errors import UsageError
 from famarl_cli.envs.external import MakeOptions
 from famarl_cli.envs.success import SuccessOptions
-from famarl_cli.rl import HYBRID_ENTROPY_FLOOR, HYBRID_HORIZON, HYBRID_RESIDUAL, Agent, MacroDiscount, agent_defaults
+from famarl_cli.rl import (
+    DECISIONS_PER_ROLLOUT,
+    HYBRID_ENTROPY_FLOOR,
+    HYBRID_HORIZON,
+    HYBRID_RESIDUAL,
+    Agent,
+    MacroDiscount,
+    agent_defaults,
+)
 
 DEFAULT_ENV = "famarl/ContinuousWorld-Maze-v0"
 DEFAULT_STEPS = 1_000_000
 DEFAULT_FAVAE = Path("data/favae/pushed-down-only.pt")
-DECISIONS_PER_ROLLOUT = {Agent.FAMARL: 16, Agent.FIGAR: 32, Agent.PPO: 128, Agent.HYBRID: 32}
-"""Default decisions per environment per rollout: a FaMARL decision lasts ~25 steps and a FiGAR one ~15, so
-fewer decisions give them rollouts (and updates per environment step) of a similar size to PPO's. A hybrid
-decision lasts 1 step or a macro's length: 32 keeps its first rollouts, mostly macros, near FaMARL's size and
-its later ones, where primitives take over, frequent enough."""
 
 
 @dataclass(frozen=True)
@@ -50,7 +53,11 @@ class TrainOptions:
     overwrite: bool = option(False, "Replace a run already in --out.")
     n_envs: int = option(16, "Environments stepped together.", min=1)
     n_steps: int | None = option(
-        None, "Decisions per environment per rollout.  [default: famarl 16, figar 32, ppo 128, hybrid 32]", min=1
+        None,
+        "Decisions per environment per rollout.  [default: "
+        + ", ".join(f"{agent} {n}" for agent, n in DECISIONS_PER_ROLLOUT.items())
+        + "]",
+        min=1,
     )
     epochs: int = option(10, "PPO epochs per rollout.", min=1)
     minibatches: int = option(8, "Minibatches per epoch.", min=1)
@@ -121,7 +128,7 @@ def run_spec(options: TrainOptions):
         ppo = PPOConfig(
             total_steps=o.steps or DEFAULT_STEPS,
             n_envs=o.n_envs,
-            n_steps=o.n_steps or DECISIONS_PER_ROLLOUT[o.agent],
+            n_steps=o.n_steps or defaults["n_steps"],
             epochs=o.epochs,
             minibatches=o.minibatches,
             learning_rate=o.lr,
