@@ -12,8 +12,6 @@ from famarl_cli.artifacts import Demos
 from famarl_cli.cli import JobRecipe, app, progress_bar, sweepable
 from famarl_cli.cli.derived import command
 from famarl_cli.core.declare import to_json
-from famarl_cli.core.errors import UsageError
-from famarl_cli.experts.scripts import Environment, Script
 from famarl_cli.stages.demos import DemosOptions
 
 
@@ -25,51 +23,21 @@ def demos(options: DemosOptions) -> None:
     from famarl_cli.report.plots import plot_demos
 
     o = options
-    script, env, env_kwargs, expert, from_minari = o.script, o.env, o.env_kwargs, o.expert, o.from_minari
-    episodes, seed, min_return, max_attempts, success_return = (
-        o.episodes,
-        o.seed,
-        o.min_return,
-        o.max_attempts,
-        o.success_return,
-    )
-    sources = [
-        name for name, given in (("--script", script), ("--expert", expert), ("--from-minari", from_minari)) if given
-    ]
-    if len(sources) > 1:
-        raise UsageError(f"give one source of demos, not {' and '.join(sources)}")
-    if (min_return is not None or max_attempts is not None or env_kwargs) and expert is None:
-        raise UsageError("--min-return, --max-attempts and --env-kwargs go with --expert")
-    if success_return is not None and expert is None and from_minari is None:
-        raise UsageError("--success-return goes with --expert or --from-minari: famarl's scripts report success")
-    if from_minari is not None:
+    if o.from_minari is not None:
         from famarl_cli.artifacts.minari_datasets import import_minari
 
-        if env is not None:
-            raise UsageError("--env does not go with --from-minari: the dataset names its env")
-        recorded = import_minari(from_minari, success_return)
-        name = Path(from_minari.rstrip("/")).name
+        recorded = import_minari(o.from_minari, o.success_return)
+        name = Path(o.from_minari.rstrip("/")).name
     else:
         with progress_bar() as progress:
-            if expert is not None:
-                recorded, name = _record_expert(
-                    progress, env, env_kwargs, expert, episodes, seed, min_return, max_attempts, success_return
-                )
+            if o.expert is not None:
+                recorded, name = _record_expert(progress, o)
             else:
-                script = script or Script.PUSHED_DOWN_ONLY
-                families = [e.value for e in Environment]
-                if env is not None and env not in families:
-                    raise UsageError(
-                        f"--env {env}: famarl's scripts act in {' or '.join(families)}; to record in a gymnasium "
-                        "env, give your expert with --expert module:attribute"
-                    )
-                if env is not None and env != script.environment:
-                    raise UsageError(f"script {script.value} acts in {script.environment}, not in {env}")
                 from famarl_cli.stages.demos import record_demos
 
-                task = progress.add_task(f"demos {script.value}", total=episodes)
-                recorded = record_demos(script, episodes, seed, on_episode=lambda _: progress.advance(task))
-                name = script.value
+                task = progress.add_task(f"demos {o.script.value}", total=o.episodes)
+                recorded = record_demos(o.script, o.episodes, o.seed, on_episode=lambda _: progress.advance(task))
+                name = o.script.value
     out = prepare_output(o.out or Path("data/demos") / f"{name}.h5")
     write_demos(out, recorded)
     written = [out]
@@ -82,12 +50,12 @@ def demos(options: DemosOptions) -> None:
     Console().print(table)
 
 
-def _record_expert(progress, env, env_kwargs, expert, episodes, seed, min_return, max_attempts, success_return):
+def _record_expert(progress, options: DemosOptions):
     from famarl_cli.stages.demos import record_expert_demos
 
-    if env is None:
-        raise UsageError("--expert needs --env, the gymnasium id it acts in")
-    attempts = max_attempts or (50 * episodes if min_return is not None else episodes)
+    o = options
+    env, expert, episodes, min_return = o.env, o.expert, o.episodes, o.min_return
+    attempts = o.max_attempts or (50 * episodes if min_return is not None else episodes)
     description = f"demos {expert} in {env}"
     task = progress.add_task(f"{description} (making the env)", total=episodes)
     tried = progress.add_task("  attempts", total=attempts, visible=min_return is not None)
@@ -106,7 +74,7 @@ def _record_expert(progress, env, env_kwargs, expert, episodes, seed, min_return
             progress.advance(task)
 
     recorded = record_expert_demos(
-        env, expert, episodes, seed, env_kwargs, min_return, attempts, advance, success_return, on_step=step
+        env, expert, episodes, o.seed, o.env_kwargs, min_return, attempts, advance, o.success_return, on_step=step
     )
     return recorded, env.split("/")[-1].split(":")[-1].lower()
 
@@ -133,14 +101,9 @@ _ONE_SOURCE = "a sweep records famarl's scripts; record other demos with famarl 
 def demos_job(options: DemosOptions) -> JobRecipe:
     """``famarl sweep demos``: each job records what ``famarl demos`` with the same options would, into
     ``<job folder>/demos.h5`` (and ``.png``)."""
-    from dataclasses import replace
-
     from famarl_cli.stages.demos import run_job
 
-    script, env = options.script or Script.PUSHED_DOWN_ONLY, options.env
-    if env is not None and env != script.environment:
-        raise UsageError(f"script {script.value} acts in {script.environment}, not in {env}")
-    return JobRecipe(run_job, to_json(replace(options, script=script)))
+    return JobRecipe(run_job, to_json(options))
 
 
 def demos_table(demos: Demos, title: str) -> Table:

@@ -61,17 +61,11 @@ def favae_fit(options: FitOptions) -> None:
             for phase, task in tasks.items()
         }
         fitted = stages.fit(options, lambda phase, row: reporters[phase](row))
-    segments, beta, capacity, capacity_measure = (
-        options.segments,
-        options.beta,
-        options.capacity,
-        options.capacity_measure,
-    )
-    scores, c_last = fitted.scores, fitted.c_last
-    table = Table(title=f"FAVAE on {segments} (beta {beta:g})", show_header=False)
-    table.add_row(f"C_last per ladder ({capacity_measure})", ", ".join(f"{c:.3f}" for c in c_last))
-    if capacity != "measured":
-        table.add_row(f"capacities ({capacity})", ", ".join(f"{c:.3f}" for c in scores["capacities"]))
+    o, scores = options, fitted.scores
+    table = Table(title=f"FAVAE on {o.segments} (beta {o.beta:g})", show_header=False)
+    table.add_row(f"C_last per ladder ({o.capacity_measure})", ", ".join(f"{c:.3f}" for c in fitted.c_last))
+    if o.capacity != "measured":
+        table.add_row(f"capacities ({o.capacity})", ", ".join(f"{c:.3f}" for c in scores["capacities"]))
     table.add_row("KL per ladder", ", ".join(f"{k:.3f}" for k in scores["kl_per_ladder"]))
     table.add_row(
         "information per ladder",

@@ -79,13 +79,13 @@ class Declared:
     type: Any
     """The resolved type (``int | None``, an enum, ``Path``, ``list[float]``...)."""
     default: Any
-    help: str
-    min: float | None
-    max: float | None
-    flags: tuple[str, ...]
-    path: str | None
-    text: str | None
-    parse: Callable[[str], Any] | None
+    help: str = ""
+    min: float | None = None
+    max: float | None = None
+    flags: tuple[str, ...] = ()
+    path: str | None = None
+    text: str | None = None
+    parse: Callable[[str], Any] | None = None
     argument: bool = False
 
     @property
@@ -105,26 +105,15 @@ class Declared:
 def declared(cls: type) -> list[Declared]:
     """The options of the declaration ``cls``, in their order."""
     hints = typing.get_type_hints(cls)
-    out = []
-    for f in fields(cls):
-        meta = f.metadata
-        default = f.default_factory() if f.default_factory is not MISSING else f.default
-        out.append(
-            Declared(
-                f.name,
-                hints[f.name],
-                default,
-                meta.get("help", ""),
-                meta.get("min"),
-                meta.get("max"),
-                tuple(meta.get("flags", ())),
-                meta.get("path"),
-                meta.get("text"),
-                meta.get("parse"),
-                meta.get("argument", False),
-            )
+    return [
+        Declared(
+            f.name,
+            hints[f.name],
+            f.default_factory() if f.default_factory is not MISSING else f.default,
+            **f.metadata,
         )
-    return out
+        for f in fields(cls)
+    ]
 
 
 def convert(option: Declared, text: str) -> Any:

@@ -19,6 +19,7 @@ from famarl_cli.envs.external import MakeOptions, make_env
 from famarl_cli.envs.success import SuccessOptions, SuccessRule, as_bool, success_rule
 from famarl_cli.experts import Script, demonstration, make_expert
 from famarl_cli.experts.external import ExternalExpert
+from famarl_cli.experts.scripts import Environment
 
 
 @dataclass(frozen=True)
@@ -60,6 +61,38 @@ class DemosOptions:
     )
     plot: bool = option(True, "Also draw the trajectories to <out>.png.")
     success_return: float | None = same_as(SuccessOptions, "success_return")
+
+    def __post_init__(self) -> None:
+        given = [
+            flag
+            for flag, value in (
+                ("--script", self.script),
+                ("--expert", self.expert),
+                ("--from-minari", self.from_minari),
+            )
+            if value
+        ]
+        if len(given) > 1:
+            raise UsageError(f"give one source of demos, not {' and '.join(given)}")
+        if (self.min_return is not None or self.max_attempts is not None or self.env_kwargs) and self.expert is None:
+            raise UsageError("--min-return, --max-attempts and --env-kwargs go with --expert")
+        if self.success_return is not None and self.expert is None and self.from_minari is None:
+            raise UsageError("--success-return goes with --expert or --from-minari: famarl's scripts report success")
+        if self.from_minari is not None and self.env is not None:
+            raise UsageError("--env does not go with --from-minari: the dataset names its env")
+        if self.expert is not None and self.env is None:
+            raise UsageError("--expert needs --env, the gymnasium id it acts in")
+        if self.expert is None and self.from_minari is None:
+            # famarl's own scripts: pushed-down-only unless another is named, in the env it implies
+            object.__setattr__(self, "script", self.script or Script.PUSHED_DOWN_ONLY)
+            families = [e.value for e in Environment]
+            if self.env is not None and self.env not in families:
+                raise UsageError(
+                    f"--env {self.env}: famarl's scripts act in {' or '.join(families)}; to record in a gymnasium "
+                    "env, give your expert with --expert module:attribute"
+                )
+            if self.env is not None and self.env != self.script.environment:
+                raise UsageError(f"script {self.script.value} acts in {self.script.environment}, not in {self.env}")
 
 
 def episode_seeds(seed: int, n_episodes: int) -> np.ndarray:
