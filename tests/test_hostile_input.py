@@ -373,7 +373,16 @@ def _interrupted(*args) -> str:
     tests = Path(__file__).parent
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tests), os.environ.get("PYTHONPATH", "")])}
     command = [sys.executable, "-m", "famarl_cli", *map(str, args)]
-    process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # A suite started in the background (cmd &) inherits SIGINT ignored, and so would the command: give it the
+    # default, as a terminal's foreground process has.
+    process = subprocess.Popen(
+        command,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     time.sleep(8)  # imports, then deep into the episode
     assert process.poll() is None, process.communicate()
     process.send_signal(signal.SIGINT)
