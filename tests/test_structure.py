@@ -140,6 +140,11 @@ def test_a_sweep_gives_typed_values_to_its_jobs():
     assert {job.runner for job in jobs} == {"famarl_cli.stages.macros:run_job"}
     with pytest.raises(UsageError, match="--beta"):
         plan("macros", ["--demos", "d.h5"], "0", ["beta=-1"], None)
+    # a yes/no option takes its axis by click's reading of yes/no; anything else is one usage error
+    runs = plan("train", ["--agent", "ppo"], "0", ["normalize=yes,no"], None)
+    assert [job.config["spec"]["ppo"]["normalize_obs"] for job in runs] == [True, False]
+    with pytest.raises(UsageError, match="normalize=maybe"):
+        plan("train", ["--agent", "ppo"], "0", ["normalize=maybe"], None)
 
 
 def test_every_sweepable_runner_resolves_to_its_function():
@@ -261,3 +266,16 @@ def test_evaluating_or_resuming_a_run_with_an_old_checkpoint_is_one_line(tmp_pat
     save_checkpoint(run / CHECKPOINT_FILE, CHECKPOINT_SCHEMA, 1, {}, {"w1": torch.zeros(2)}, {}, old)
     for args in (("evaluate", "--run", run, "--no-film", "--episodes", 1), ("train", "--resume", "--out", run)):
         one_line_error(famarl(*args), 1, "version 1 run checkpoint")
+
+
+def test_traversing_in_a_world_of_another_action_size_is_one_line_and_writes_nothing(favae_file, tmp_path):
+    from cli_helpers import famarl, one_line_error
+
+    out = tmp_path / "traverse" / "t.h5"
+    one_line_error(
+        famarl("traverse", "--model", favae_file, "--world", "robot-hand", "--out", out),
+        2,
+        "decodes 2-dimensional actions and the robot-hand world takes 4",
+    )
+    assert not out.parent.exists() or not list(out.parent.iterdir())
+    assert famarl("traverse", "--model", favae_file, "--world", "moon", "--out", out).exit_code == 2

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
+import click
 import typer
 from rich.console import Console
 from rich.progress import Progress, TaskID
@@ -88,10 +89,11 @@ def sweep(
 
 def plan(command: str, options: list[str], seeds: str, over: list[str], name: str | None):
     """The sweep's jobs: one per combination of the axes. COMMAND's options are parsed by its own command, derived
-    from its declaration; an axis named like one of its options gives that option a value typed by the declaration
-    (``--over agent=ppo,figar`` gives Agent values, ``--seeds`` ints) unless the options already give it."""
+    from its declaration; an axis named like one of its options gives that option its value, typed and bounded by
+    the same parser (``--over agent=ppo,figar`` gives Agent values, ``--seeds`` ints), unless the options already
+    give it."""
     from famarl_cli.cli.derived import parse_options
-    from famarl_cli.core.declare import convert, declared
+    from famarl_cli.core.declare import declared
     from famarl_cli.sweep.plan import Axis, Job, default_name, expand, fill, parse_values
     from famarl_cli.sweep.worker import name_of
 
@@ -109,15 +111,26 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
     jobs = []
     for point in expand(axes):
         argv = [fill(option, point) for option in options]
-        values = parse_options(app, command, sweepable.options, argv)
         for axis, value in point.items():
             field = fields.get(axis.replace("-", "_"))
             if field is not None and not _given(field.flag, argv):
-                values[field.name] = convert(field, value)
-        recipe = sweepable.make(sweepable.options(**values))
+                argv += _axis_flag(field, value)
+        recipe = sweepable.make(sweepable.options(**parse_options(app, command, sweepable.options, argv)))
         job_name = fill(name, point) if name else default_name(point)
         jobs.append(Job(job_name, name_of(recipe.runner), recipe.config, recipe.inputs, recipe.resumable, point))
     return jobs
+
+
+def _axis_flag(option, value: str) -> list[str]:
+    """An axis value as COMMAND's own parser takes it, so the value is typed and bounded where every option is: a
+    yes/no option (``--normalize`` / ``--no-normalize``) by click's reading of yes/no text, the others as
+    ``--NAME VALUE``."""
+    if option.base is not bool:
+        return [option.flag, value]
+    try:
+        return [option.flag if click.BOOL.convert(value, None, None) else "--no-" + option.flag.removeprefix("--")]
+    except click.BadParameter as exc:
+        raise UsageError(f"--over {option.name}={value}: {exc.format_message()}") from None
 
 
 def _given(option: str, argv: list[str]) -> bool:

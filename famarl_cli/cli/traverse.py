@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from rich.console import Console
 from rich.table import Table
 
@@ -17,7 +19,9 @@ def traverse(options: TraverseOptions) -> None:
     from famarl_cli.stages import method as stages
 
     torch_on_one_thread()
-    model = options.model or stages.default_favae()
+    # The default FAVAE is looked up once: the output's name and the traversal take it from the options.
+    options = replace(options, model=options.model or stages.default_favae())
+    model = options.model
     if model == stages.PIPELINE_FAVAE:
         Console().print(f"traversing {model}: replicate 0 of the default pipeline (dvc repro)")
     out = options.destination

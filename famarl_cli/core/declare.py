@@ -1,6 +1,6 @@
 """Options declared once: a stage's options are a frozen dataclass whose fields carry their type, default, help and
 bounds (:func:`option`). The ``famarl`` command (:mod:`famarl_cli.cli.derived`), a sweep's typed values and jobs
-(:func:`convert`, :func:`to_json`, :func:`from_json`) and the provenance the stage records all come from it, so a
+(parsed by the command, :func:`to_json`, :func:`from_json`) and the provenance the stage records all come from it, so a
 default changes in one line and shows up everywhere.
 
 Torch-free and typer-free: the declarations are imported when the CLI starts.
@@ -114,28 +114,6 @@ def declared(cls: type) -> list[Declared]:
         )
         for f in fields(cls)
     ]
-
-
-def convert(option: Declared, text: str) -> Any:
-    """The typed value of ``text`` (a sweep axis's value, ``--over NAME=...``), as ``option`` takes it."""
-    if option.parse is not None:
-        return option.parse(text)
-    kind = option.base
-    try:
-        if kind is bool:
-            if text.lower() not in ("true", "false", "1", "0", "yes", "no"):
-                raise ValueError(f"not a yes/no value: {text!r}")
-            return text.lower() in ("true", "1", "yes")
-        if isinstance(kind, type) and issubclass(kind, (enum.Enum, int, float, str, Path)):
-            value = kind(text)
-        else:
-            return text
-    except ValueError as exc:
-        raise UsageError(f"{option.flag} {text}: {exc}") from None
-    for bound, beyond in ((option.min, lambda v, b: v < b), (option.max, lambda v, b: v > b)):
-        if bound is not None and isinstance(value, int | float) and beyond(value, bound):
-            raise UsageError(f"{option.flag} {text}: outside [{option.min}, {option.max}]")
-    return value
 
 
 def plain(value: Any) -> Any:
