@@ -56,7 +56,7 @@ def training(agent: Agent, favae, favae_path: Path, steps: int) -> dict:
 
         return call
 
-    trainer.mode.to_open_loop = clocked("decoding", trainer.mode.to_open_loop)
+    trainer.mode.to_sequences = clocked("decoding", trainer.mode.to_sequences)
     trainer.update = clocked("update", trainer.update)
     _, seconds = timed(trainer.train)
     return {

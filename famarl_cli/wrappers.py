@@ -6,7 +6,7 @@
 
 One ``step`` is one decision: the action is turned into an open-loop sequence by the same action mode that
 ``famarl train`` uses (:mod:`famarl_cli.rl.action_modes`) and run by the same loop
-(:func:`famarl_cli.rl.executor.run_open_loop`), which stops at termination or truncation. The reward is the
+(:func:`famarl_cli.rl.executor.run_sequences`), which stops at termination or truncation. The reward is the
 semi-MDP discounted sum ``sum_j gamma**j r_j`` over the steps run (``reward="discounted"``) or the plain sum
 (``reward="sum"``, the paper's r_tot). ``info`` adds, to the last step's own info:
 
@@ -31,8 +31,9 @@ import numpy as np
 
 from famarl_cli.envs.success import as_bool
 from famarl_cli.method.favae.checkpoint import load_favae
-from famarl_cli.rl.action_modes import LatentMacroActions, RepeatedActions
-from famarl_cli.rl.executor import discounted_sum, run_open_loop
+from famarl_cli.method.prior.checkpoint import load_skills
+from famarl_cli.rl.action_modes import ClosedLoopMacroActions, LatentMacroActions, RepeatedActions
+from famarl_cli.rl.executor import discounted_sum, run_sequences
 from famarl_cli.rl.vector import GymBatch
 
 Reward = Literal["discounted", "sum"]
@@ -67,8 +68,8 @@ class OpenLoopWrapper(gymnasium.Wrapper):
 
     def step(self, action):
         u, repeat = self._mode_input(action)
-        actions, lengths = self._mode.to_open_loop(u, repeat)
-        result = run_open_loop(self._batch, self._batch.obs, actions, lengths)
+        actions, lengths = self._mode.to_sequences(u, repeat)
+        result = run_sequences(self._batch, self._batch.obs, actions, lengths)
         reward = discounted_sum(result.rewards, self.gamma)[0] if self.reward_kind == "discounted" else result.reward[0]
         steps = int(result.steps[0])
         info = {
@@ -85,6 +86,10 @@ class MacroActionWrapper(OpenLoopWrapper, gymnasium.utils.RecordConstructorArgs)
     """FaMARL's action space: a FAVAE latent z in ``[-bound, bound]^latent_size``, decoded by the frozen FAVAE
     of ``favae_path`` (a checkpoint of ``famarl favae fit`` or ``famarl macros``) into a macro action.
 
+    With ``decoder="closed"``, the closed-loop decoder of ``prior_path`` (``famarl prior fit`` on this FAVAE)
+    corrects each of the macro's actions from the state the step starts in (its networks read the first values of
+    the observation, as many as the demos had).
+
     The environment's actions must have the size the FAVAE decodes; decoded actions are clipped to its bounds.
     """
 
@@ -95,13 +100,38 @@ class MacroActionWrapper(OpenLoopWrapper, gymnasium.utils.RecordConstructorArgs)
         reward: Reward = "discounted",
         gamma: float = 0.99,
         bound: float = 3.0,
+        decoder: Literal["open", "closed"] = "open",
+        prior_path: str | os.PathLike | None = None,
     ) -> None:
         # recorded so that ``env.spec`` can remake the wrapped environment (gymnasium's check_env does)
         gymnasium.utils.RecordConstructorArgs.__init__(
-            self, favae_path=str(favae_path), reward=reward, gamma=gamma, bound=bound
+            self,
+            favae_path=str(favae_path),
+            reward=reward,
+            gamma=gamma,
+            bound=bound,
+            decoder=decoder,
+            prior_path=None if prior_path is None else str(prior_path),
         )
         favae = load_favae(favae_path)[0]
-        super().__init__(env, lambda low, high: LatentMacroActions(favae, low, high, bound), reward, gamma)
+        if decoder not in ("open", "closed"):
+            raise ValueError(f"decoder must be 'open' or 'closed', got {decoder!r}")
+        if decoder == "open":
+            super().__init__(env, lambda low, high: LatentMacroActions(favae, low, high, bound), reward, gamma)
+        else:
+            if prior_path is None:
+                raise ValueError("decoder='closed' needs prior_path: the closed-loop decoder is in the prior file")
+            skills = load_skills(prior_path)
+            state, latent = gymnasium.spaces.flatdim(env.observation_space), favae.config.latent_size
+            if skills.config.latent_size != latent or skills.config.obs_size > state:
+                raise ValueError(
+                    f"{prior_path} reads {skills.config.obs_size} state values and {skills.config.latent_size} "
+                    f"latents, but the env has {state} and the FAVAE {latent}"
+                )
+            closed = skills.decoder.frozen()
+            super().__init__(
+                env, lambda low, high: ClosedLoopMacroActions(favae, closed, low, high, bound), reward, gamma
+            )
         self.favae = favae
         self.action_space = gymnasium.spaces.Box(-bound, bound, (favae.config.latent_size,), np.float32)
 

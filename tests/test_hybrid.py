@@ -191,7 +191,7 @@ class FixedLength(LatentMacroActions):
         super().__init__(favae, np.full(2, -1.0), np.full(2, 1.0), bound=3.0)
         self.length = length
 
-    def to_open_loop(self, u, index):
+    def to_sequences(self, u, index):
         return np.zeros((len(u), self.length, 2)), np.full(len(u), self.length)
 
 
@@ -238,8 +238,8 @@ def test_semi_mdp_discounting_is_length_neutral_and_per_decision_discounting_is_
 def test_the_residual_variant_adds_its_primitive_output_to_every_action_of_a_macro(favae):
     macros = LatentMacroActions(favae, np.full(2, -1.0), np.full(2, 1.0), bound=3.0)
     u = np.array([[0.4, -0.2, 0.1, 0.0, -0.3, 0.2, 0.5, 0.0], [0.4, -0.2, 0.1, 0.0, -0.3, 0.2, 0.5, 0.0]])
-    plain, lengths = HybridActions(macros).to_open_loop(u, np.array([1, 0]))
-    shifted, same = HybridActions(macros, residual=0.5).to_open_loop(u, np.array([1, 0]))
+    plain, lengths = HybridActions(macros).to_sequences(u, np.array([1, 0]))
+    shifted, same = HybridActions(macros, residual=0.5).to_sequences(u, np.array([1, 0]))
     np.testing.assert_array_equal(lengths, same)
     steps = lengths[0]
     np.testing.assert_allclose(shifted[0, :steps], np.clip(plain[0, :steps] + [0.2, -0.1], -1, 1))

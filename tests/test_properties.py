@@ -9,7 +9,7 @@ from hypothesis.extra.numpy import arrays
 from famarl_cli.artifacts import Demos, Episode, read_demos, write_demos
 from famarl_cli.core.macro_actions import cut_lengths, pad
 from famarl_cli.method.segmentation import find_peaks
-from famarl_cli.rl.executor import run_open_loop
+from famarl_cli.rl.executor import run_sequences
 from famarl_cli.rl.ppo import compute_gae
 
 finite = st.floats(-100, 100, allow_nan=False, width=32)
@@ -105,7 +105,7 @@ def test_open_loop_collects_exactly_the_rewards_of_the_steps_it_ran(lengths, dat
     horizons = data.draw(st.lists(st.integers(1, 25), min_size=len(lengths), max_size=len(lengths)))
     env = RandomRewardEnv(horizons, seed)
     obs = np.zeros((len(lengths), 1), np.float32)
-    result = run_open_loop(env, obs, np.zeros((len(lengths), 20, 1)), np.array(lengths))
+    result = run_sequences(env, obs, np.zeros((len(lengths), 20, 1)), np.array(lengths))
     np.testing.assert_allclose(result.reward, env.emitted)
     np.testing.assert_array_equal(result.steps, np.minimum(lengths, horizons))
     np.testing.assert_array_equal(result.terminated, np.array(horizons) <= np.array(lengths))

@@ -9,7 +9,7 @@ from famarl_cli.method.favae.model import Favae, FavaeConfig
 from famarl_cli.rl import Agent
 from famarl_cli.rl.action_modes import LatentMacroActions, PrimitiveActions, RepeatedActions
 from famarl_cli.rl.evaluation import evaluate
-from famarl_cli.rl.executor import discounted_sum, run_open_loop
+from famarl_cli.rl.executor import discounted_sum, run_sequences
 from famarl_cli.rl.normalization import RewardScaler, RunningMeanStd
 from famarl_cli.rl.policy import ActorCritic
 from famarl_cli.rl.ppo import STATS, Minibatch, PPOConfig, PPOTrainer, clipped_objective_gradient, compute_gae
@@ -69,7 +69,7 @@ def test_open_loop_sums_rewards_counts_steps_and_stops_at_an_episode_end():
     env = CountingEnv(terminate_env2=True)
     obs = env.reset()
     actions = np.zeros((3, 5, 1))
-    result = run_open_loop(env, obs, actions, np.array([3, 1, 5]))
+    result = run_sequences(env, obs, actions, np.array([3, 1, 5]))
     np.testing.assert_array_equal(result.steps, [3, 1, 2])
     np.testing.assert_allclose(result.reward, [0 + 1 + 2, 10, 20 + 21])
     np.testing.assert_allclose(discounted_sum(result.rewards, 0.5), [0 + 0.5 + 0.5, 10, 20 + 0.5 * 21])
@@ -97,7 +97,7 @@ def test_open_loop_of_one_world_equals_stepping_it_by_hand():
     actions = rng.uniform(-1, 1, (4, 30, 2))
     lengths = np.array([30, 7, 1, 19])
     batch = ContinuousWorldBatch("maze", n_envs=4, seed=1)
-    result = run_open_loop(batch, batch.reset(), actions, lengths)
+    result = run_sequences(batch, batch.reset(), actions, lengths)
     for i in range(4):
         single = ContinuousWorldBatch("maze", n_envs=4, seed=1)
         single.reset()
@@ -152,7 +152,7 @@ def test_numpy_acting_agrees_with_the_torch_network_and_samples_its_distribution
 
 def test_figar_repeats_the_clipped_action_index_plus_one_times():
     mode = RepeatedActions(np.full(2, -1.0), np.full(2, 1.0), max_repeat=4)
-    actions, lengths = mode.to_open_loop(np.array([[2.0, -0.5]]), np.array([2]))
+    actions, lengths = mode.to_sequences(np.array([[2.0, -0.5]]), np.array([2]))
     assert lengths.tolist() == [3]
     np.testing.assert_array_equal(actions[0, :3], [[1.0, -0.5]] * 3)
 
@@ -190,7 +190,7 @@ def test_written_out_ppo_gradient_equals_autograd(choices, clip_value):
 def test_latent_mode_clips_latents_and_refuses_another_action_dimension():
     favae = Favae(FavaeConfig(action_dim=2, length=16)).eval()
     mode = LatentMacroActions(favae, np.full(2, -1.0), np.full(2, 1.0), bound=1.0)
-    far, edge = mode.to_open_loop(np.full((1, 6), 50.0), None), mode.to_open_loop(np.ones((1, 6)), None)
+    far, edge = mode.to_sequences(np.full((1, 6), 50.0), None), mode.to_sequences(np.ones((1, 6)), None)
     np.testing.assert_array_equal(far[0], edge[0])
     assert np.abs(far[0]).max() <= 1.0 and 1 <= far[1][0] <= 16
     with pytest.raises(ValueError, match="3-D"):

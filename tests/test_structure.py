@@ -80,7 +80,8 @@ def test_reading_artifacts_and_declarations_does_not_load_torch():
 
     code = (
         "import sys, famarl_cli.artifacts.traversal, famarl_cli.stages.method, famarl_cli.stages.macros, "
-        "famarl_cli.stages.train, famarl_cli.method.traversal, famarl_cli.cli; print('torch' in sys.modules)"
+        "famarl_cli.stages.train, famarl_cli.stages.prior, famarl_cli.method.traversal, famarl_cli.cli; "
+        "print('torch' in sys.modules)"
     )
     assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout == "False\n"
 
@@ -94,6 +95,7 @@ def test_every_command_option_is_its_declaration():
     from famarl_cli.stages.demos import DemosOptions
     from famarl_cli.stages.evaluate import EvaluateOptions
     from famarl_cli.stages.method import CalibrateOptions, FitOptions, SegmentOptions, TraverseOptions
+    from famarl_cli.stages.prior import PriorFitOptions
     from famarl_cli.stages.train import TrainOptions
 
     commands = typer.main.get_command(app).commands
@@ -105,6 +107,7 @@ def test_every_command_option_is_its_declaration():
         ("evaluate", EvaluateOptions),
         ("favae calibrate", CalibrateOptions),
         ("favae fit", FitOptions),
+        ("prior fit", PriorFitOptions),
     ):
         command = commands[name.split()[0]]
         if " " in name:
@@ -151,10 +154,16 @@ def test_every_sweepable_runner_resolves_to_its_function():
     from famarl_cli.cli import SWEEPABLE
     from famarl_cli.stages.demos import DemosOptions
     from famarl_cli.stages.macros import MacrosConfig
+    from famarl_cli.stages.prior import PriorFitOptions
     from famarl_cli.stages.train import TrainOptions
     from famarl_cli.sweep.worker import name_of, resolve
 
-    examples = {"demos": DemosOptions(), "macros": MacrosConfig(demos=Path("d.h5")), "train": TrainOptions()}
+    examples = {
+        "demos": DemosOptions(),
+        "macros": MacrosConfig(demos=Path("d.h5")),
+        "train": TrainOptions(),
+        "prior": PriorFitOptions(),
+    }
     assert set(SWEEPABLE) == set(examples)
     for command, sweepable in SWEEPABLE.items():
         fields = {f.name for f in dataclasses.fields(sweepable.options)}

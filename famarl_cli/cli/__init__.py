@@ -111,22 +111,31 @@ class Sweepable:
     """Options the sweep sets itself (the output folder), which the command's options must not give."""
     refused: dict[str, str]
     """Options of the command that a sweep does not offer, and why."""
+    command: str
+    """The command a point runs ("prior fit" for ``famarl sweep prior``)."""
 
 
 SWEEPABLE: dict[str, Sweepable] = {}
 """Commands that ``famarl sweep`` can run many of; each registers itself with :func:`sweepable`."""
 
 
-def sweepable(command: str, options: type, owned: tuple[str, ...] = (), refused: dict[str, str] | None = None):
-    """Register ``make(options) -> JobRecipe`` as what ``famarl sweep COMMAND`` runs per point; the options named in
-    ``owned`` and ``refused`` must be the declaration's."""
+def sweepable(
+    command: str,
+    options: type,
+    owned: tuple[str, ...] = (),
+    refused: dict[str, str] | None = None,
+    runs: str | None = None,
+):
+    """Register ``make(options) -> JobRecipe`` as what ``famarl sweep COMMAND`` runs per point (the command ``runs``,
+    "prior fit", where it is not COMMAND itself); the options named in ``owned`` and ``refused`` must be the
+    declaration's."""
     flags = {option.flag for option in declared(options)}
     unknown = sorted((set(owned) | set(refused or {})) - flags)
     if unknown:
         raise TypeError(f"famarl {command} has no options {', '.join(unknown)}")
 
     def register(make: Callable[[Any], JobRecipe]) -> Callable[[Any], JobRecipe]:
-        SWEEPABLE[command] = Sweepable(options, make, owned, refused or {})
+        SWEEPABLE[command] = Sweepable(options, make, owned, refused or {}, runs or command)
         return make
 
     return register
@@ -155,6 +164,7 @@ from famarl_cli.cli import (  # noqa: E402, F401
     inspect,
     macros,
     minari,
+    prior,
     report,
     segment,
     sequences,

@@ -74,10 +74,13 @@ def command(registrar: typer.Typer, options: type, name: str | None = None, **se
 
 def parse_options(registrar: typer.Typer, name: str, options: type, argv: list[str]) -> dict:
     """The values of ``famarl NAME ARGV`` by option name, as the command derived from ``options`` parses them
-    (bounds checked, texts parsed), before the declaration is built; a usage error is one line."""
+    (bounds checked, texts parsed), before the declaration is built; a usage error is one line. ``NAME`` may name a
+    subcommand ("prior fit")."""
     from famarl_cli.core.errors import UsageError
 
-    parser = typer.main.get_command(registrar).commands[name]
+    parser = typer.main.get_command(registrar)
+    for part in name.split():
+        parser = parser.commands[part]
     try:
         given = parser.make_context(f"famarl {name}", list(argv)).params
     except Exception as exc:  # typer's (bundled click's) usage errors: they carry their message

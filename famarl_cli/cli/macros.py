@@ -25,8 +25,9 @@ class MacrosOptions(MacrosConfig):
 def macros(options: MacrosOptions) -> None:
     """Everything the method learns before RL, for one seed, into one folder: segments, C_last, FAVAE, traversal.
 
-    The folder's files are those of famarl segment, favae calibrate, favae fit and traverse. An interrupted folder
-    continues at the step it was in. famarl sweep macros runs this for many seeds (independent replicates).
+    The folder's files are those of famarl segment, favae calibrate, favae fit, traverse and (with --prior) prior
+    fit. An interrupted folder continues at the step it was in. famarl sweep macros runs this for many seeds
+    (independent replicates).
     """
     from famarl_cli.artifacts.lock import claim_folder
     from famarl_cli.stages.macros import learn_macros

@@ -18,7 +18,12 @@ from famarl_cli.core.errors import FamarlError, UsageError
 @app.command(no_args_is_help=True)
 @reports_errors
 def sweep(
-    command: Annotated[str, typer.Argument(help="The command to sweep: train, macros or demos.", show_default=False)],
+    command: Annotated[
+        str,
+        typer.Argument(
+            help="The command to sweep: train, macros, demos or prior (famarl prior fit).", show_default=False
+        ),
+    ],
     options: Annotated[
         list[str] | None,
         typer.Argument(
@@ -115,7 +120,7 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
             field = fields.get(axis.replace("-", "_"))
             if field is not None and not _given(field.flag, argv):
                 argv += _axis_flag(field, value)
-        recipe = sweepable.make(sweepable.options(**parse_options(app, command, sweepable.options, argv)))
+        recipe = sweepable.make(sweepable.options(**parse_options(app, sweepable.command, sweepable.options, argv)))
         job_name = fill(name, point) if name else default_name(point)
         jobs.append(Job(job_name, name_of(recipe.runner), recipe.config, recipe.inputs, recipe.resumable, point))
     return jobs

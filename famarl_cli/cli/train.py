@@ -62,7 +62,7 @@ def train_job(options: TrainOptions) -> JobRecipe:
     return JobRecipe(
         run_job,
         {"spec": spec.to_dict(), "checkpoint_every": options.checkpoint_every},
-        inputs=(spec.favae,) if spec.favae else (),
+        inputs=tuple(path for path in (spec.favae, spec.prior) if path),
         resumable=True,
     )
 

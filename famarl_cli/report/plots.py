@@ -150,6 +150,30 @@ def plot_traversal(
     _save(fig, path)
 
 
+def plot_proposals(proposals, path: str | os.PathLike, title: str = "") -> None:
+    """One panel per demo start state: macros of latents drawn from the prior (blue) and from N(0, I) (grey), each
+    run from that state, and the expert's own first macro (black)."""
+    n = len(proposals.episodes)
+    fig = Figure(figsize=(3.4 * n, 3.6))
+    axes = fig.subplots(1, n, squeeze=False)[0]
+    for ax, episode, prior, standard, expert in zip(
+        axes, proposals.episodes, proposals.prior_paths, proposals.standard_paths, proposals.expert_paths, strict=True
+    ):
+        for i, p in enumerate(standard):
+            ax.plot(p[:, 0], p[:, 1], color="0.7", lw=1.0, label="N(0, I)" if i == 0 else None)
+        for i, p in enumerate(prior):
+            ax.plot(p[:, 0], p[:, 1], color="tab:blue", lw=1.3, label="p(z | s)" if i == 0 else None)
+        ax.plot(expert[:, 0], expert[:, 1], color="k", lw=2.0, label="expert")
+        ax.plot(*expert[0], "ko", ms=5)
+        ax.set_title(f"demo episode {episode}", fontsize=9)
+        ax.set(xlabel=f"observation[{proposals.dims[0]}]", ylabel=f"observation[{proposals.dims[1]}]")
+        ax.tick_params(labelsize=7)
+        ax.legend(fontsize=6, loc="best")
+    fig.suptitle(title or "what the prior proposes where the expert started", fontsize=9)
+    fig.tight_layout()
+    _save(fig, path)
+
+
 def plot_traversal_frames(traversal: Traversal, path: str | os.PathLike, title: str = "") -> None:
     """What the env renders at the end of each traversed macro action: a row per variable, a column per value."""
     rows, columns = traversal.frames.shape[:2]

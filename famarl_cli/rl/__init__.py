@@ -32,6 +32,14 @@ class Agent(StrEnum):
         return self in (Agent.FAMARL, Agent.HYBRID)
 
 
+class MacroDecoder(StrEnum):
+    """What turns a latent into actions: the FAVAE's decoder, fixed when the macro starts (the paper's), or the
+    closed-loop decoder pi(a | s, z) of a prior file, which looks at the state every step."""
+
+    OPEN = "open"
+    CLOSED = "closed"
+
+
 class MacroDiscount(StrEnum):
     """How a macro action's rewards are discounted: per decision (the paper), or per environment step (the
     semi-MDP form, :mod:`famarl_cli.rl.semi_mdp`)."""

@@ -1,13 +1,15 @@
-"""The action modes: what the policy outputs and how that becomes an open-loop action sequence.
+"""The action modes: what the policy outputs and how that becomes an action sequence.
 
 - ``ppo``: a primitive action, a sequence of length 1;
 - ``figar``: a primitive action and a repeat count in 1..J (FiGAR, Sharma et al. 2017), the action repeated;
-- ``famarl``: a latent z of a frozen FAVAE, decoded into a macro action and cut where ``action_off`` wins;
+- ``famarl``: a latent z of a frozen FAVAE, decoded into a macro action and cut where ``action_off`` wins; with a
+  closed-loop decoder (:class:`ClosedLoopMacroActions`), each of its actions is chosen from the state reached;
 - ``hybrid``: a choice k in {primitive, macro}, then a primitive action or a latent (MAPLE's atomic fallback).
 
 Every mode takes the policy's continuous output ``u`` (N, policy_action_size) and the index chosen by the
 policy's categorical head (N,) (FiGAR's repeat index, the hybrid's type; unused elsewhere), and returns
-``(actions (N, L, D), lengths (N,))`` for :func:`~famarl_cli.rl.executor.run_open_loop`. ``macro(index)`` says
+``(actions (N, L, D) or a closed-loop :class:`~famarl_cli.rl.executor.Plan`, lengths (N,))`` for
+:func:`~famarl_cli.rl.executor.run_sequences`. ``macro(index)`` says
 which decisions were macro actions, for the logs.
 """
 
@@ -18,6 +20,7 @@ from typing import Protocol
 import numpy as np
 
 from famarl_cli.method.favae.model import Favae
+from famarl_cli.rl.executor import Plan
 
 
 class ActionMode(Protocol):
@@ -32,9 +35,10 @@ class ActionMode(Protocol):
     branches: np.ndarray | None
     """(choices, policy_action_size): which outputs each choice uses; None when every choice uses them all."""
 
-    def to_open_loop(self, u: np.ndarray, index: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-        """(actions (N, L, D), lengths (N,)) of the decisions ``u`` (N, policy_action_size) and ``index`` (N,),
-        for :func:`~famarl_cli.rl.executor.run_open_loop`; steps past a length are not executed."""
+    def to_sequences(self, u: np.ndarray, index: np.ndarray | None) -> tuple[np.ndarray | Plan, np.ndarray]:
+        """(actions (N, L, D) or a closed-loop plan, lengths (N,)) of the decisions ``u`` (N, policy_action_size)
+        and ``index`` (N,), for :func:`~famarl_cli.rl.executor.run_sequences`; steps past a length are not
+        executed."""
         ...
 
     def macro(self, index: np.ndarray) -> np.ndarray:
@@ -52,7 +56,7 @@ class PrimitiveActions:
         self.low, self.high = low, high
         self.policy_action_size = len(low)
 
-    def to_open_loop(self, u: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def to_sequences(self, u: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.clip(u, self.low, self.high)[:, None, :], np.ones(len(u), dtype=np.int64)
 
     def macro(self, index: np.ndarray) -> np.ndarray:
@@ -66,7 +70,7 @@ class RepeatedActions(PrimitiveActions):
         super().__init__(low, high)
         self.choices = max_repeat
 
-    def to_open_loop(self, u: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def to_sequences(self, u: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         action = np.clip(u, self.low, self.high)[:, None, :]
         return np.repeat(action, self.choices, axis=1), index.astype(np.int64) + 1
 
@@ -90,7 +94,7 @@ class LatentMacroActions:
         self.favae, self.low, self.high, self.bound, self.horizon = favae, low, high, bound, horizon
         self.policy_action_size = favae.config.latent_size
 
-    def to_open_loop(self, u: np.ndarray, index: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    def to_sequences(self, u: np.ndarray, index: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         actions, lengths = self.favae.decode_macro_actions(np.clip(u, -self.bound, self.bound))
         if self.horizon:
             lengths = np.minimum(lengths, self.horizon)
@@ -98,6 +102,57 @@ class LatentMacroActions:
 
     def macro(self, index: np.ndarray) -> np.ndarray:
         return np.ones(len(index), dtype=bool)
+
+
+class ClosedLoopPlan:
+    """The closed-loop macro decoder's plan: at step k, row i of ``rows`` plays ``decoder(s, z_i, k, open_i[k])``
+    (the FAVAE's open-loop action corrected from the state) plus its ``offset`` (the hybrid's residual), clipped to
+    the bounds; the other rows play ``fixed[:, 0]`` (a hybrid's primitive actions, one step long)."""
+
+    def __init__(
+        self,
+        decoder,
+        latents: np.ndarray,
+        open_loop: np.ndarray,
+        rows: np.ndarray,
+        fixed: np.ndarray,
+        low: np.ndarray,
+        high: np.ndarray,
+        offset: np.ndarray | float = 0.0,
+    ) -> None:
+        self.decoder, self.latents, self.open_loop, self.rows, self.fixed = decoder, latents, open_loop, rows, fixed
+        self.low, self.high, self.offset = low, high, offset
+
+    def __call__(self, k: int, obs: np.ndarray) -> np.ndarray:
+        actions = self.fixed[:, 0].copy()
+        decoded = self.decoder(obs[self.rows], self.latents, k, self.open_loop[:, k])
+        actions[self.rows] = np.clip(decoded + self.offset, self.low, self.high)
+        return actions
+
+
+class ClosedLoopMacroActions(LatentMacroActions):
+    """FaMARL with a closed-loop decoder pi(a | s, z, k / L) (:mod:`famarl_cli.method.prior`): the FAVAE still says
+    how long the macro lasts (where ``action_off`` wins, cut at ``horizon``) and what its open-loop actions are,
+    and the decoder corrects each of them from the state the step starts in, so a macro reacts to where the agent
+    is."""
+
+    def __init__(
+        self, favae: Favae, decoder, low: np.ndarray, high: np.ndarray, bound: float, horizon: int = 0
+    ) -> None:
+        super().__init__(favae, low, high, bound, horizon)
+        self.decoder = decoder
+
+    def plan(self, u: np.ndarray, rows: np.ndarray, fixed: np.ndarray, offset: np.ndarray | float = 0.0):
+        """The plan and lengths of the latents ``u`` (M, Z) played by ``rows`` (N,) of the batch."""
+        latents = np.clip(u, -self.bound, self.bound)
+        open_loop, lengths = self.favae.decode_macro_actions(latents)
+        if self.horizon:
+            lengths = np.minimum(lengths, self.horizon)
+        return ClosedLoopPlan(self.decoder, latents, open_loop, rows, fixed, self.low, self.high, offset), lengths
+
+    def to_sequences(self, u: np.ndarray, index: np.ndarray | None) -> tuple[Plan, np.ndarray]:
+        fixed = np.zeros((len(u), 1, len(self.low)))
+        return self.plan(u, np.ones(len(u), dtype=bool), fixed)
 
 
 class HybridActions:
@@ -121,14 +176,19 @@ class HybridActions:
         self.branches[self.MACRO, size:] = True
         self.branches[self.MACRO, :size] = residual > 0
 
-    def to_open_loop(self, u: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def to_sequences(self, u: np.ndarray, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         macro = self.macro(index)
         size = self.primitive.policy_action_size
-        primitive, lengths = self.primitive.to_open_loop(u[:, :size], index)
+        primitive, lengths = self.primitive.to_sequences(u[:, :size], index)
         if not macro.any():
             return primitive, lengths
+        if isinstance(self.macros, ClosedLoopMacroActions):
+            offset = self.residual * u[macro, :size] if self.residual > 0 else 0.0
+            plan, macro_lengths = self.macros.plan(u[macro, size:], macro, primitive, offset)
+            lengths[macro] = macro_lengths
+            return plan, lengths
         # Only the macro decisions are decoded: the decoder is the costly part of a step.
-        decoded, macro_lengths = self.macros.to_open_loop(u[macro, size:], None)
+        decoded, macro_lengths = self.macros.to_sequences(u[macro, size:], None)
         if self.residual > 0:
             decoded = np.clip(decoded + self.residual * u[macro, None, :size], self.macros.low, self.macros.high)
         actions = np.zeros((len(u), decoded.shape[1], size))

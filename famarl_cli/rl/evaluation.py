@@ -15,9 +15,9 @@ from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.envs.continuous_world import Layouts
 from famarl_cli.envs.external import make_env
 from famarl_cli.envs.success import as_bool, rate
-from famarl_cli.rl.executor import run_open_loop
+from famarl_cli.rl.executor import run_sequences
 from famarl_cli.rl.normalization import ObservationNormalizer
-from famarl_cli.rl.training import TrainedAgent, build_mode
+from famarl_cli.rl.training import TrainedAgent, build_guide, build_mode
 from famarl_cli.rl.vector import BatchedEnv, GymBatch, make_batch
 
 
@@ -46,14 +46,16 @@ class FrozenActor:
 
     def __init__(self, agent: TrainedAgent, env: BatchedEnv, rng: np.random.Generator | None = None) -> None:
         self.agent, self.rng = agent, rng
-        self.mode = build_mode(agent.spec, env, agent.favae)
+        self.mode = build_mode(agent.spec, env, agent.favae, agent.skills)
+        self.guide = build_guide(agent.spec, self.mode, agent.skills)
         self.normalize = ObservationNormalizer((env.observation_size,), agent.spec.ppo.normalize_obs)
         self.normalize.load_state_dict(agent.obs_norm_state)
 
     def __call__(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        action = self.agent.policy.act(self.normalize(obs.astype(np.float32), update=False), self.rng)
+        base = None if self.guide is None else self.guide.base(obs)
+        action = self.agent.policy.act(self.normalize(obs.astype(np.float32), update=False), self.rng, base=base)
         self.macro = self.mode.macro(action.index)
-        return self.mode.to_open_loop(action.u.astype(np.float64), action.index)
+        return self.mode.to_sequences(action.u.astype(np.float64), action.index)
 
 
 def evaluate(
@@ -95,7 +97,7 @@ def evaluate(
     while alive.any():
         actions, length = act(obs)
         length = np.where(alive, length, 0)
-        result = run_open_loop(env, obs, actions, length, on_step=trace if traced else None)
+        result = run_sequences(env, obs, actions, length, on_step=trace if traced else None)
         returns += result.reward
         lengths += result.steps
         macros += alive & act.macro
@@ -164,7 +166,7 @@ def film_episode(agent: TrainedAgent, seed: int) -> Film:
 
     while True:
         actions, length = act(batch.obs)
-        result = run_open_loop(batch, batch.obs, actions, length, on_step=film)
+        result = run_sequences(batch, batch.obs, actions, length, on_step=film)
         if result.terminated[0] or result.truncated[0]:
             return Film(frames, decisions, as_bool(result.success[0]), float(env.metadata["render_fps"]), macros)
         decision += 1

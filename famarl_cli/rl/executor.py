@@ -1,23 +1,33 @@
-"""Open-loop execution of action sequences over a batch of environments: the one path that FaMARL's macro
-actions, FiGAR's repeated actions and primitive actions (sequences of length 1) all take.
+"""Execution of action sequences over a batch of environments: the one path that FaMARL's macro actions,
+FiGAR's repeated actions and primitive actions (sequences of length 1) all take.
 
 Each environment runs its own sequence for its own length; the batch steps together and an environment whose
 sequence (or episode) has ended waits, inactive, for the others. A sequence stops where its episode ends: the
 rest of it is dropped, and the next decision starts on the new episode.
+
+A sequence is open-loop, its actions fixed when it starts (an array), or closed-loop, each action chosen from the
+state the step starts in (a :class:`Plan`: the closed-loop macro decoder's).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
 from famarl_cli.rl.vector import BatchedEnv
 
 
+class Plan(Protocol):
+    """A closed-loop sequence: the (N, D) actions of step ``k`` of every row from the (N, obs) states reached."""
+
+    def __call__(self, k: int, obs: np.ndarray) -> np.ndarray: ...
+
+
 @dataclass
-class OpenLoopResult:
+class SequenceResult:
     obs: np.ndarray
     """(N, obs) after the sequence; where an episode ended, the next episode's first observation."""
     reward: np.ndarray
@@ -35,14 +45,15 @@ class OpenLoopResult:
     """(N, obs) last observation of an episode that ended (meaningful where terminated | truncated)."""
 
 
-def run_open_loop(
+def run_sequences(
     env: BatchedEnv,
     obs: np.ndarray,
-    actions: np.ndarray,
+    actions: np.ndarray | Plan,
     lengths: np.ndarray,
     on_step: Callable[[np.ndarray, np.ndarray], None] | None = None,
-) -> OpenLoopResult:
-    """Run ``actions[i, :lengths[i]]`` in environment ``i`` without feedback, from current observations ``obs``.
+) -> SequenceResult:
+    """Run ``actions[i, :lengths[i]]`` in environment ``i`` from current observations ``obs``; for a :class:`Plan`,
+    step ``k``'s actions are ``actions(k, obs)`` of the observations reached (rows that have stopped included).
 
     ``on_step(active, obs)`` is called after every batch step with the observations that step reached (an
     ended episode's last one, not the next episode's first); evaluation uses it to trace paths.
@@ -59,7 +70,8 @@ def run_open_loop(
         active = (k < lengths) & ~terminated & ~truncated
         if not active.any():
             break
-        obs, r, term, trunc, info = env.step(actions[:, k], active)
+        step = actions[:, k] if isinstance(actions, np.ndarray) else actions(k, obs)
+        obs, r, term, trunc, info = env.step(step, active)
         rewards[:, k] = r
         reward += r
         steps += active
@@ -72,10 +84,10 @@ def run_open_loop(
             success = np.where(ended, info.get("success", np.nan), success)
         if on_step is not None:
             on_step(active, np.where(ended[:, None], final_obs, obs))
-    return OpenLoopResult(obs, reward, rewards, steps, terminated, truncated, success, final_obs)
+    return SequenceResult(obs, reward, rewards, steps, terminated, truncated, success, final_obs)
 
 
 def discounted_sum(rewards: np.ndarray, gamma: float) -> np.ndarray:
     """(N,) ``sum_k gamma ** k * r_k`` over each row of per-step rewards (N, L), such as
-    :attr:`OpenLoopResult.rewards`: a sequence's reward in the semi-MDP form."""
+    :attr:`SequenceResult.rewards`: a sequence's reward in the semi-MDP form."""
     return (rewards * gamma ** np.arange(rewards.shape[1])).sum(1)

@@ -166,10 +166,17 @@ class ActorCritic:
         return self.params["log_std"]
 
     def act(
-        self, obs: np.ndarray, rng: np.random.Generator | None = None, choice_rng: np.random.Generator | None = None
+        self,
+        obs: np.ndarray,
+        rng: np.random.Generator | None = None,
+        choice_rng: np.random.Generator | None = None,
+        base: tuple[np.ndarray, np.ndarray] | None = None,
     ) -> Action:
         """The policy on (B, obs) float32 observations: a sample drawn with ``rng``, or without it the mode (the
         Gaussian's mean and the likeliest choice).
+
+        ``base`` (mean, log std), each (B, action), is a prior the Gaussian is written relative to
+        (:mod:`famarl_cli.rl.prior_guide`): its mean is added to the actor's and its log std to the policy's.
 
         With branches, the choice is drawn from ``choice_rng`` (``rng`` where not given) and the noise of a
         group of outputs only when some row chose a branch that uses it. A hybrid that always picks one branch
@@ -186,14 +193,17 @@ class ActorCritic:
             logits = hidden[0] @ p["w_choice"] + p["b_choice"]
             shifted = logits - logits.max(1, keepdims=True)
             log_p = shifted - np.log(np.exp(shifted).sum(1, keepdims=True))
+        log_std = p["log_std"]
+        if base is not None:
+            mean, log_std = mean + base[0], log_std + base[1]
         if rng is None:
             index = log_p.argmax(1) if log_p is not None else np.zeros(len(obs), dtype=np.int64)
             return Action(mean, index, None, value)
         if self.branches is not None:
-            return self._act_on_branches(mean, value, log_p, rng, choice_rng or rng)
+            return self._act_on_branches(mean, value, log_p, rng, choice_rng or rng, log_std)
         noise = rng.standard_normal(mean.shape, dtype=np.float32)
-        u = mean + np.exp(p["log_std"]) * noise
-        logp = -0.5 * np.square(noise).sum(1) - (p["log_std"].sum() + LOG_SQRT_2PI * len(p["log_std"]))
+        u = mean + np.exp(log_std) * noise
+        logp = -0.5 * np.square(noise).sum(1) - (log_std.sum(-1) + LOG_SQRT_2PI * mean.shape[1])
         if log_p is None:
             return Action(u, np.zeros(len(obs), dtype=np.int64), logp, value)
         index = self._draw(log_p, rng)
@@ -211,8 +221,8 @@ class ActorCritic:
         log_p: np.ndarray,
         rng: np.random.Generator,
         choice_rng: np.random.Generator,
+        log_std: np.ndarray,
     ) -> Action:
-        log_std = self.arrays["log_std"]
         index = self._draw(log_p, choice_rng)
         rows = self.branches[index]
         noise = np.zeros_like(mean)
@@ -221,7 +231,9 @@ class ActorCritic:
                 noise[:, columns] = rng.standard_normal((len(mean), int(columns.sum())), dtype=np.float32)
         noise *= rows
         u = mean + np.exp(log_std) * noise
-        logp = -0.5 * np.square(noise).sum(1) - rows @ (log_std + LOG_SQRT_2PI)
+        per_output = log_std + LOG_SQRT_2PI
+        density = rows @ per_output if per_output.ndim == 1 else (rows * per_output).sum(1)
+        logp = -0.5 * np.square(noise).sum(1) - density
         return Action(u, index, logp + log_p[np.arange(len(mean)), index], value)
 
     def __call__(self, obs: torch.Tensor) -> Heads:

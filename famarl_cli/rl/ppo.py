@@ -30,10 +30,11 @@ import torch
 
 from famarl_cli.rl import MacroDiscount
 from famarl_cli.rl.action_modes import ActionMode
-from famarl_cli.rl.executor import OpenLoopResult, run_open_loop
+from famarl_cli.rl.executor import SequenceResult, run_sequences
 from famarl_cli.rl.normalization import ObservationNormalizer, RewardScaler
 from famarl_cli.rl.optimizer import FlatAdam, clip_norm
 from famarl_cli.rl.policy import LOG_SQRT_2PI, ActorCritic
+from famarl_cli.rl.prior_guide import PriorGuide
 from famarl_cli.rl.semi_mdp import decision_reward
 from famarl_cli.rl.vector import BatchedEnv
 
@@ -127,12 +128,22 @@ class Minibatch:
     advantages: torch.Tensor
     """(B,) normalised over the minibatch."""
     returns: torch.Tensor
+    base_mean: torch.Tensor | None = None
+    """(B, action) the prior's mean the policy's is written relative to (:mod:`~famarl_cli.rl.prior_guide`)."""
+    base_log_std: torch.Tensor | None = None
+    """(B, action) the prior's log std, likewise."""
 
 
 def clipped_objective_gradient(
-    policy: ActorCritic, batch: Minibatch, cfg: PPOConfig, entropy_floor: float = 0.0
+    policy: ActorCritic,
+    batch: Minibatch,
+    cfg: PPOConfig,
+    entropy_floor: float = 0.0,
+    prior_weight: float = 0.0,
+    prior_mask: torch.Tensor | None = None,
 ) -> torch.Tensor:
-    """Writes into ``policy.gradient`` the gradient of PPO's loss on one minibatch; returns the :data:`STATS`.
+    """Writes into ``policy.gradient`` the gradient of PPO's loss on one minibatch; returns the :data:`STATS` (and
+    the prior's KL where the batch has a prior).
 
     loss = clipped policy loss - ent_coef * entropy + vf_coef * (clipped) value loss, each a mean over the
     minibatch, plus ``type_entropy_coef * max(0, entropy_floor - H(choice))`` where the policy has a categorical
@@ -141,22 +152,37 @@ def clipped_objective_gradient(
 
     With branches (the hybrid), only the chosen branch's outputs enter a row's log-density, and the entropy is
     H(choice) + sum_k p(k) H(branch k).
+
+    With a prior (``batch.base_mean``), the Gaussian is N(base mean + mean, (e^(base log std + log std))^2) and the
+    loss adds ``prior_weight`` times the mean KL(pi || prior) over the outputs of ``prior_mask``
+    (:mod:`~famarl_cli.rl.prior_guide`).
     """
     size, log_std = len(batch.obs), policy.log_std
     heads = policy(batch.obs)
+    guided = batch.base_mean is not None
     # Every torch call costs ~5 us here, more than its arithmetic: in-place where possible, nothing computed twice.
-    inv_std = log_std.neg().exp()
-    z = (batch.u - heads.mean).mul_(inv_std)
+    if guided:
+        row_log_std = batch.base_log_std + log_std  # (B, action): each row's own
+        inv_std = row_log_std.neg().exp()
+        z = (batch.u - batch.base_mean - heads.mean).mul_(inv_std)
+    else:
+        inv_std = log_std.neg().exp()
+        z = (batch.u - heads.mean).mul_(inv_std)
     rows = None if policy.branch_mask is None else policy.branch_mask[batch.index]
     if rows is not None:
         z.mul_(rows)
     z2 = z.square()
     if rows is None:
-        gaussian_constant = log_std.sum() + LOG_SQRT_2PI * len(log_std)  # sum(log_std) + const, also its entropy
+        # sum(log_std) + const, also the entropy (a row's own, averaged, with a prior)
+        gaussian_constant = (
+            row_log_std.sum(1) + LOG_SQRT_2PI * len(log_std) if guided else log_std.sum() + LOG_SQRT_2PI * len(log_std)
+        )
         log_ratio = z2.sum(1).mul_(-0.5).sub_(gaussian_constant).sub_(batch.logp)
     else:
-        per_output = log_std + LOG_SQRT_2PI  # each output's share of -log density and (+ 1/2) of the entropy
-        log_ratio = z2.sum(1).mul_(-0.5).sub_(rows @ per_output).sub_(batch.logp)
+        # each output's share of -log density and (+ 1/2) of the entropy; (B, action) with a prior
+        per_output = (row_log_std if guided else log_std) + LOG_SQRT_2PI
+        density = (rows * per_output).sum(1) if guided else rows @ per_output
+        log_ratio = z2.sum(1).mul_(-0.5).sub_(density).sub_(batch.logp)
     if heads.logits is not None:
         log_p = heads.logits.log_softmax(1)
         log_ratio += log_p.gather(1, batch.index[:, None]).squeeze(1)
@@ -185,7 +211,7 @@ def clipped_objective_gradient(
     d_mean = z.mul_(d_logp[:, None]).mul_(inv_std)
     d_logits = None
     if heads.logits is None:
-        entropy = gaussian_constant + 0.5 * len(log_std)
+        entropy = (gaussian_constant + 0.5 * len(log_std)).mean()
         d_log_std.sub_(cfg.ent_coef)
     else:
         p = log_p.exp()
@@ -199,20 +225,39 @@ def clipped_objective_gradient(
             d_choice_entropy = d_choice_entropy + below[:, None] * (cfg.type_entropy_coef / size)
         d_logits += d_choice_entropy * p * (log_p + choice_entropy[:, None])
         if rows is None:
-            entropy = gaussian_constant + 0.5 * len(log_std) + choice_entropy.mean()
+            entropy = (gaussian_constant + 0.5 * len(log_std)).mean() + choice_entropy.mean()
             d_log_std.sub_(cfg.ent_coef)
         else:
             # sum_k p(k) H(branch k): d / d log_std = E_rows[p @ mask]; d / d logits = p (H(branch) - that sum)
-            branch_entropy = policy.branch_mask @ (per_output + 0.5)
+            if guided:
+                branch_entropy = (per_output + 0.5) @ policy.branch_mask.T  # (B, choices)
+                expected = (p * branch_entropy).sum(1)
+            else:
+                branch_entropy = policy.branch_mask @ (per_output + 0.5)
+                expected = p @ branch_entropy
             weights = p @ policy.branch_mask
-            expected = p @ branch_entropy
             entropy = (choice_entropy + expected).mean()
             d_log_std.sub_(weights.mean(0), alpha=cfg.ent_coef)
             d_logits -= (cfg.ent_coef / size) * p * (branch_entropy - expected[:, None])
+    stats = [policy_loss, value_loss, entropy]
+    if guided:
+        # KL(pi || prior) per guided output j: -l_j + e^(2 l_j) / 2 + m_j^2 e^(-2 base log std_j) / 2 - 1/2
+        mean = heads.mean * prior_mask
+        inv_prior_var = batch.base_log_std.mul(-2).exp_()
+        scaled = mean * inv_prior_var
+        guided_log_std = log_std * prior_mask
+        kl = (guided_log_std.mul(2).exp_().sub_(1).mul_(0.5).sub_(guided_log_std)).mul_(prior_mask).sum() + 0.5 * (
+            scaled * mean
+        ).sum(1).mean()
+        if prior_weight > 0:
+            d_mean.add_(scaled, alpha=prior_weight / size)
+            d_log_std.add_(guided_log_std.mul(2).exp_().sub_(1).mul_(prior_mask), alpha=prior_weight)
+        stats.append(kl)
     policy.backward(heads, d_mean, d_log_std, d_value, d_logits)
     approx_kl = (ratio - log_ratio).mean() - 1
     clip_fraction = (ratio != clipped_ratio).mean(dtype=torch.float32)
-    return torch.stack((policy_loss, value_loss, entropy, approx_kl, clip_fraction))
+    stats[3:3] = [approx_kl, clip_fraction]
+    return torch.stack(stats)
 
 
 @dataclass
@@ -233,6 +278,9 @@ class Rollout:
     """(T, N) which decisions were macro actions (all for FaMARL, none for PPO and FiGAR)."""
     steps: np.ndarray
     """(T, N) environment steps each decision ran."""
+    base_mean: np.ndarray | None = None
+    """(T, N, action) the prior's mean at each decision's state (:mod:`~famarl_cli.rl.prior_guide`); None without."""
+    base_log_std: np.ndarray | None = None
 
     @property
     def env_steps(self) -> int:
@@ -249,7 +297,7 @@ class EpisodeTracker:
         self.recent: deque[tuple[float, ...]] = deque(maxlen=RECENT_EPISODES)
         self.finished = 0
 
-    def record(self, result: OpenLoopResult) -> None:
+    def record(self, result: SequenceResult) -> None:
         self.current["return"] += result.reward
         self.current["length"] += result.steps
         self.current["decisions"] += 1
@@ -281,14 +329,19 @@ class EpisodeTracker:
 class PPOTrainer:
     """Owns everything that changes while training; :meth:`state_dict` captures all of it for exact resumes."""
 
-    def __init__(self, env: BatchedEnv, mode: ActionMode, config: PPOConfig, seed: int) -> None:
-        self.env, self.mode, self.config = env, mode, config
+    def __init__(
+        self, env: BatchedEnv, mode: ActionMode, config: PPOConfig, seed: int, guide: PriorGuide | None = None
+    ) -> None:
+        self.env, self.mode, self.config, self.guide = env, mode, config, guide
         torch.manual_seed(seed)  # initialisation and the minibatch shuffles
         self.rng = np.random.default_rng(seed)  # the rollouts' sampling
         self.choice_rng = np.random.default_rng([1, seed])  # the hybrid's type choices (ActorCritic.act)
         self.policy = ActorCritic(
             env.observation_size, mode.policy_action_size, mode.choices, config.hidden, mode.branches
         )
+        if guide is not None:
+            # The latent head starts at 0 relative to the prior: the policy starts exactly at p(z | s).
+            self.policy.params["w_mean"][:, guide.columns] = 0.0
         self.optimizer = FlatAdam(self.policy.flat, lr=config.learning_rate, eps=1e-5)
         self.obs_norm = ObservationNormalizer((env.observation_size,), config.normalize_obs)
         self.reward_scaler = RewardScaler(config.n_envs, config.scale_rewards)
@@ -310,13 +363,18 @@ class PPOTrainer:
         index, steps = (np.zeros((cfg.n_steps, n), np.int64) for _ in range(2))
         macro = np.zeros((cfg.n_steps, n), bool)
         logp, values, rewards, dones, discounts, lengths = (np.zeros((cfg.n_steps, n)) for _ in range(6))
+        base_mean = base_log_std = base = None
+        if self.guide is not None:
+            base_mean, base_log_std = (np.zeros_like(u) for _ in range(2))
         for t in range(cfg.n_steps):
+            if self.guide is not None:
+                base = base_mean[t], base_log_std[t] = self.guide.base(self.obs)
             obs[t] = self.obs_norm(self.obs, update=True)
-            action = self.policy.act(obs[t], self.rng, self.choice_rng)
+            action = self.policy.act(obs[t], self.rng, self.choice_rng, base)
             u[t], index[t], logp[t], values[t] = action.u, action.index, action.logp, action.value
-            actions, lengths[t] = self.mode.to_open_loop(u[t].astype(np.float64), index[t])
+            actions, lengths[t] = self.mode.to_sequences(u[t].astype(np.float64), index[t])
             macro[t] = self.mode.macro(index[t])
-            result = run_open_loop(self.env, self.obs, actions, lengths[t].astype(np.int64))
+            result = run_sequences(self.env, self.obs, actions, lengths[t].astype(np.int64))
             dones[t] = result.terminated | result.truncated
             rewards[t], discounts[t] = decision_reward(result, cfg.macro_discount, cfg.gamma, self.reward_scaler)
             if result.truncated.any():
@@ -343,6 +401,8 @@ class PPOTrainer:
             lengths,
             macro,
             steps,
+            base_mean,
+            base_log_std,
         )
 
     # inference_mode: no autograd bookkeeping on any tensor (the gradient is written out), a third off every call.
@@ -351,12 +411,16 @@ class PPOTrainer:
         cfg, size = self.config, rollout.index.size
         # One table, so that an epoch's shuffle is one gather; the repeat index rides along as a float.
         names = ("obs", "u", "logp", "values", "advantages", "returns", "index")
+        if self.guide is not None:
+            names += ("base_mean", "base_log_std")
         arrays = [getattr(rollout, name).reshape(size, -1) for name in names]
         data = torch.from_numpy(np.concatenate(arrays, axis=1, dtype=np.float32))
         split = [array.shape[1] for array in arrays]
         minibatch = size // cfg.minibatches
-        totals = torch.zeros(len(STATS))
+        stat_names = STATS if self.guide is None else (*STATS, "prior_kl")
+        totals = torch.zeros(len(stat_names))
         gradient = self.policy.gradient
+        mask = None if self.guide is None else torch.from_numpy(self.guide.mask.astype(np.float32))
         early = self.env_steps <= cfg.type_entropy_until * cfg.total_steps
         floor = cfg.type_entropy_floor if early else 0.0
         for _ in range(cfg.epochs):
@@ -371,10 +435,17 @@ class PPOTrainer:
             minibatches = {name: column.split(minibatch) for name, column in columns.items()}
             for i in range(cfg.minibatches):
                 batch = Minibatch(**{name: parts[i] for name, parts in minibatches.items()})
-                totals += clipped_objective_gradient(self.policy, batch, cfg, floor)
+                if self.guide is None:
+                    totals += clipped_objective_gradient(self.policy, batch, cfg, floor)
+                else:
+                    step = clipped_objective_gradient(self.policy, batch, cfg, floor, self.guide.weight, mask)
+                    totals += step
+                    self.guide.tune(float(step[-1]))
                 clip_norm(gradient, cfg.max_grad_norm)
                 self.optimizer.step(gradient)
-        stats = dict(zip(STATS, (totals / (cfg.epochs * cfg.minibatches)).tolist(), strict=True))
+        stats = dict(zip(stat_names, (totals / (cfg.epochs * cfg.minibatches)).tolist(), strict=True))
+        if self.guide is not None:
+            stats["prior_weight"] = self.guide.weight
         variance = np.var(rollout.returns)
         stats["explained_variance"] = (
             float(1 - np.var(rollout.returns - rollout.values) / variance) if variance else float("nan")
@@ -421,6 +492,7 @@ class PPOTrainer:
             "obs": self.obs.copy(),
             "counters": {"env_steps": self.env_steps, "decisions": self.decisions, "updates": self.updates},
             "log": list(self.log),
+            **({} if self.guide is None else {"guide": self.guide.state_dict()}),
         }
 
     def load_state_dict(self, state: dict) -> None:
@@ -430,6 +502,8 @@ class PPOTrainer:
         self.rng.bit_generator.state = json.loads(state["sampling_rng"])
         if "choice_rng" in state:  # checkpoints from before the hybrid agent have none; only the hybrid uses it
             self.choice_rng.bit_generator.state = json.loads(state["choice_rng"])
+        if self.guide is not None:
+            self.guide.load_state_dict(state["guide"])
         self.obs_norm.load_state_dict(state["obs_norm"])
         self.reward_scaler.load_state_dict(state["reward_scaler"])
         self.log = list(state["log"])

@@ -19,12 +19,12 @@ import gymnasium as gym
 import numpy as np
 
 from famarl_cli.rl import MacroDiscount
-from famarl_cli.rl.executor import OpenLoopResult, run_open_loop
+from famarl_cli.rl.executor import SequenceResult, run_sequences
 from famarl_cli.rl.normalization import RewardScaler
 
 
 def decision_reward(
-    result: OpenLoopResult, macro_discount: str, gamma: float, scaler: RewardScaler
+    result: SequenceResult, macro_discount: str, gamma: float, scaler: RewardScaler
 ) -> tuple[np.ndarray, np.ndarray]:
     """Each decision's (scaled) reward and its discount (N,) under ``macro_discount``."""
     done = result.terminated | result.truncated
@@ -67,7 +67,7 @@ def path_value(
     obs, value, weight = env.reset(), 0.0, 1.0
     scaler = RewardScaler(1, enabled=False)
     while True:
-        result = run_open_loop(env, obs, np.zeros((1, macro_length, 1)), np.array([macro_length]))
+        result = run_sequences(env, obs, np.zeros((1, macro_length, 1)), np.array([macro_length]))
         reward, discount = decision_reward(result, macro_discount, gamma, scaler)
         value += weight * float(reward[0])
         weight *= float(discount[0])

@@ -14,14 +14,24 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 from famarl_cli.artifacts import provenance
+from famarl_cli.artifacts.base import sha256
 from famarl_cli.artifacts.runs import CHECKPOINT_FILE, read_run_checkpoint, write_run
 from famarl_cli.core.errors import ArtifactError, UsageError
 from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.method.favae.model import Favae, FavaeConfig
-from famarl_cli.rl import Agent
-from famarl_cli.rl.action_modes import ActionMode, HybridActions, LatentMacroActions, PrimitiveActions, RepeatedActions
+from famarl_cli.method.prior.checkpoint import Skills, load_skills
+from famarl_cli.rl import Agent, MacroDecoder
+from famarl_cli.rl.action_modes import (
+    ActionMode,
+    ClosedLoopMacroActions,
+    HybridActions,
+    LatentMacroActions,
+    PrimitiveActions,
+    RepeatedActions,
+)
 from famarl_cli.rl.policy import ActorCritic
 from famarl_cli.rl.ppo import PPOConfig, PPOTrainer
+from famarl_cli.rl.prior_guide import PriorGuide
 from famarl_cli.rl.vector import BatchedEnv, make_batch
 
 
@@ -41,6 +51,19 @@ class RunSpec:
     """FiGAR: the largest repeat count J."""
     favae: str | None = None
     """FaMARL and hybrid: the FAVAE checkpoint it was started from (its weights are copied into the run)."""
+    prior: str | None = None
+    """FaMARL and hybrid: the prior file it was started from (famarl prior fit; copied into the run like the FAVAE)."""
+    prior_guide: bool = True
+    """With a prior: the latent policy starts at p(z | s) and pays its KL (:mod:`famarl_cli.rl.prior_guide`)."""
+    prior_weight: float = 0.1
+    """The KL's weight (its start, when tuned)."""
+    prior_target_kl: float = 0.0
+    """Nats the tuned weight keeps the KL near; 0: the weight stays fixed."""
+    prior_obs_prefix: bool = False
+    """The prior's networks read the first values of the env's observation (demos from an env whose observation
+    begins this one's); otherwise the sizes must be equal."""
+    decoder: MacroDecoder = MacroDecoder.OPEN
+    """Which decoder turns a latent into actions: the FAVAE's (open-loop) or the prior file's closed-loop one."""
     label: str = ""
     """How plots and reports name this kind of run; seeds of one experiment share it."""
     env_kwargs: dict = field(default_factory=dict)
@@ -50,38 +73,82 @@ class RunSpec:
     (:mod:`famarl_cli.envs.success`); None: the env's report, else its reward_threshold, else not defined."""
 
     def to_dict(self) -> dict:
-        return {**asdict(self), "agent": str(self.agent), "ppo": self.ppo.to_dict()}
+        return {**asdict(self), "agent": str(self.agent), "decoder": str(self.decoder), "ppo": self.ppo.to_dict()}
 
     @staticmethod
     def from_dict(values: dict) -> RunSpec:
         # Runs written before 0 meant "whole macros" stored None.
         horizon = values.get("macro_horizon") or 0
         agent, ppo = Agent(values["agent"]), PPOConfig.from_dict(values["ppo"])
-        return RunSpec(**{**values, "agent": agent, "ppo": ppo, "macro_horizon": horizon})
+        decoder = MacroDecoder(values.get("decoder", MacroDecoder.OPEN))
+        return RunSpec(**{**values, "agent": agent, "ppo": ppo, "macro_horizon": horizon, "decoder": decoder})
+
+    @property
+    def guided(self) -> bool:
+        return self.prior is not None and self.prior_guide
 
 
-def default_label(agent: Agent, favae: str | os.PathLike | None) -> str:
-    """``<agent> (<FAVAE file name>)``, or plain ``<agent>`` for a FAVAE named favae.pt (famarl macros folders)."""
-    if not agent.decodes_macros or not favae or Path(favae).stem == "favae":
+def default_label(
+    agent: Agent, favae: str | os.PathLike | None, guided: bool = False, decoder: MacroDecoder = MacroDecoder.OPEN
+) -> str:
+    """``<agent>[+prior][+closed] (<FAVAE file name>)``, without the name for a FAVAE named favae.pt (famarl macros
+    folders)."""
+    if not agent.decodes_macros:
         return str(agent)
-    return f"{agent} ({Path(favae).stem})"
+    name = f"{agent}{'+prior' if guided else ''}{'+closed' if decoder == MacroDecoder.CLOSED else ''}"
+    return name if not favae or Path(favae).stem == "favae" else f"{name} ({Path(favae).stem})"
 
 
-def build_mode(spec: RunSpec, env: BatchedEnv, favae: Favae | None) -> ActionMode:
+def build_mode(spec: RunSpec, env: BatchedEnv, favae: Favae | None, skills: Skills | None = None) -> ActionMode:
     low, high = env.action_bounds
     if spec.agent == Agent.PPO:
         return PrimitiveActions(low, high)
     if spec.agent == Agent.FIGAR:
         return RepeatedActions(low, high, spec.max_repeat)
     try:
-        macros = LatentMacroActions(favae, low, high, spec.latent_bound, spec.macro_horizon)
+        if spec.decoder == MacroDecoder.CLOSED:
+            decoder = skills.decoder.frozen()
+            macros = ClosedLoopMacroActions(favae, decoder, low, high, spec.latent_bound, spec.macro_horizon)
+        else:
+            macros = LatentMacroActions(favae, low, high, spec.latent_bound, spec.macro_horizon)
     except ValueError as exc:
         raise UsageError(f"{spec.favae}: {exc}") from exc
     return HybridActions(macros, spec.residual) if spec.agent == Agent.HYBRID else macros
 
 
-def _favae_state(favae: Favae | None) -> dict:
-    return {} if favae is None else {"favae_config": favae.config.to_dict(), "favae_state_dict": favae.state_dict()}
+def build_guide(spec: RunSpec, mode: ActionMode, skills: Skills | None) -> PriorGuide | None:
+    """The prior's guidance of the latent outputs (the last ones, for FaMARL all of them), where the run has it."""
+    if skills is None or not spec.prior_guide:
+        return None
+    size, latent = mode.policy_action_size, skills.config.latent_size
+    return PriorGuide(skills.prior.frozen(), size, slice(size - latent, size), spec.prior_weight, spec.prior_target_kl)
+
+
+def check_skills(spec: RunSpec, skills: Skills, favae: Favae, env: BatchedEnv, favae_path: str | None = None) -> None:
+    """A prior file that does not fit the FAVAE or the env is one ArtifactError naming both sizes."""
+    config, low, where = skills.config, env.action_bounds[0], spec.prior
+    for what, theirs, ours, of in (
+        ("latent", config.latent_size, favae.config.latent_size, "the FAVAE's"),
+        ("action", config.action_size, len(low), "the env's"),
+    ):
+        if theirs != ours:
+            raise ArtifactError(f"{where}: its {what} size is {theirs}, but {of} is {ours}")
+    state, env_state = config.obs_size, env.observation_size
+    if spec.prior_obs_prefix and state > env_state:
+        raise ArtifactError(f"{where}: its state size is {state}, more than the env's {env_state}")
+    if not spec.prior_obs_prefix and state != env_state:
+        hint = " (--prior-obs-prefix reads the first values of the env's)" if state < env_state else ""
+        raise ArtifactError(f"{where}: its state size is {state}, but the env's is {env_state}{hint}")
+    if favae_path is not None and skills.favae_sha256 and skills.favae_sha256 != sha256(favae_path):
+        raise ArtifactError(
+            f"{where} was fitted on the latents of another FAVAE than {favae_path} (content hashes differ); fit it "
+            "with famarl prior fit --favae on this one"
+        )
+
+
+def _favae_state(favae: Favae | None, skills: Skills | None = None) -> dict:
+    state = {} if favae is None else {"favae_config": favae.config.to_dict(), "favae_state_dict": favae.state_dict()}
+    return state if skills is None else {**state, "skills": skills.state()}
 
 
 def _favae_from_state(state: dict) -> Favae | None:
@@ -92,13 +159,22 @@ def _favae_from_state(state: dict) -> Favae | None:
     return favae.eval()
 
 
+def _skills_from_state(state: dict) -> Skills | None:
+    return None if "skills" not in state else Skills.from_state(state["skills"])
+
+
 class Run:
     """A trainer with the spec and provenance that make it a run folder."""
 
-    def __init__(self, spec: RunSpec, favae: Favae | None, prov: dict, state: dict | None = None) -> None:
-        self.spec, self.favae, self.provenance = spec, favae, prov
+    def __init__(
+        self, spec: RunSpec, favae: Favae | None, prov: dict, state: dict | None = None, skills: Skills | None = None
+    ) -> None:
+        self.spec, self.favae, self.skills, self.provenance = spec, favae, skills, prov
         env = make_batch(spec.env_id, spec.ppo.n_envs, spec.seed, spec.env_kwargs, spec.success_return)
-        self.trainer = PPOTrainer(env, build_mode(spec, env, favae), spec.ppo, spec.seed)
+        if skills is not None:
+            check_skills(spec, skills, favae, env, spec.favae if state is None else None)
+        mode = build_mode(spec, env, favae, skills)
+        self.trainer = PPOTrainer(env, mode, spec.ppo, spec.seed, build_guide(spec, mode, skills))
         if state is not None:
             self.trainer.load_state_dict(state)
         self.wall_s = 0.0
@@ -108,9 +184,10 @@ class Run:
         if spec.agent.decodes_macros and spec.favae is None:
             raise UsageError(f"--agent {spec.agent} needs --favae (a checkpoint from famarl favae fit)")
         favae = load_favae(spec.favae)[0] if spec.agent.decodes_macros else None
-        inputs = [Path(spec.favae)] if favae is not None else []
+        skills = load_skills(spec.prior) if spec.prior is not None else None
+        inputs = [Path(path) for path in (spec.favae, spec.prior) if path is not None and favae is not None]
         prov = provenance("famarl train", spec.to_dict(), spec.seed, inputs)
-        return Run(spec, favae, prov)
+        return Run(spec, favae, prov, skills=skills)
 
     @staticmethod
     def resume(run_dir: str | os.PathLike, total_steps: int | None = None) -> Run:
@@ -125,7 +202,8 @@ class Run:
         spec = RunSpec.from_dict(payload["config"])
         if total_steps is not None:
             spec = replace(spec, ppo=replace(spec.ppo, total_steps=total_steps))
-        run = Run(spec, _favae_from_state(payload["mode"]), payload["provenance"], payload["trainer"])
+        mode = payload["mode"]
+        run = Run(spec, _favae_from_state(mode), payload["provenance"], payload["trainer"], _skills_from_state(mode))
         run.wall_s = float(payload["status"]["wall_s"])
         return run
 
@@ -138,7 +216,8 @@ class Run:
             "updates": trainer.updates,
             "wall_s": round(self.wall_s, 2),
         }
-        write_run(run_dir, self.spec.to_dict(), trainer.state_dict(), _favae_state(self.favae), self.provenance, status)
+        mode = _favae_state(self.favae, self.skills)
+        write_run(run_dir, self.spec.to_dict(), trainer.state_dict(), mode, self.provenance, status)
 
     def train(
         self,
@@ -176,18 +255,19 @@ class TrainedAgent:
     obs_norm_state: dict
     favae: Favae | None
     env_steps: int
+    skills: Skills | None = None
 
 
 def load_agent(run_dir: str | os.PathLike) -> TrainedAgent:
     payload = read_run_checkpoint(run_dir)
     spec = RunSpec.from_dict(payload["config"])
-    favae = _favae_from_state(payload["mode"])
+    favae, skills = _favae_from_state(payload["mode"]), _skills_from_state(payload["mode"])
     trainer = payload["trainer"]
     env = make_batch(spec.env_id, 1, spec.seed, spec.env_kwargs, spec.success_return)
-    mode = build_mode(spec, env, favae)
+    mode = build_mode(spec, env, favae, skills)
     policy = ActorCritic(env.observation_size, mode.policy_action_size, mode.choices, spec.ppo.hidden, mode.branches)
     policy.load_state_dict(trainer["policy"])
-    return TrainedAgent(spec, policy, trainer["obs_norm"], favae, int(trainer["counters"]["env_steps"]))
+    return TrainedAgent(spec, policy, trainer["obs_norm"], favae, int(trainer["counters"]["env_steps"]), skills)
 
 
 def run_job(config: dict, folder: Path, context) -> dict:

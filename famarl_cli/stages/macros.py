@@ -10,6 +10,7 @@ its own replicate's FAVAE (docs/verdicts.md says why). The folder holds::
       favae.calibration.json                                                      famarl favae calibrate
       favae.pt, favae.log.csv, favae.metrics.json                                 famarl favae fit
       traverse.h5, traverse.png, traverse.json                                    famarl traverse
+      favae.prior.pt, favae.prior.log.csv, favae.prior.metrics.json               famarl prior fit (--prior)
 
 Given segments (and a calibration) instead of demos, the first steps are skipped and those files are read in
 place. Each step's last file marks it done, so an interrupted folder continues at the step it was in.
@@ -26,10 +27,11 @@ from famarl_cli.artifacts.segments import REPLICATE_FILE as SEGMENTS
 from famarl_cli.core.declare import from_json, option, pick, same_as, with_paths
 from famarl_cli.core.errors import UsageError
 from famarl_cli.method.favae import FavaeOptions, FitChoices
+from famarl_cli.method.prior import PriorFitChoices
 from famarl_cli.method.segment_params import SegmenterOptions, SegmentParams
 from famarl_cli.stages import method as stages
 
-FAVAE, TRAVERSAL = "favae.pt", "traverse.h5"
+FAVAE, TRAVERSAL, PRIOR = "favae.pt", "traverse.h5", "favae.prior.pt"
 
 
 @dataclass(frozen=True)
@@ -44,7 +46,11 @@ class MacrosConfig(stages.TraversalPlace, FitChoices, FavaeOptions, SegmentParam
         None, "C_last from famarl favae calibrate on --segments; without it the pre-run runs."
     )
     segment_epochs: int = same_as(SegmenterOptions, "epochs", help="Training epochs of the segmenter.")
-    seed: int = option(0, "Seed of the segmenter, the pre-run and the fit.")
+    prior: bool = option(
+        False, "Also fit the state-conditioned prior and the closed-loop decoder (famarl prior fit; needs --demos)."
+    )
+    prior_epochs: int = same_as(PriorFitChoices, "epochs", help="Full-batch Adam steps of the prior and decoder.")
+    seed: int = option(0, "Seed of the segmenter, the pre-run, the fit and the prior.")
 
     def __post_init__(self) -> None:
         with_paths(self)
@@ -54,6 +60,8 @@ class MacrosConfig(stages.TraversalPlace, FitChoices, FavaeOptions, SegmentParam
             raise UsageError("--episodes goes with --demos: it takes the first episodes of the demos")
         if self.calibration is not None and self.segments is None:
             raise UsageError("--calibration goes with --segments: it is C_last measured on those segments")
+        if self.prior and self.demos is None:
+            raise UsageError("--prior needs --demos: the prior learns from the demos' states")
 
     @property
     def inputs(self) -> list[Path]:
@@ -108,6 +116,21 @@ def learn_macros(
                 world=world,
             )
         )
+    if config.prior and not (folder / PRIOR).with_suffix(".metrics.json").is_file():
+        from famarl_cli.stages.prior import PriorFitOptions, fit_prior
+
+        report = progress("prior", config.prior_epochs)
+        fit_prior(
+            PriorFitOptions(
+                demos=config.demos,
+                segments=segments,
+                favae=favae,
+                out=folder / PRIOR,
+                epochs=config.prior_epochs,
+                seed=config.seed,
+            ),
+            None if report is None else (lambda epoch, _: report(epoch + 1)),
+        )
     return json.loads(favae.with_suffix(".metrics.json").read_text())
 
 
@@ -125,7 +148,7 @@ def traversal_env(config: MacrosConfig) -> tuple[str | None, dict, str | None]:
     return (None, {}, world) if world is not None else (demos.env_id, demos.env_kwargs, None)
 
 
-PHASES = ("segment", "calibrate", "fit")
+PHASES = ("segment", "calibrate", "fit", "prior")
 
 
 def run_job(config: dict, folder: Path, context) -> dict:
@@ -135,6 +158,7 @@ def run_job(config: dict, folder: Path, context) -> dict:
         "segment": macros.segment_epochs if macros.segments is None else 0,
         "calibrate": macros.epochs if macros.calibration is None else 0,
         "fit": macros.epochs,
+        "prior": macros.prior_epochs if macros.prior else 0,
     }
     before = {phase: sum(totals[p] for p in PHASES[: PHASES.index(phase)]) for phase in PHASES}
     total = sum(totals.values())

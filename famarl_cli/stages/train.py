@@ -18,6 +18,7 @@ from famarl_cli.rl import (
     HYBRID_HORIZON,
     HYBRID_RESIDUAL,
     Agent,
+    MacroDecoder,
     MacroDiscount,
     agent_defaults,
 )
@@ -40,6 +41,31 @@ class TrainOptions:
         "a primitive action or a macro action.",
     )
     favae: Path = option(DEFAULT_FAVAE, "FAVAE checkpoint whose decoder makes the macro actions (famarl and hybrid).")
+    prior: Path | None = option(
+        None,
+        "famarl, hybrid: a prior file of famarl prior fit on this FAVAE's latents: the latent policy starts at its "
+        "p(z | s) and pays its KL (see --prior-weight), and --decoder closed uses its closed-loop decoder.",
+    )
+    prior_guide: bool = option(
+        True, "With --prior: start the latent policy at p(z | s) and regularise it towards it (off: decoder only)."
+    )
+    prior_weight: float = option(
+        0.1, "With --prior: the KL's weight; with --prior-target-kl, its starting value.", min=0.0
+    )
+    prior_target_kl: float = option(
+        0.0, "With --prior: tune the KL's weight so that the KL stays near this many nats (0: keep it fixed).", min=0.0
+    )
+    prior_obs_prefix: bool = option(
+        False,
+        "With --prior: its networks read the first values of the env's observation, as many as the demos' had (the "
+        "demos were recorded in another env whose observation begins this one's: ContinuousWorld Base's 8 values "
+        "begin the Maze's 12).",
+    )
+    decoder: MacroDecoder = option(
+        MacroDecoder.OPEN,
+        "famarl, hybrid: open: the FAVAE's decoder, fixed when the macro starts (the paper's); closed: the "
+        "closed-loop decoder of --prior, which chooses each action from the state reached.",
+    )
     steps: int | None = option(
         None, f"Budget in environment steps.  [default: {DEFAULT_STEPS:,}; on --resume, the run's own]", min=1
     )
@@ -110,7 +136,19 @@ class TrainOptions:
     def destination(self) -> Path:
         env_name = self.env.split("/")[-1].rsplit("-v", 1)[0].lower()
         suffix = f"-{self.favae.stem}" if self.agent.decodes_macros else ""
+        if self.agent.decodes_macros and self.prior is not None:
+            suffix += ("-prior" if self.prior_guide else "") + (
+                "-closed" if self.decoder == MacroDecoder.CLOSED else ""
+            )
         return self.out or Path("data/runs") / f"{env_name}-{self.agent}{suffix}-seed{self.seed}"
+
+    def __post_init__(self) -> None:
+        if self.decoder == MacroDecoder.CLOSED and self.prior is None:
+            raise UsageError("--decoder closed needs --prior: the closed-loop decoder is in the prior file")
+        if self.prior is not None and not self.agent.decodes_macros:
+            raise UsageError(
+                f"--prior goes with --agent famarl or hybrid, not {self.agent}: {self.agent} has no latent"
+            )
 
 
 def run_spec(options: TrainOptions):
@@ -156,6 +194,12 @@ def run_spec(options: TrainOptions):
         residual=given(o.residual, "residual"),
         max_repeat=o.max_repeat,
         favae=str(o.favae) if o.agent.decodes_macros else None,
-        label=o.label or default_label(o.agent, o.favae),
+        prior=None if o.prior is None else str(o.prior),
+        prior_guide=o.prior_guide,
+        prior_weight=o.prior_weight,
+        prior_target_kl=o.prior_target_kl,
+        prior_obs_prefix=o.prior_obs_prefix,
+        decoder=o.decoder,
+        label=o.label or default_label(o.agent, o.favae, o.prior is not None and o.prior_guide, o.decoder),
         success_return=o.success_return,
     )

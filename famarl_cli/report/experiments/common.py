@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 
 from famarl_cli.core.errors import ArtifactError
-from famarl_cli.core.statistics import LEVEL, RATE, mean_interval
+from famarl_cli.core.statistics import LEVEL, RATE, Interval, mean_interval, ratio_interval
 from famarl_cli.report.results import Group, RunResult, gather, group, macros_folders, read_json
-from famarl_cli.report.verdicts import Claim, best, fails, not_run, solves
+from famarl_cli.report.verdicts import Claim, Estimate, Judgement, Verdict, best, fails, not_run, solves, three_way
 
 MAZE = "famarl/ContinuousWorld-Maze-v0"
 SOLVED = 0.8
@@ -160,3 +160,42 @@ def curves(groups: list[Group], path: Path, title: str, panels: tuple[str, ...] 
 
     plot_learning_curves({g.label: g.logs for g in groups}, path, panels or DEFAULT_PANELS, title)
     return path.name
+
+
+def steps_to_learn(run: RunResult) -> float:
+    """Env steps to 0.8 training success; a run that never gets there counts its whole budget (censored)."""
+    steps = run.steps_to_threshold
+    return float(run.budget if steps is None else steps)
+
+
+def wall_per_million(run: RunResult) -> float:
+    return float(run.evaluation["train_wall_s"]) / float(run.evaluation["env_steps"]) * 1e6
+
+
+def at_least(interval: Interval, goal: float) -> Verdict:
+    return three_way(interval.low >= goal, interval.high < goal)
+
+
+def at_most(interval: Interval, goal: float) -> Verdict:
+    return three_way(interval.high <= goal, interval.low > goal)
+
+
+def ratio_goal(
+    goal: str,
+    measure: str,
+    name: str,
+    mine: np.ndarray,
+    theirs: np.ndarray,
+    bound: float,
+    most: bool,
+    level: float = LEVEL,
+) -> Claim:
+    """A goal on mean(mine) / mean(theirs): at most (``most``) or at least ``bound``, judged on the interval."""
+    interval = ratio_interval(mine, theirs, level)
+    if most:
+        verdict, side = at_most(interval, bound), f"upper end <= {bound:g} met, lower end > {bound:g} missed"
+    else:
+        verdict, side = at_least(interval, bound), f"lower end >= {bound:g} met, upper end < {bound:g} missed"
+    rule = f"ratio of means (bootstrap over seeds); {side}"
+    estimate = Estimate(name, interval, tuple(mine / theirs.mean()), bound)
+    return Claim(goal, measure, Judgement(verdict, rule, (estimate,)))

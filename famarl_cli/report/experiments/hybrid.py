@@ -11,12 +11,21 @@ from pathlib import Path
 
 import numpy as np
 
-from famarl_cli.core.statistics import Interval, difference_interval, mean_interval, ratio_interval
+from famarl_cli.core.statistics import difference_interval, mean_interval
 from famarl_cli.report.experiments import experiment
-from famarl_cli.report.experiments.common import MAZE, curves, per_seed, sampled_return
+from famarl_cli.report.experiments.common import (
+    MAZE,
+    at_least,
+    curves,
+    per_seed,
+    ratio_goal,
+    sampled_return,
+    steps_to_learn,
+    wall_per_million,
+)
 from famarl_cli.report.experiments.robothand import BALL_PLACING, REACHING
 from famarl_cli.report.results import THRESHOLD, Group, RunResult, by_agent, copy_figure, gather, group, results_table
-from famarl_cli.report.verdicts import Claim, Estimate, Judgement, Verdict, combine, not_run, three_way
+from famarl_cli.report.verdicts import Claim, Estimate, Judgement, combine, not_run
 
 EARLY = 0.02
 """Share of the budget that counts as the start of training."""
@@ -43,35 +52,6 @@ def early_success(run: RunResult) -> float:
     if early.any():
         return float(success[early].mean())
     return float(success[known][0]) if known.any() else 0.0
-
-
-def steps_to_learn(run: RunResult) -> float:
-    """Env steps to 0.8 training success; a run that never gets there counts its whole budget (censored)."""
-    steps = run.steps_to_threshold
-    return float(run.budget if steps is None else steps)
-
-
-def wall_per_million(run: RunResult) -> float:
-    return float(run.evaluation["train_wall_s"]) / float(run.evaluation["env_steps"]) * 1e6
-
-
-def at_least(interval: Interval, goal: float) -> Verdict:
-    return three_way(interval.low >= goal, interval.high < goal)
-
-
-def at_most(interval: Interval, goal: float) -> Verdict:
-    return three_way(interval.high <= goal, interval.low > goal)
-
-
-def ratio_goal(goal: str, measure: str, name: str, mine: np.ndarray, theirs: np.ndarray, bound: float, most: bool):
-    interval = ratio_interval(mine, theirs)
-    if most:
-        verdict, side = at_most(interval, bound), f"upper end <= {bound:g} met, lower end > {bound:g} missed"
-    else:
-        verdict, side = at_least(interval, bound), f"lower end >= {bound:g} met, upper end < {bound:g} missed"
-    rule = f"ratio of means (bootstrap over seeds); {side}"
-    estimate = Estimate(name, interval, tuple(mine / theirs.mean()), bound)
-    return Claim(goal, measure, Judgement(verdict, rule, (estimate,)))
 
 
 def goals(maze: dict[str, Group], reaching: dict[str, Group]) -> list[Claim]:

@@ -1,0 +1,108 @@
+"""What the prior and the closed-loop decoder cost: one PPO minibatch step with and without the prior's KL, and
+the env steps per second of FaMARL's rollouts with the open-loop and the closed-loop decoder.
+
+    python benchmarks/skills_cost.py [--replicate data/maze/macros/seed0] [--prior data/skills/maze/prior/seed0/prior.pt]
+
+1. Minibatch step: ``clipped_objective_gradient`` + gradient clip + Adam on a 2048/8-row minibatch of a FaMARL
+   policy (12 observations, the FAVAE's latent), without and with the prior (its KL term, the per-row std):
+   median over ``--repeats`` of the mean of ``--steps`` steps.
+2. Rollouts: ``PPOTrainer.collect_rollout`` on the Maze, 16 environments, 16 decisions each, open-loop (the FAVAE)
+   against closed-loop (the prior file's decoder, one call per env step): env steps per second.
+
+Run it alone (one CPU-heavy job at a time). Prints a table and writes benchmarks/results/skills_cost.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from common import RESULTS, write_result
+
+from famarl_cli.method.favae.checkpoint import load_favae
+from famarl_cli.method.prior.checkpoint import load_skills
+from famarl_cli.rl import Agent, MacroDecoder
+from famarl_cli.rl.optimizer import FlatAdam, clip_norm
+from famarl_cli.rl.policy import ActorCritic
+from famarl_cli.rl.ppo import Minibatch, PPOConfig, PPOTrainer, clipped_objective_gradient
+from famarl_cli.rl.training import RunSpec, build_guide, build_mode
+from famarl_cli.rl.vector import make_batch
+
+MAZE = "famarl/ContinuousWorld-Maze-v0"
+
+
+def minibatch_step(latent: int, guided: bool, steps: int) -> float:
+    torch.manual_seed(0)
+    policy = ActorCritic(12, latent)
+    optimizer = FlatAdam(policy.flat, lr=3e-4, eps=1e-5)
+    rows = 256
+    obs, u = torch.randn(rows, 12), torch.randn(rows, latent)
+    base = (torch.randn(rows, latent), 0.3 * torch.randn(rows, latent)) if guided else (None, None)
+    batch = Minibatch(obs, u, torch.zeros(rows, dtype=torch.long), -torch.rand(rows) * 5, torch.randn(rows),
+                      torch.randn(rows), torch.randn(rows), *base)  # fmt: skip
+    mask = torch.ones(latent)
+    cfg = PPOConfig()
+    with torch.inference_mode():
+        for _ in range(20):
+            clipped_objective_gradient(policy, batch, cfg, 0.0, 0.1 if guided else 0.0, mask if guided else None)
+        start = time.perf_counter()
+        for _ in range(steps):
+            clipped_objective_gradient(policy, batch, cfg, 0.0, 0.1 if guided else 0.0, mask if guided else None)
+            clip_norm(policy.gradient, cfg.max_grad_norm)
+            optimizer.step(policy.gradient)
+    return (time.perf_counter() - start) / steps
+
+
+def rollout_rate(favae_path: Path, prior_path: Path, decoder: MacroDecoder, guided: bool, rollouts: int) -> float:
+    favae, skills = load_favae(favae_path)[0], load_skills(prior_path)
+    config = PPOConfig(total_steps=10**9, n_steps=16)
+    spec = RunSpec(MAZE, Agent.FAMARL, 0, config, favae=str(favae_path), prior=str(prior_path),
+                   prior_guide=guided, decoder=decoder, prior_obs_prefix=True)  # fmt: skip
+    env = make_batch(MAZE, config.n_envs, seed=0)
+    mode = build_mode(spec, env, favae, skills)
+    trainer = PPOTrainer(env, mode, config, 0, build_guide(spec, mode, skills))
+    trainer.collect_rollout()
+    before, start = trainer.env_steps, time.perf_counter()
+    for _ in range(rollouts):
+        trainer.collect_rollout()
+    return (trainer.env_steps - before) / (time.perf_counter() - start)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--replicate", type=Path, default=Path("data/maze/macros/seed0"))
+    parser.add_argument("--prior", type=Path, default=Path("data/skills/maze/prior/seed0/prior.pt"))
+    parser.add_argument("--steps", type=int, default=400)
+    parser.add_argument("--rollouts", type=int, default=10)
+    parser.add_argument("--repeats", type=int, default=5)
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    favae = args.replicate / "favae.pt"
+    latent = load_favae(favae)[0].config.latent_size
+    step = {
+        name: float(np.median([minibatch_step(latent, guided, args.steps) for _ in range(args.repeats)]))
+        for name, guided in (("plain", False), ("with the prior's KL", True))
+    }
+    rates = {}
+    for name, decoder, guided in (
+        ("open-loop", MacroDecoder.OPEN, False),
+        ("open-loop, prior guide", MacroDecoder.OPEN, True),
+        ("closed-loop", MacroDecoder.CLOSED, False),
+    ):
+        rates[name] = float(np.median([rollout_rate(favae, args.prior, decoder, guided, args.rollouts)
+                                       for _ in range(args.repeats)]))  # fmt: skip
+    print("PPO minibatch step (ms, median of repeats):")
+    for name, seconds in step.items():
+        print(f"  {name:24s} {1000 * seconds:.3f}")
+    print(f"  ratio {step['with the prior' + chr(39) + 's KL'] / step['plain']:.2f}")
+    print("FaMARL rollouts on the Maze (env steps / s, median of repeats):")
+    for name, per_s in rates.items():
+        print(f"  {name:24s} {per_s:,.0f}   ({per_s / rates['open-loop']:.2f} of open-loop)")
+    write_result(RESULTS / "skills_cost.json", {"minibatch_step_s": step, "rollout_env_steps_per_s": rates})
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,68 @@
+"""``famarl prior fit``."""
+
+from __future__ import annotations
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from famarl_cli.cli import JobRecipe, app, progress_bar, sweepable, torch_on_one_thread
+from famarl_cli.cli.derived import command
+from famarl_cli.core.declare import to_json
+from famarl_cli.stages.prior import PriorFitOptions
+
+prior_app = typer.Typer(
+    help="A state-conditioned prior over the FAVAE latent and a closed-loop macro decoder, from the demos.",
+    no_args_is_help=True,
+)
+app.add_typer(prior_app, name="prior")
+
+
+@command(prior_app, PriorFitOptions, "fit")
+def prior_fit(options: PriorFitOptions) -> None:
+    """Fit p(z | s) (which latent the expert used where) and pi(a | s, z) (a macro that looks at the state) on the
+    demos' segments, and score both on held-out episodes."""
+    from famarl_cli.stages.prior import fit_prior
+
+    torch_on_one_thread()
+    with progress_bar() as progress:
+        task = progress.add_task("fit", total=options.epochs)
+
+        def report(epoch: int, row: dict) -> None:
+            progress.update(
+                task,
+                advance=1,
+                description=f"prior {row['prior_cross_entropy']:.2f} nats, decoder MSE {row['decoder_mse']:.4f}",
+            )
+
+        scores = fit_prior(options, report)
+
+    def value(key: str, form: str) -> str:
+        return "n/a (nothing held out)" if scores[key] is None else format(scores[key], form)
+
+    table = Table(title=f"prior and closed-loop decoder on {options.segments}", show_header=False)
+    table.add_row("held out", f"{scores['held_out_segments']} of {scores['segments']} segments (whole episodes)")
+    table.add_row(
+        "-log p(z | s), held out",
+        f"{value('held_out_prior_nll', '.3f')} nats per segment (N(0, I): {value('held_out_standard_nll', '.3f')})",
+    )
+    table.add_row(
+        "action MSE, held out",
+        f"closed-loop {value('held_out_closed_mse', '.5f')}, FAVAE open-loop {value('held_out_open_mse', '.5f')}",
+    )
+    table.add_row("action MSE, train", f"closed-loop {value('train_closed_mse', '.5f')}")
+    out = options.destination
+    written = [out, out.with_suffix(".log.csv"), out.with_suffix(".metrics.json")]
+    written += [out.with_suffix(".png")] if options.plot else []
+    table.add_row("written", ", ".join(map(str, written)))
+    Console().print(table)
+
+
+@sweepable("prior", PriorFitOptions, owned=("--out",), runs="prior fit")
+def prior_job(options: PriorFitOptions) -> JobRecipe:
+    """``famarl sweep prior``: each point is what ``famarl prior fit`` with the same options would write, into the
+    point's folder (prior.pt)."""
+    from famarl_cli.stages.prior import run_job
+
+    config = {key: value for key, value in to_json(options).items() if key != "out"}
+    return JobRecipe(run_job, config, tuple(str(path) for path in (options.demos, options.segments, options.favae)))
