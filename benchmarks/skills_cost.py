@@ -1,7 +1,8 @@
 """What the prior and the closed-loop decoder cost: one PPO minibatch step with and without the prior's KL, and
 the env steps per second of FaMARL's rollouts with the open-loop and the closed-loop decoder.
 
-    python benchmarks/skills_cost.py [--replicate data/maze/macros/seed0] [--prior data/skills/maze/prior/seed0/prior.pt]
+    python benchmarks/skills_cost.py [--replicate data/maze/macros/seed0]
+        [--prior data/skills/maze/prior/seed0/prior.pt]
 
 1. Minibatch step: ``clipped_objective_gradient`` + gradient clip + Adam on a 2048/8-row minibatch of a FaMARL
    policy (12 observations, the FAVAE's latent), without and with the prior (its KL term, the per-row std):
