@@ -76,6 +76,19 @@ TINY = {
         "train": TINY_TRAIN,
         "evaluate": TINY_EVALUATE,
     },
+    "pipelines/skills/params.yaml": {
+        "seeds": "0-1",
+        "prior": {"epochs": 3},
+        "maze": TINY_TRAIN,
+        "pointmaze": {
+            "steps": 1500,
+            "large_demos": {"episodes": 4},
+            "large_macros": {"segment_epochs": 3, "epochs": 3},
+        },
+        "robothand": TINY_TRAIN,
+        "bipedal": {"seeds": "0-1", "steps": 1500},
+        "evaluate": {"episodes": {"maze": 3, "pointmaze": 3, "reaching": 3, "bipedal": 3}},
+    },
     "pipelines/pointmaze/params.yaml": {
         "seeds": "0-1",
         "mazes": "Medium",
@@ -100,8 +113,9 @@ EXPERIMENTS = (
     "hybrid",
     "bipedal",
     "pointmaze",
+    "skills",
 )
-GOALS = ("hybrid", "pointmaze")
+GOALS = ("hybrid", "pointmaze", "skills")
 """The experiments judged as goals beyond the paper rather than as the paper's claims."""
 
 
@@ -165,7 +179,17 @@ def test_every_pipeline_writes_its_report(project):
     assert "gymnasium's heuristic controller kept 1 of 1 episodes" in bipedal
     pointmaze = (project / "data/report/pointmaze/report.md").read_text()
     assert "PointMaze Medium, sparse reward:" in pointmaze and "| hybrid |" in pointmaze
-    for figure in ("bipedal/bipedal-traversal.png", "pointmaze/pointmaze-demos.png"):
+    skills = (project / "data/report/skills/report.md").read_text()
+    for label in ("famarl", "ppo", "famarl+prior", "famarl+closed", "famarl+prior+closed", "hybrid+prior+closed"):
+        assert f"| {label} |" in skills
+    assert "PointMaze Large, sparse, Large demos:" in skills and "| famarl-h10 |" in skills
+    assert "action MSE, closed-loop" in skills  # the priors' held-out scores
+    for figure in (
+        "bipedal/bipedal-traversal.png",
+        "pointmaze/pointmaze-demos.png",
+        "skills/skills-maze-curves.png",
+        "skills/skills-maze-prior.png",
+    ):
         assert (project / "data/report" / figure).stat().st_size > 1000
     assert "data/report/summary.json" in dvc(project, "metrics", "show")
     # Each replicate's macro actions: segments, C_last, FAVAE and traversal, all from its own seed.
@@ -189,7 +213,7 @@ def test_learning_curves_are_dvc_plots_and_headline_numbers_are_metrics(project)
     assert {row["series"] for row in rows} == {"famarl", "ppo", "figar"}
     assert all(0 <= float(row["success"]) <= 1 for row in rows if row["success"] != "nan")
     titles = " / ".join(shown["data"])
-    for title in ("Scripts", "beta", "Demos count", "RobotHand", "Macro length", "Hybrid", "PointMaze"):
+    for title in ("Scripts", "beta", "Demos count", "RobotHand", "Macro length", "Hybrid", "PointMaze", "Skills"):
         assert f"{title}, training success" in titles
     assert "BipedalWalker, training return" in titles
     metrics = dvc_json(project, "metrics", "show")[""]["data"]
@@ -216,4 +240,5 @@ def test_a_changed_parameter_reruns_only_its_dependents(project):
         "pipelines/beta/dvc.yaml:report",
         "pipelines/demos-count/dvc.yaml:report",
         "pipelines/hybrid/dvc.yaml:report",
+        "pipelines/skills/dvc.yaml:report",
     }

@@ -398,3 +398,14 @@ def test_famarl_sweep_prior_fits_one_prior_per_point(demos_file, segments_file, 
     # the seed axis is the prior's own seed: two different fits
     assert not torch.equal(fitted[0].prior.net[0].weight, fitted[1].prior.net[0].weight)
     assert not (tmp_path / "priors" / "seed0" / "prior.png").exists()
+
+
+def test_runs_of_several_sweeps_with_the_same_names_are_evaluated_apart(tmp_path):
+    from famarl_cli.cli.evaluate import evaluation_names
+    from famarl_cli.core.errors import UsageError
+
+    runs = [tmp_path / "famarl+prior" / "seed0", tmp_path / "famarl+closed" / "seed0", tmp_path / "x" / "seed1"]
+    assert evaluation_names(runs) == ["famarl+prior-seed0", "famarl+closed-seed0", "x-seed1"]
+    assert evaluation_names(runs[1:]) == ["seed0", "seed1"]
+    with pytest.raises(UsageError, match="same folder"):
+        evaluation_names([tmp_path / "a" / "seed0", tmp_path / "b" / "a-seed0", tmp_path / "a" / "seed0"])

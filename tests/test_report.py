@@ -258,3 +258,33 @@ def test_hybrid_goals_are_met_missed_or_inconclusive_from_intervals_over_seeds(t
         json.loads((tmp_path / "report/summary.json").read_text())["hybrid"]["verdict"] == "4 of 6 met, 2 of 6 missed"
     )
     assert (tmp_path / "report/hybrid-maze-shares.png").stat().st_size > 1000
+
+
+def make_skills(data: Path, learned_at: float, success: float, wall: float = 10.0) -> None:
+    """The Maze's baselines (the default pipeline's) and two skill agents, as pipelines/skills leaves them."""
+    make_maze(data, famarl=0.99, ppo=1.0, figar=0.9, spread=0.1)
+    for seed, jitter in zip(SEEDS, JITTER, strict=True):
+        for label in ("famarl+prior", "famarl+prior+closed"):
+            name = f"{label}-seed{seed}"
+            value = float(np.clip(success + 0.1 * jitter, 0, 1))
+            make_run(data, "skill-runs", name, label, "famarl", value, learned_at=learned_at, wall=wall)
+    (data / "skills" / "eval").mkdir(parents=True)
+    (data / "skill-runs" / "eval").rename(data / "skills" / "eval" / "maze")
+
+
+@pytest.mark.parametrize(
+    ("learned_at", "wall", "expected"),
+    [(0.1, 10.0, (Verdict.REPRODUCES, Verdict.REPRODUCES)), (0.9, 30.0, (Verdict.DOES_NOT, Verdict.DOES_NOT))],
+)
+def test_skills_goals_judge_the_best_skill_agent_at_a_bonferroni_level(tmp_path, learned_at, wall, expected):
+    make_skills(tmp_path / "data", learned_at, 0.995, wall)
+    section = write_report(["skills"], tmp_path / "data", tmp_path / "report", "test")["skills"]
+    found = verdicts(section)
+    maze = next(verdict for goal, verdict in found.items() if goal.startswith("Maze:"))
+    cost = next(verdict for goal, verdict in found.items() if goal.startswith("cost:"))
+    assert (maze, cost) == expected
+    # the envs without runs are inconclusive, not met
+    assert sum(verdict == Verdict.INCONCLUSIVE for verdict in found.values()) == 3
+    text = (tmp_path / "report/report.md").read_text()
+    assert "at 97.5% (Bonferroni)" in text  # the best of 2 skill agents
+    assert "| famarl+prior+closed |" in text and "| ppo |" in text

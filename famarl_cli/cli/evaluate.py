@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.cli import app, progress_bar, torch_on_one_thread
 from famarl_cli.cli.derived import command
-from famarl_cli.core.errors import FamarlError
+from famarl_cli.core.errors import FamarlError, UsageError
 from famarl_cli.stages.evaluate import EvaluateOptions
 from famarl_cli.sweep.executors import default_jobs
 
@@ -43,7 +45,7 @@ def evaluate(options: EvaluateOptions) -> None:
     run = expand_run_folders(o.runs)
     for folder in run:
         read_run_file(folder)
-    results = {folder: (out / folder.name if out else folder) for folder in run}
+    results = {folder: (out / name if out else folder) for folder, name in zip(run, evaluation_names(run), strict=True)}
     first = results[run[0]]
     curves = prepare_output(curves or (first / "curves.png" if len(run) == 1 else first.parent / "curves.png"))
     table = Table(title=f"evaluation: {episodes} episodes per run, seed {seed}; deterministic (sampled)")
@@ -125,3 +127,15 @@ def _spread(values: dict, fmt: str) -> str:
         if values["min"] == values["max"]
         else f"{text} ({fmt.format(values['min'])} to {fmt.format(values['max'])})"
     )
+
+
+def evaluation_names(runs: list[Path]) -> list[str]:
+    """Each run's folder name under ``--out``: its own name, or, where runs of several sweeps share names (seed0 of
+    each variant), ``<sweep folder>-<run>`` for all; runs that still share a name are a usage error."""
+    names = [folder.name for folder in runs]
+    if len(set(names)) < len(names):
+        names = [f"{folder.parent.name}-{folder.name}" for folder in runs]
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        raise UsageError(f"two runs would be evaluated into the same folder under --out: {', '.join(repeated)}")
+    return names

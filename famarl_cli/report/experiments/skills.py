@@ -30,19 +30,20 @@ from famarl_cli.report.experiments.common import (
     wall_per_million,
 )
 from famarl_cli.report.experiments.robothand import REACHING
-from famarl_cli.report.results import THRESHOLD, Group, gather, group, read_json, results_table
+from famarl_cli.report.results import THRESHOLD, Group, copy_figure, gather, group, read_json, results_table
 from famarl_cli.report.verdicts import Claim, Estimate, Judgement, bonferroni_level, combine, not_run
 
 SKILLS = (
     "famarl+prior",
     "famarl+prior-tuned",
+    "famarl+prior-start",
     "famarl+closed",
     "famarl+prior+closed",
     "hybrid+prior+closed",
     "famarl-h10",
 )
-"""The skill agents, by label (pipelines/skills): the prior, the closed-loop decoder, both, and re-deciding after
-10 steps (FaMARL's cheap form of feedback)."""
+"""The skill agents, by label (pipelines/skills): the prior (its KL's weight fixed, tuned, or 0: the start alone),
+the closed-loop decoder, both, and re-deciding after 10 steps (FaMARL's cheap form of feedback)."""
 BASELINES = ("famarl", "ppo", "figar")
 POINTMAZE_LARGE = "PointMaze_Large-v3"
 BIPEDAL = "BipedalWalker-v3"
@@ -69,6 +70,8 @@ class Place:
     env: str
     baselines: tuple[str, ...]
     skills: str
+    kept: tuple[str, ...] = BASELINES
+    """The baselines' labels taken from their pipelines."""
 
 
 PLACES = (
@@ -76,8 +79,14 @@ PLACES = (
     Place(
         "pointmaze-umaze", "PointMaze Large, sparse, UMaze demos", POINTMAZE_LARGE, ("pointmaze",), "pointmaze-umaze"
     ),
+    # its FaMARL is the skills pipeline's own, on the Large demos' FAVAEs
     Place(
-        "pointmaze-large", "PointMaze Large, sparse, Large demos", POINTMAZE_LARGE, ("pointmaze",), "pointmaze-large"
+        "pointmaze-large",
+        "PointMaze Large, sparse, Large demos",
+        POINTMAZE_LARGE,
+        ("pointmaze",),
+        "pointmaze-large",
+        ("ppo", "figar"),
     ),
     Place("reaching", "RobotHand Reaching, pegging demos", REACHING, ("robothand",), "reaching"),
     Place("bipedal", "BipedalWalker", BIPEDAL, ("bipedal",), "bipedal"),
@@ -85,11 +94,11 @@ PLACES = (
 
 
 def gather_place(data: Path, place: Place) -> dict[str, Group]:
-    """The baselines' groups, then the skill agents' (whose own famarl, where they ran one, replaces the
-    baselines': pointmaze-large's FaMARL decodes the Large demos' FAVAEs)."""
+    """The baselines' groups, then the skill agents' (and pointmaze-large's own FaMARL, which decodes the Large
+    demos' FAVAEs)."""
     baselines = group(gather([data / folder / "eval" for folder in place.baselines]), place.env)
     skills = group(gather([data / "skills" / "eval" / place.skills]), place.env)
-    groups = {label: g for label, g in baselines.items() if label in BASELINES}
+    groups = {label: g for label, g in baselines.items() if label in place.kept}
     groups.update(skills)
     order = [*BASELINES, *SKILLS]
     return dict(sorted(groups.items(), key=lambda item: order.index(item[0]) if item[0] in order else 99))
@@ -280,7 +289,15 @@ def skills(data: Path, out: Path):
             continue
         tables.append(f"{place.title}:\n\n{results_table(groups, {'prior KL at the end (nats)': prior_kl})}")
         figures.append(curves(groups, out / f"skills-{place.name}-curves.png", place.title))
-        every += [g for g in groups if g not in every]
+        # what replicate 0's prior proposes from held-out demo starts (famarl prior fit's picture)
+        proposals = data / "skills" / place.name / "prior" / "seed0" / "prior.png"
+        copied = copy_figure(proposals, out / f"skills-{place.name}-prior.png")
+        figures += [copied] if copied else []
+        if place.name == "pointmaze-large":
+            # same env as the UMaze demos' runs: named apart in the curves and numbers, the baselines once
+            every += [Group(f"{g.label}, Large demos", g.runs) for g in groups if g.label not in BASELINES[1:]]
+        else:
+            every += groups
     priors = prior_table(data)
     tables += [priors] if priors else []
     title = "Beyond the paper: a state-conditioned prior and closed-loop macros (the methods after FaMARL)"
