@@ -14,6 +14,7 @@ that the two agree.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -51,12 +52,27 @@ def _numpy_layers(net: nn.Sequential) -> list[tuple[np.ndarray, np.ndarray]]:
     ]
 
 
-class GaussianPrior(nn.Module):
+class StateNetwork(nn.Module):
+    """A network of the raw state, normalised by the demos' mean and std (buffers, stored with its weights)."""
+
     def __init__(self, config: PriorConfig) -> None:
         super().__init__()
         self.config = config
         self.register_buffer("obs_mean", torch.zeros(config.obs_size))
         self.register_buffer("obs_std", torch.ones(config.obs_size))
+
+    def normalised(self, obs: torch.Tensor) -> torch.Tensor:
+        return (obs - self.obs_mean) / self.obs_std
+
+    def numpy_normaliser(self) -> Callable[[np.ndarray], np.ndarray]:
+        """The normalisation in numpy, float64, of (B, >= O) raw states: their first O values."""
+        mean, std = self.obs_mean.numpy().astype(np.float64), self.obs_std.numpy().astype(np.float64)
+        return lambda obs: (np.asarray(obs[:, : len(mean)], dtype=np.float64) - mean) / std
+
+
+class GaussianPrior(StateNetwork):
+    def __init__(self, config: PriorConfig) -> None:
+        super().__init__(config)
         h = config.hidden
         self.net = nn.Sequential(
             nn.Linear(config.obs_size, h), nn.Tanh(), nn.Linear(h, h), nn.Tanh(), nn.Linear(h, 2 * config.latent_size)
@@ -64,34 +80,30 @@ class GaussianPrior(nn.Module):
 
     def forward(self, obs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """(B, O) raw states -> the prior's mean and log std, each (B, Z)."""
-        mean, log_std = self.net((obs - self.obs_mean) / self.obs_std).chunk(2, dim=1)
+        mean, log_std = self.net(self.normalised(obs)).chunk(2, dim=1)
         return mean, log_std.clamp(LOG_STD_MIN, LOG_STD_MAX)
 
     def frozen(self) -> FrozenPrior:
-        return FrozenPrior(self.obs_mean.numpy().astype(np.float64), self.obs_std.numpy().astype(np.float64), self)
+        return FrozenPrior(self)
 
 
 class FrozenPrior:
     """The prior in numpy, float64: ``(mean, log_std)`` of (B, >= O) raw states (their first O values)."""
 
-    def __init__(self, obs_mean: np.ndarray, obs_std: np.ndarray, prior: GaussianPrior) -> None:
-        self.obs_mean, self.obs_std = obs_mean, obs_std
-        self.layers = _numpy_layers(prior.net)
+    def __init__(self, prior: GaussianPrior) -> None:
+        self.normalise, self.layers = prior.numpy_normaliser(), _numpy_layers(prior.net)
         self.latent_size = prior.config.latent_size
 
     def __call__(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        h = (np.asarray(obs[:, : len(self.obs_mean)], dtype=np.float64) - self.obs_mean) / self.obs_std
+        h = self.normalise(obs)
         (w1, b1), (w2, b2), (w3, b3) = self.layers
         out = np.tanh(np.tanh(h @ w1 + b1) @ w2 + b2) @ w3 + b3
         return out[:, : self.latent_size], np.clip(out[:, self.latent_size :], LOG_STD_MIN, LOG_STD_MAX)
 
 
-class ClosedLoopDecoder(nn.Module):
+class ClosedLoopDecoder(StateNetwork):
     def __init__(self, config: PriorConfig) -> None:
-        super().__init__()
-        self.config = config
-        self.register_buffer("obs_mean", torch.zeros(config.obs_size))
-        self.register_buffer("obs_std", torch.ones(config.obs_size))
+        super().__init__(config)
         h = config.hidden
         self.net = nn.Sequential(
             nn.Linear(config.obs_size + config.latent_size + 1 + config.action_size, h),
@@ -105,26 +117,25 @@ class ClosedLoopDecoder(nn.Module):
         self, obs: torch.Tensor, z: torch.Tensor, progress: torch.Tensor, open_loop: torch.Tensor
     ) -> torch.Tensor:
         """(B, O) raw states, (B, Z) latents, (B,) progress k / L, (B, D) the FAVAE's actions -> (B, D) actions."""
-        inputs = torch.cat([(obs - self.obs_mean) / self.obs_std, z, progress[:, None], open_loop], dim=1)
+        inputs = torch.cat([self.normalised(obs), z, progress[:, None], open_loop], dim=1)
         return open_loop + self.config.correction * torch.tanh(self.net(inputs))
 
     def frozen(self) -> FrozenDecoder:
-        return FrozenDecoder(self.obs_mean.numpy().astype(np.float64), self.obs_std.numpy().astype(np.float64), self)
+        return FrozenDecoder(self)
 
 
 class FrozenDecoder:
     """The decoder in numpy, float64: (B, D) actions of (B, >= O) raw states (their first O values), (B, Z) latents,
     step k and (B, D) the FAVAE's open-loop actions at step k."""
 
-    def __init__(self, obs_mean: np.ndarray, obs_std: np.ndarray, decoder: ClosedLoopDecoder) -> None:
-        self.obs_mean, self.obs_std = obs_mean, obs_std
-        self.layers = _numpy_layers(decoder.net)
+    def __init__(self, decoder: ClosedLoopDecoder) -> None:
+        self.normalise, self.layers = decoder.numpy_normaliser(), _numpy_layers(decoder.net)
         self.config = decoder.config
 
     def __call__(self, obs: np.ndarray, z: np.ndarray, step: int, open_loop: np.ndarray) -> np.ndarray:
         h = np.concatenate(
             [
-                (np.asarray(obs[:, : len(self.obs_mean)], dtype=np.float64) - self.obs_mean) / self.obs_std,
+                self.normalise(obs),
                 z,
                 np.full((len(z), 1), step / self.config.length),
                 open_loop,
