@@ -246,12 +246,13 @@ def clipped_objective_gradient(
         inv_prior_var = batch.base_log_std.mul(-2).exp_()
         scaled = mean * inv_prior_var
         guided_log_std = log_std * prior_mask
-        kl = (guided_log_std.mul(2).exp_().sub_(1).mul_(0.5).sub_(guided_log_std)).mul_(prior_mask).sum() + 0.5 * (
-            scaled * mean
-        ).sum(1).mean()
+        variance_less_one = guided_log_std.mul(2).exp_().sub_(1).mul_(prior_mask)  # e^(2 l) - 1, also d KL / d l
+        kl = (
+            variance_less_one.mul(0.5).sub_(guided_log_std).mul_(prior_mask).sum() + 0.5 * (scaled * mean).sum(1).mean()
+        )
         if prior_weight > 0:
             d_mean.add_(scaled, alpha=prior_weight / size)
-            d_log_std.add_(guided_log_std.mul(2).exp_().sub_(1).mul_(prior_mask), alpha=prior_weight)
+            d_log_std.add_(variance_less_one, alpha=prior_weight)
         stats.append(kl)
     policy.backward(heads, d_mean, d_log_std, d_value, d_logits)
     approx_kl = (ratio - log_ratio).mean() - 1
