@@ -140,7 +140,9 @@ def test_a_sweep_gives_typed_values_to_its_jobs():
     configs = {(job.config["seed"], job.config["beta"]) for job in jobs}
     assert configs == {(0, 0.5), (1, 0.5), (0, 2.0), (1, 2.0)}
     assert all(isinstance(seed, int) and isinstance(beta, float) for seed, beta in configs)
-    assert {job.runner for job in jobs} == {"famarl_cli.stages.macros:run_job"}
+    assert {job.runner for job in jobs} == {"famarl_cli.stages.macros:run_jobs"}
+    # the replicates of one beta may share a batch, those of another beta not
+    assert all(job.batched for job in jobs) and len({job.group for job in jobs}) == 2
     with pytest.raises(UsageError, match="--beta"):
         plan("macros", ["--demos", "d.h5"], "0", ["beta=-1"], None)
     # a yes/no option takes its axis by click's reading of yes/no; anything else is one usage error

@@ -99,6 +99,9 @@ class JobRecipe:
     config: dict
     inputs: tuple[str, ...] = ()
     resumable: bool = False
+    batched: bool = False
+    """The runner takes several jobs that differ only in their seed at once (``runner(configs, contexts)``), and
+    a sweep gives it batches of them (famarl_cli.sweep.plan.Job.batched)."""
 
 
 @dataclass(frozen=True)

@@ -56,8 +56,9 @@ def macros(options: MacrosOptions) -> None:
 
 @sweepable("macros", MacrosOptions, owned=("--out",))
 def macros_job(options: MacrosOptions) -> JobRecipe:
-    """``famarl sweep macros``: each replicate is what ``famarl macros`` with the same options would make."""
-    from famarl_cli.stages.macros import run_job
+    """``famarl sweep macros``: each replicate is what ``famarl macros`` with the same options would make; the
+    replicates of one setting are fitted in batches (famarl sweep --batch)."""
+    from famarl_cli.stages.macros import run_jobs
 
     config = pick(MacrosConfig, options)
-    return JobRecipe(run_job, to_json(config), tuple(map(str, config.inputs)), resumable=True)
+    return JobRecipe(run_jobs, to_json(config), tuple(map(str, config.inputs)), resumable=True, batched=True)

@@ -63,6 +63,15 @@ def sweep(
         ),
     ] = None,
     max_attempts: Annotated[int, typer.Option(min=1, help="Attempts per run when its worker or node dies.")] = 3,
+    batch: Annotated[
+        int | None,
+        typer.Option(
+            min=1,
+            help="For commands that batch their runs (macros: replicates fitted as one batched model), at most this "
+            "many runs in one process; 1 runs each alone.  [default: the runs of each setting split evenly over the "
+            "workers]",
+        ),
+    ] = None,
 ) -> None:
     """Run COMMAND once per combination of seeds and --over values, several at once, resuming what is unfinished.
 
@@ -82,7 +91,7 @@ def sweep(
         console.print(f"sweep {command}: {len(planned)} runs into {out}, {executor.workers} at once")
         with progress_bar() as progress:
             display = SweepDisplay(progress)
-            state = run_sweep(out, planned, executor, max_attempts, display)
+            state = run_sweep(out, planned, executor, max_attempts, display, batch)
     Console().print(summary_table(state, command, out))
     if state.failed:
         first = state.failed[0]
@@ -122,7 +131,9 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
                 argv += _axis_flag(field, value)
         recipe = sweepable.make(sweepable.options(**parse_options(app, sweepable.command, sweepable.options, argv)))
         job_name = fill(name, point) if name else default_name(point)
-        jobs.append(Job(job_name, name_of(recipe.runner), recipe.config, recipe.inputs, recipe.resumable, point))
+        jobs.append(
+            Job(job_name, name_of(recipe.runner), recipe.config, recipe.inputs, recipe.resumable, point, recipe.batched)
+        )
     return jobs
 
 

@@ -76,33 +76,68 @@ def learn_macros(
     config: MacrosConfig, folder: Path, on_progress: Callable[[str, int, int], None] | None = None
 ) -> dict:
     """Make (or finish) the replicate in ``folder``; returns the FAVAE's metrics. ``on_progress(phase, done,
-    total)`` follows the epochs of each step."""
+    total)`` follows the epochs of each step. :func:`learn_macros_many` of one."""
+    report = None if on_progress is None else (lambda _, phase, done, total: on_progress(phase, done, total))
+    [metrics] = learn_macros_many([config], [folder], report)
+    return metrics
 
-    def progress(phase: str, total: int):
-        return None if on_progress is None else (lambda done: on_progress(phase, done, total))
 
-    folder.mkdir(parents=True, exist_ok=True)
-    segments = segments_path(folder, config)
-    if config.segments is None and not segments.with_suffix(".metrics.json").is_file():
-        report = progress("segment", config.segment_epochs)
-        stages.segment(
-            pick(stages.SegmentOptions, config, out=segments, epochs=config.segment_epochs),
-            on_epoch=None if report is None else (lambda epoch, _: report(epoch + 1)),
+def learn_macros_many(
+    configs: list[MacrosConfig],
+    folders: list[Path],
+    on_progress: Callable[[int, str, int, int], None] | None = None,
+) -> list[dict]:
+    """Make (or finish) several replicates, one per folder, whose configs differ only in their seed (and inputs):
+    each is segmented on its own, then their pre-runs and FAVAE fits run as one batched model
+    (:func:`~famarl_cli.stages.method.fit_many`), and each is traversed (and given its prior) on its own. Each
+    folder ends with the files :func:`learn_macros` writes; the FAVAE of seed S is the one ``famarl macros --seed
+    S`` fits, up to float rounding. ``on_progress(k, phase, done, total)`` follows replicate k."""
+
+    def progress(k: int, phase: str, total: int):
+        return None if on_progress is None else (lambda done: on_progress(k, phase, done, total))
+
+    segments = []
+    for k, (config, folder) in enumerate(zip(configs, folders, strict=True)):
+        folder.mkdir(parents=True, exist_ok=True)
+        segments.append(segments_path(folder, config))
+        if config.segments is None and not segments[k].with_suffix(".metrics.json").is_file():
+            report = progress(k, "segment", config.segment_epochs)
+            stages.segment(
+                pick(stages.SegmentOptions, config, out=segments[k], epochs=config.segment_epochs),
+                on_epoch=None if report is None else (lambda epoch, _, report=report: report(epoch + 1)),
+            )
+
+    def follow(phase: str, among: list[int]):
+        """A batched step's on_epoch (replicate index among those it runs, ..., the epoch's row) as progress."""
+        if on_progress is None:
+            return None
+        return lambda i, *rest: on_progress(among[i], phase, rest[-1]["epoch"] + 1, configs[among[i]].epochs)
+
+    favaes = [folder / FAVAE for folder in folders]
+    calibrations = [c.calibration or f.with_suffix(".calibration.json") for c, f in zip(configs, favaes, strict=True)]
+    pending = [k for k, c in enumerate(configs) if c.calibration is None and not calibrations[k].is_file()]
+    if pending:
+        stages.calibrate_many(
+            [pick(stages.CalibrateOptions, configs[k], segments=segments[k], out=calibrations[k]) for k in pending],
+            follow("calibrate", pending),
         )
+    pending = [k for k, f in enumerate(favaes) if not f.with_suffix(".metrics.json").is_file()]
+    if pending:
+        stages.fit_many(
+            [
+                pick(stages.FitOptions, configs[k], segments=segments[k], calibration=calibrations[k], out=favaes[k])
+                for k in pending
+            ],
+            follow("fit", pending),
+        )
+    for k, (config, folder) in enumerate(zip(configs, folders, strict=True)):
+        finish(config, folder, segments[k], progress(k, "prior", config.prior_epochs))
+    return [json.loads(f.with_suffix(".metrics.json").read_text()) for f in favaes]
+
+
+def finish(config: MacrosConfig, folder: Path, segments: Path, report: Callable[[int], None] | None) -> None:
+    """The replicate's steps after its FAVAE: the traversal and, with ``config.prior``, the prior."""
     favae = folder / FAVAE
-    calibration = config.calibration or favae.with_suffix(".calibration.json")
-    if config.calibration is None and not calibration.is_file():
-        report = progress("calibrate", config.epochs)
-        stages.calibrate(
-            pick(stages.CalibrateOptions, config, segments=segments, out=calibration),
-            None if report is None else (lambda row: report(row["epoch"] + 1)),
-        )
-    if not favae.with_suffix(".metrics.json").is_file():
-        report = progress("fit", config.epochs)
-        stages.fit(
-            pick(stages.FitOptions, config, segments=segments, calibration=calibration, out=favae),
-            None if report is None else (lambda _, row: report(row["epoch"] + 1)),
-        )
     if not (folder / TRAVERSAL).with_suffix(".json").is_file():
         env_id, env_kwargs, world = traversal_env(config)
         stages.traverse(
@@ -119,7 +154,6 @@ def learn_macros(
     if config.prior and not (folder / PRIOR).with_suffix(".metrics.json").is_file():
         from famarl_cli.stages.prior import PriorFitOptions, fit_prior
 
-        report = progress("prior", config.prior_epochs)
         fit_prior(
             PriorFitOptions(
                 demos=config.demos,
@@ -131,7 +165,6 @@ def learn_macros(
             ),
             None if report is None else (lambda epoch, _: report(epoch + 1)),
         )
-    return json.loads(favae.with_suffix(".metrics.json").read_text())
 
 
 def traversal_env(config: MacrosConfig) -> tuple[str | None, dict, str | None]:
@@ -151,17 +184,24 @@ def traversal_env(config: MacrosConfig) -> tuple[str | None, dict, str | None]:
 PHASES = ("segment", "calibrate", "fit", "prior")
 
 
-def run_job(config: dict, folder: Path, context) -> dict:
-    """One replicate as a sweep job (:mod:`famarl_cli.sweep`); progress counts the epochs of all its steps."""
-    macros = from_json(MacrosConfig, config)
-    totals = {
-        "segment": macros.segment_epochs if macros.segments is None else 0,
-        "calibrate": macros.epochs if macros.calibration is None else 0,
-        "fit": macros.epochs,
-        "prior": macros.prior_epochs if macros.prior else 0,
-    }
-    before = {phase: sum(totals[p] for p in PHASES[: PHASES.index(phase)]) for phase in PHASES}
-    total = sum(totals.values())
-    metrics = learn_macros(macros, folder, lambda phase, done, _: context.progress(before[phase] + done, total))
+def run_jobs(configs: list[dict], contexts: list) -> list[dict]:
+    """Replicates as sweep jobs (:mod:`famarl_cli.sweep`), batched: one job per replicate, each in its context's
+    folder; each job's progress counts the epochs of all its steps."""
+    replicates = [from_json(MacrosConfig, config) for config in configs]
+    totals, before = [], []
+    for macros in replicates:
+        phases = {
+            "segment": macros.segment_epochs if macros.segments is None else 0,
+            "calibrate": macros.epochs if macros.calibration is None else 0,
+            "fit": macros.epochs,
+            "prior": macros.prior_epochs if macros.prior else 0,
+        }
+        before.append({phase: sum(phases[p] for p in PHASES[: PHASES.index(phase)]) for phase in PHASES})
+        totals.append(sum(phases.values()))
+    metrics = learn_macros_many(
+        replicates,
+        [context.folder for context in contexts],
+        lambda k, phase, done, _: contexts[k].progress(before[k][phase] + done, totals[k]),
+    )
     kept = ("mig", "mig_note", "length_accuracy", "kl_per_ladder", "information_per_ladder")
-    return {key: metrics[key] for key in kept if key in metrics}
+    return [{key: m[key] for key in kept if key in m} for m in metrics]

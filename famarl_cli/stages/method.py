@@ -217,25 +217,34 @@ def calibrate(
     options: CalibrateOptions, on_epoch: Callable[[dict], None] | None = None
 ) -> tuple[list[float], list[dict]]:
     """The C_last pre-run on ``options.segments`` at ``options.calibration_beta``, written to its destination
-    (JSON); returns C_last and the pre-run's log."""
-    from famarl_cli.method.favae.checkpoint import write_calibration
-    from famarl_cli.method.favae.training import TrainingParams
-    from famarl_cli.method.favae.training import calibrate as run_calibration
+    (JSON); returns C_last and the pre-run's log (:func:`calibrate_many` of one)."""
+    [result] = calibrate_many([options], None if on_epoch is None else (lambda _, row: on_epoch(row)))
+    return result
 
-    out = prepare_output(options.destination)
-    params, beta = TrainingParams.of(options), options.calibration_beta
-    loaded, config = favae_setup(options.segments, options)
-    c_last, log = run_calibration(loaded.padded, config, params, on_epoch, beta)
-    recorded = {**asdict(params), "calibration_beta": beta, "config": config.to_dict()}
-    write_calibration(
-        out,
-        c_last,
-        config,
-        provenance("famarl favae calibrate", recorded, params.seed, [options.segments]),
-        params,
-        beta,
-    )
-    return c_last, log
+
+def calibrate_many(
+    options: list[CalibrateOptions], on_epoch: Callable[[int, dict], None] | None = None
+) -> list[tuple[list[float], list[dict]]]:
+    """The C_last pre-runs of several replicates (options that differ only in their seed, segments and
+    destination) as one batched fit (:func:`~famarl_cli.method.favae.training.calibrate_replicates`); each is
+    written as :func:`calibrate` writes it. ``on_epoch(k, row)`` follows replicate k."""
+    from famarl_cli.method.favae.checkpoint import write_calibration
+    from famarl_cli.method.favae.training import Replicate, TrainingParams, calibrate_replicates
+
+    outs = [prepare_output(o.destination) for o in options]
+    setups = [favae_setup(o.segments, o) for o in options]
+    replicates = [
+        Replicate(loaded.padded, config, o.calibration_beta, [0.0] * config.ladders, TrainingParams.of(o))
+        for o, (loaded, config) in zip(options, setups, strict=True)
+    ]
+    results = calibrate_replicates(replicates, on_epoch)
+    for o, out, replicate, (c_last, _) in zip(options, outs, replicates, results, strict=True):
+        params, beta, config = replicate.params, replicate.beta, replicate.config
+        recorded = {**asdict(params), "calibration_beta": beta, "config": config.to_dict()}
+        write_calibration(
+            out, c_last, config, provenance("famarl favae calibrate", recorded, params.seed, [o.segments]), params, beta
+        )
+    return results
 
 
 @dataclass
@@ -251,55 +260,79 @@ def fit(options: FitOptions, on_epoch: Callable[[str, dict], None] | None = None
     ``options.calibration`` is given) and score it; writes the checkpoint, ``.log.csv`` and ``.metrics.json``.
     ``on_epoch`` gets the phase ("calibrate" or "fit") and the epoch's log row. ``options.capacity`` says how the
     pre-run's C_last becomes the capacities the fit anneals to
-    (:func:`famarl_cli.method.favae.training.allocate_capacity`)."""
+    (:func:`famarl_cli.method.favae.training.allocate_capacity`). :func:`fit_many` of one."""
+    [fitted] = fit_many([options], None if on_epoch is None else (lambda _, phase, row: on_epoch(phase, row)))
+    return fitted
+
+
+def fit_many(options: list[FitOptions], on_epoch: Callable[[int, str, dict], None] | None = None) -> list[Fitted]:
+    """Fit several replicates (options that differ only in their seed, segments, calibration and destination) as
+    one batched model, their pre-runs (where no calibration is given) too; each replicate's files are the ones
+    :func:`fit` writes. ``on_epoch(k, phase, row)`` follows replicate k."""
     from famarl_cli.method.favae.checkpoint import read_calibration, save_favae
     from famarl_cli.method.favae.training import (
+        Replicate,
         TrainingParams,
         allocate_capacity,
         evaluate_fit,
-        train_favae,
+        train_replicates,
         training_summary,
     )
 
-    out = prepare_output(options.destination)
-    segments, calibration, beta, capacity = options.segments, options.calibration, options.beta, str(options.capacity)
-    params = TrainingParams.of(options)
-    loaded, config = favae_setup(segments, options)
-    inputs, log = [segments], []
+    def phase(name: str, among: list[int]):
+        return None if on_epoch is None else (lambda k, row: on_epoch(among[k], name, row))
 
-    def phase(name: str):
-        return None if on_epoch is None else (lambda row: on_epoch(name, row))
-
-    if calibration:
-        c_last = read_calibration(calibration, config, params)
-        inputs.append(calibration)
-    else:
-        pre_run = pick(CalibrateOptions, options, out=out.with_suffix(".calibration.json"))
-        c_last, calibration_log = calibrate(pre_run, phase("calibrate"))
-        log += [{"phase": "calibrate", **row} for row in calibration_log]
-    capacities = allocate_capacity(c_last, capacity)
-    model, fit_log = train_favae(loaded.padded, config, beta, capacities, params, phase("fit"))
-    log += [{"phase": "fit", **row} for row in fit_log]
-    scores = evaluate_fit(model, loaded.padded, loaded.length, loaded.factors)
-    training = {**training_summary(params, beta, c_last), "capacity": capacity, "capacities": capacities}
-    recorded = {**training, "ladders": options.ladders, "latent_dim": options.latent_dim}
-    # the information each latent carries travels with the model: famarl traverse names an empty ladder by it
-    summary = {**training, "kl_per_dim": scores["kl_per_dim"], "information_per_dim": scores["information_per_dim"]}
-    save_favae(out, model, summary, provenance("famarl favae fit", recorded, params.seed, inputs))
-    metrics = {
-        **scores,
-        "beta": beta,
-        "c_last": c_last,
-        "capacity": capacity,
-        "capacities": capacities,
-        "final_kl_per_ladder": [fit_log[-1][f"kl_{i + 1}"] for i in range(config.ladders)],
-        "segments": len(loaded.length),
-        "factor_names": list(loaded.factor_names),
-    }
-    write_csv(out.with_suffix(".log.csv"), log)
-    # The metrics last: their presence says the stage finished (famarl_cli.stages.macros resumes by it).
-    write_json(out.with_suffix(".metrics.json"), metrics)
-    return Fitted(metrics, c_last, [out, out.with_suffix(".log.csv"), out.with_suffix(".metrics.json")])
+    outs = [prepare_output(o.destination) for o in options]
+    setups = [favae_setup(o.segments, o) for o in options]
+    params = [TrainingParams.of(o) for o in options]
+    c_lasts: list[list[float]] = [[] for _ in options]
+    logs: list[list[dict]] = [[] for _ in options]
+    uncalibrated = [k for k, o in enumerate(options) if not o.calibration]
+    pre_runs = [pick(CalibrateOptions, options[k], out=outs[k].with_suffix(".calibration.json")) for k in uncalibrated]
+    for k, (c_last, log) in zip(uncalibrated, calibrate_many(pre_runs, phase("calibrate", uncalibrated)), strict=True):
+        c_lasts[k], logs[k] = c_last, [{"phase": "calibrate", **row} for row in log]
+    for k, o in enumerate(options):
+        if o.calibration:
+            c_lasts[k] = read_calibration(o.calibration, setups[k][1], params[k])
+    capacities = [allocate_capacity(c, str(o.capacity)) for c, o in zip(c_lasts, options, strict=True)]
+    replicates = [
+        Replicate(loaded.padded, config, o.beta, c, p)
+        for o, (loaded, config), c, p in zip(options, setups, capacities, params, strict=True)
+    ]
+    trained = train_replicates(replicates, phase("fit", list(range(len(options)))))
+    results = []
+    for k, (o, out, (model, fit_log)) in enumerate(zip(options, outs, trained, strict=True)):
+        loaded, config = setups[k]
+        logs[k] += [{"phase": "fit", **row} for row in fit_log]
+        scores = evaluate_fit(model, loaded.padded, loaded.length, loaded.factors)
+        capacity = str(o.capacity)
+        training = {
+            **training_summary(params[k], o.beta, c_lasts[k]),
+            "capacity": capacity,
+            "capacities": capacities[k],
+        }
+        recorded = {**training, "ladders": o.ladders, "latent_dim": o.latent_dim}
+        # the information each latent carries travels with the model: famarl traverse names an empty ladder by it
+        summary = {**training, "kl_per_dim": scores["kl_per_dim"], "information_per_dim": scores["information_per_dim"]}
+        inputs = [o.segments] + ([o.calibration] if o.calibration else [])
+        save_favae(out, model, summary, provenance("famarl favae fit", recorded, params[k].seed, inputs))
+        metrics = {
+            **scores,
+            "beta": o.beta,
+            "c_last": c_lasts[k],
+            "capacity": capacity,
+            "capacities": capacities[k],
+            "final_kl_per_ladder": [fit_log[-1][f"kl_{i + 1}"] for i in range(config.ladders)],
+            "segments": len(loaded.length),
+            "factor_names": list(loaded.factor_names),
+        }
+        write_csv(out.with_suffix(".log.csv"), logs[k])
+        # The metrics last: their presence says the stage finished (famarl_cli.stages.macros resumes by it).
+        write_json(out.with_suffix(".metrics.json"), metrics)
+        results.append(
+            Fitted(metrics, c_lasts[k], [out, out.with_suffix(".log.csv"), out.with_suffix(".metrics.json")])
+        )
+    return results
 
 
 MANUAL_FAVAE = Path("data/favae/pushed-down-only.pt")

@@ -31,9 +31,10 @@ from famarl_cli.sweep.plan import (
     MANIFEST,
     Action,
     Job,
+    batches,
     reconcile,
 )
-from famarl_cli.sweep.worker import LEASE_FILE, PROGRESS_FILE, execute, name_of, read_progress
+from famarl_cli.sweep.worker import LEASE_FILE, PROGRESS_FILE, execute, execute_batch, name_of, read_progress
 
 MAX_ATTEMPTS = 3
 MAX_REQUEUES = 10
@@ -123,36 +124,47 @@ def run_sweep(
     executor: Executor,
     max_attempts: int = MAX_ATTEMPTS,
     on_update: Callable[[SweepState], None] | None = None,
+    batch: int | None = None,
 ) -> SweepState:
     """Run every job of the plan that is not complete in ``out``; returns the final state (check ``failed``).
-    The sweep holds ``out`` while it runs: a second sweep into the same folder is refused."""
+    Batched jobs (:attr:`~famarl_cli.sweep.plan.Job.batched`) run in batches spread over the executor's workers,
+    at most ``batch`` jobs each (:func:`~famarl_cli.sweep.plan.batches`). The sweep holds ``out`` while it runs: a
+    second sweep into the same folder is refused."""
     out = out.resolve()
     with claim_folder(out):
-        return _run(out, jobs, executor, max_attempts, on_update)
+        return _run(out, jobs, executor, max_attempts, on_update, batch)
 
 
-def _run(out: Path, jobs: list[Job], executor: Executor, max_attempts: int, on_update) -> SweepState:
+def _run(out: Path, jobs: list[Job], executor: Executor, max_attempts: int, on_update, batch) -> SweepState:
     cwd = os.getcwd()
     state, keys = prepare(out, jobs)
-    running: dict[Future, JobState] = {}
+    running: dict[Future, list[JobState]] = {}
 
-    def submit(job_state: JobState) -> None:
-        job_state.token = uuid.uuid4().hex
-        folder = out / job_state.job.name
-        write_json(folder / LEASE_FILE, {"token": job_state.token, "attempt": job_state.attempts + 1})
-        resume = job_state.action == Action.RESUME or job_state.attempts > 0
-        job = job_state.job
-        future = executor.submit(name_of(execute), job.runner, job.config, str(folder), job_state.token, resume, cwd)
-        job_state.status, job_state.submitted = "queued", time.monotonic()
-        running[future] = job_state
+    def submit(group: list[JobState]) -> None:
+        for job_state in group:
+            job_state.token = uuid.uuid4().hex
+            folder = out / job_state.job.name
+            write_json(folder / LEASE_FILE, {"token": job_state.token, "attempt": job_state.attempts + 1})
+            job_state.status, job_state.submitted = "queued", time.monotonic()
+
+        def attempt(job_state: JobState) -> tuple:
+            resume = job_state.action == Action.RESUME or job_state.attempts > 0
+            return job_state.job.config, str(out / job_state.job.name), job_state.token, resume
+
+        job = group[0].job
+        if job.batched:
+            future = executor.submit(name_of(execute_batch), job.runner, [attempt(j) for j in group], cwd)
+        else:
+            future = executor.submit(name_of(execute), job.runner, *attempt(group[0]), cwd)
+        running[future] = group
 
     def started(job_state: JobState) -> bool:
         progress = read_progress(out / job_state.job.name)
         return progress is not None and progress.get("token") == job_state.token
 
-    for job_state in state.jobs:
-        if job_state.status == "queued":
-            submit(job_state)
+    queued = [job_state for job_state in state.jobs if job_state.status == "queued"]
+    for indices in batches([j.job for j in queued], executor.workers, batch):
+        submit([queued[i] for i in indices])
     while running:
         finished, _ = wait(list(running), timeout=POLL_S, return_when=FIRST_COMPLETED)
         if executor.breaks_as_a_whole and any(executor.worker_died(_exception(f)) for f in finished):
@@ -160,38 +172,46 @@ def _run(out: Path, jobs: list[Job], executor: Executor, max_attempts: int, on_u
             finished = wait(list(running))[0]
         died = []
         for future in finished:
-            job_state = running.pop(future)
+            group = running.pop(future)
             try:
-                job_state.result = future.result()
+                results = future.result()
             except BaseException as exc:  # noqa: BLE001 - every failure of a job is reported, none stops the others
                 if executor.worker_died(exc):
-                    died.append(job_state)
+                    died.append(group)
                 else:
                     cause = executor.unwrap(exc)
-                    _fail(job_state, f"{type(cause).__name__}: {cause}".splitlines()[0])
+                    for job_state in group:
+                        _fail(job_state, f"{type(cause).__name__}: {cause}".splitlines()[0])
                 continue
-            job_state.attempts += 1
-            _complete(out, job_state, keys)
+            for job_state, result in zip(group, results if group[0].job.batched else [results], strict=True):
+                job_state.result = result
+                job_state.attempts += 1
+                _complete(out, job_state, keys)
         if died:
             if executor.breaks_as_a_whole:
                 executor.restart()
-            for job_state in died:
-                if started(job_state):
-                    job_state.attempts += 1
-                else:
-                    job_state.requeued += 1
-                if job_state.attempts >= max_attempts:
-                    _fail(job_state, f"its worker died in each of {job_state.attempts} attempts")
-                elif job_state.requeued > MAX_REQUEUES:
-                    _fail(job_state, f"its worker died {job_state.requeued} times before it started")
-                else:
-                    submit(job_state)
-        for job_state in running.values():
-            progress = read_progress(out / job_state.job.name)
-            if progress is not None and progress.get("token") == job_state.token:
-                if job_state.status == "queued":
-                    job_state.status, job_state.started = "running", time.monotonic()
-                job_state.done, job_state.total = float(progress["done"]), float(progress["total"])
+            for group in died:
+                again = []
+                for job_state in group:
+                    if started(job_state):
+                        job_state.attempts += 1
+                    else:
+                        job_state.requeued += 1
+                    if job_state.attempts >= max_attempts:
+                        _fail(job_state, f"its worker died in each of {job_state.attempts} attempts")
+                    elif job_state.requeued > MAX_REQUEUES:
+                        _fail(job_state, f"its worker died {job_state.requeued} times before it started")
+                    else:
+                        again.append(job_state)
+                if again:
+                    submit(again)
+        for group in running.values():
+            for job_state in group:
+                progress = read_progress(out / job_state.job.name)
+                if progress is not None and progress.get("token") == job_state.token:
+                    if job_state.status == "queued":
+                        job_state.status, job_state.started = "running", time.monotonic()
+                    job_state.done, job_state.total = float(progress["done"]), float(progress["total"])
         if on_update is not None:
             on_update(state)
     if on_update is not None:

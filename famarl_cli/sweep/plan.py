@@ -118,6 +118,9 @@ class Job:
     """Whether the runner can continue a folder it left unfinished."""
     point: dict = field(default_factory=dict)
     """The axis values this job was expanded from."""
+    batched: bool = False
+    """The runner takes a batch of jobs, ``runner(configs, contexts)``: jobs of the same :attr:`group` run
+    together in one process (replicates fitted as one batched model)."""
 
     def __post_init__(self) -> None:
         if not re.fullmatch(r"[A-Za-z0-9_.+=-]+", self.name) or self.name.startswith("."):
@@ -126,6 +129,33 @@ class Job:
     @property
     def key(self) -> str:
         return job_key(self)
+
+    @property
+    def group(self) -> str | None:
+        """Jobs that may share a batch have the same group: the runner and the config but for the seed (None: the
+        job runs alone)."""
+        if not self.batched:
+            return None
+        rest = {key: value for key, value in self.config.items() if key != "seed"}
+        return json.dumps([self.runner, rest], sort_keys=True)
+
+
+def batches(jobs: list[Job], workers: int, most: int | None = None) -> list[list[int]]:
+    """The jobs' indices in the batches they run in: each group of batched jobs split into
+    ``ceil(len(group) / workers)``-sized batches (at most ``most``), so the group fills the workers; every other
+    job alone. Batches keep the jobs' order."""
+    groups: dict[str | None, list[int]] = {}
+    result = []
+    for index, job in enumerate(jobs):
+        if job.group is None:
+            result.append([index])
+        else:
+            groups.setdefault(job.group, []).append(index)
+    for members in groups.values():
+        size = max(1, -(-len(members) // max(workers, 1)))
+        size = min(size, most) if most else size
+        result += [members[i : i + size] for i in range(0, len(members), size)]
+    return sorted(result)
 
 
 @functools.cache

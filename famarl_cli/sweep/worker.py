@@ -13,6 +13,7 @@ import importlib
 import json
 import os
 import time
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -86,15 +87,39 @@ def execute(runner: str, config: dict, folder: str, token: str, resume: bool, cw
     """One attempt of one job, in whatever process the executor chose; returns the runner's result. Relative
     paths in ``config`` are the driver's, so the job runs in the driver's folder ``cwd`` (on a cluster, a path
     that every node sees)."""
-    from famarl_cli.artifacts.lock import claim_folder
+    function, [context] = _attempt(runner, [(folder, token, resume)], cwd)
+    with _claimed([context]):
+        return function(config, context.folder, context) or {}
+
+
+def execute_batch(runner: str, jobs: list[tuple[dict, str, str, bool]], cwd: str) -> list[dict]:
+    """One attempt of a batch of jobs ((config, folder, token, resume) each) in one process, by a batched runner
+    (``runner(configs, contexts)``, one result per job); each job holds its own folder, lease and progress as
+    :func:`execute`'s does."""
+    function, contexts = _attempt(runner, [job[1:] for job in jobs], cwd)
+    with _claimed(contexts):
+        return [result or {} for result in function([job[0] for job in jobs], contexts)]
+
+
+def _attempt(runner: str, jobs: list[tuple[str, str, bool]], cwd: str):
     from famarl_cli.core.reproducibility import one_thread
 
     os.chdir(cwd)
     one_thread()
     function = resolve(runner)
-    path = Path(folder)
-    context = JobContext(path, token, resume)
-    context.check_lease()
-    with claim_folder(path, FOLDER_WAIT_S):
-        context.progress(0, 1, force=True)
-        return function(config, path, context) or {}
+    contexts = [JobContext(Path(folder), token, resume) for folder, token, resume in jobs]
+    for context in contexts:
+        context.check_lease()
+    return function, contexts
+
+
+def _claimed(contexts: list[JobContext]) -> ExitStack:
+    """Each job's folder held (:mod:`famarl_cli.artifacts.lock`) and its progress started, until the stack closes."""
+    from famarl_cli.artifacts.lock import claim_folder
+
+    stack = ExitStack()
+    with stack:
+        for context in contexts:
+            stack.enter_context(claim_folder(context.folder, FOLDER_WAIT_S))
+            context.progress(0, 1, force=True)
+        return stack.pop_all()

@@ -9,7 +9,7 @@ has capacity 0, so the KL term holds its posterior at the prior (pro-VLAE's pena
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 import torch
@@ -18,7 +18,7 @@ from famarl_cli.core.declare import default_of
 from famarl_cli.core.errors import UsageError
 from famarl_cli.core.macro_actions import cut_lengths
 from famarl_cli.method.favae import CALIBRATION_BETA, MAX_PROGRESSIVE, Capacity, FavaeOptions, Measure
-from famarl_cli.method.favae.loss import capacity, favae_loss, information_per_dim, kl_per_dim, marginal_per_dim
+from famarl_cli.method.favae.loss import capacity, information_per_dim, kl_per_dim, marginal_per_dim
 from famarl_cli.method.favae.model import Favae, FavaeConfig, to_input
 from famarl_cli.method.metrics import mig_interval
 
@@ -93,6 +93,160 @@ def ladder_weights(epoch: int, epochs: int, ladders: int, progressive: float) ->
     return [min(max((epoch + 1 - start) / fade, 0.0), 1.0) for start in starts]
 
 
+LOG_EVERY = 50
+"""Epochs between reading the log back from the tensors it accumulates in (progress reports come as often)."""
+
+
+@dataclass(frozen=True)
+class Replicate:
+    """One FAVAE to fit: its segments, its config, its beta and C_last, and its training (seed included)."""
+
+    padded: np.ndarray
+    """(S, L, D + 2) padded macro actions."""
+    config: FavaeConfig
+    beta: float
+    c_last: list[float]
+    params: TrainingParams
+
+    def __post_init__(self) -> None:
+        if self.beta < 0:
+            raise UsageError(f"beta must be >= 0, got {self.beta}")
+        if len(self.c_last) != self.config.ladders:
+            raise UsageError(f"C_last has {len(self.c_last)} values for {self.config.ladders} ladders")
+
+
+def _log_columns(ladders: int) -> list[str]:
+    return [
+        "loss",
+        "reconstruction",
+        "action_error",
+        "on_off",
+        *(f"kl_{i + 1}" for i in range(ladders)),
+        *(f"information_{i + 1}" for i in range(ladders)),
+    ]
+
+
+def _batches(sizes: list[int], batch_size: int, shuffles: list[torch.Generator]):
+    """One epoch's batches of every replicate, in lockstep: per step, (K, B) segment indices (``max(sizes)``, the
+    data's all-zero row, on padding), the (K, B) mask of their real rows and the (K,) replicates that have a batch
+    at that step, B being the largest batch at that step. Each replicate shuffles its own segments with its own
+    generator, exactly as it would alone."""
+    splits = [torch.randperm(n, generator=g).split(batch_size) for n, g in zip(sizes, shuffles, strict=True)]
+    replicates = len(sizes)
+    for step in range(max(len(s) for s in splits)):
+        width = max(len(split[step]) for split in splits if step < len(split))
+        index = torch.full((replicates, width), max(sizes))  # the padding row, all zeros
+        rows = torch.zeros(replicates, width)
+        for k, split in enumerate(splits):
+            if step < len(split):
+                index[k, : len(split[step])] = split[step]
+                rows[k, : len(split[step])] = 1.0
+        yield index, rows, rows[:, 0] > 0
+
+
+def train_replicates(
+    replicates: list[Replicate], on_epoch: Callable[[int, dict], None] | None = None
+) -> list[tuple[Favae, list[dict]]]:
+    """Fit K fresh FAVAEs as one batched model (:class:`~famarl_cli.method.favae.ensemble.FavaeEnsemble`); returns
+    each replicate's model and its log, one row per epoch. ``on_epoch(k, row)`` gets replicate k's rows, every
+    :data:`LOG_EVERY` epochs and at the end.
+
+    Replicate k starts from the weights ``torch.manual_seed(seed); Favae(config)`` makes, draws its sampling noise
+    from a generator that continues that stream and shuffles its segments with a generator of its seed, so it fits
+    the model it would fit alone, up to float rounding. The replicates must share their training but for the seed,
+    and their config but for L; they may hold different numbers of segments (batches are padded and masked, and a
+    replicate with fewer batches in an epoch skips the extra steps). Each row holds the epoch's means of the loss
+    terms, KL and information per ladder, the capacity C per ladder (and each ladder's weight when progressive).
+    """
+    from famarl_cli.core.replicate_adam import ReplicateAdam
+    from famarl_cli.method.favae.ensemble import FavaeEnsemble
+    from famarl_cli.method.favae.loss import replicate_loss
+
+    if not replicates:
+        return []
+    shared = {replace(r.params, seed=0) for r in replicates}
+    if len(shared) != 1:
+        raise ValueError("replicates fitted together must share their training parameters but for the seed")
+    params = shared.pop()
+    models, noises = [], []
+    for replicate in replicates:
+        torch.manual_seed(replicate.params.seed)
+        models.append(Favae(replicate.config))
+        noises.append(torch.Generator().set_state(torch.get_rng_state()))
+    ensemble = FavaeEnsemble(models)
+    shuffles = [torch.Generator().manual_seed(r.params.seed) for r in replicates]
+    sizes = [len(r.padded) for r in replicates]
+    # every replicate's segments, padded to the longest L, and after the most segments an all-zero row that pads batches
+    data = torch.zeros(len(replicates), max(sizes) + 1, ensemble.config.length, ensemble.config.action_dim + 2)
+    for k, replicate in enumerate(replicates):
+        data[k, : sizes[k], : replicate.config.length] = torch.as_tensor(replicate.padded)
+    optimiser = ReplicateAdam(ensemble.flat, lr=params.learning_rate)
+    gradient = torch.empty_like(ensemble.flat)
+    ladders, latent = ensemble.config.ladders, ensemble.config.latent_size
+    beta = torch.tensor([r.beta for r in replicates])
+    columns = _log_columns(ladders)
+    sums = torch.zeros(params.epochs, len(replicates), len(columns))
+    logs: list[list[dict]] = [[] for _ in replicates]
+    everyone = torch.arange(len(replicates))[:, None]
+    schedule = []
+    for epoch in range(params.epochs):
+        weights = torch.tensor(ladder_weights(epoch, params.epochs, ladders, params.progressive))
+        capacities = weights * torch.tensor([capacity(r.c_last, epoch, params.epochs) for r in replicates])
+        schedule.append((weights, capacities))
+        for index, rows, active in _batches(sizes, params.batch_size, shuffles):
+            counts = rows.sum(dim=1).long().tolist()
+            width = index.shape[1]
+            noise = torch.zeros(len(replicates), width, latent)
+            for k, count in enumerate(counts):
+                if count:
+                    noise[k, :count] = torch.randn(count, latent, generator=noises[k])
+            batch = data[everyone, index]
+            # a replicate without a batch at this step is scored on padding (a finite loss) and weighed 0
+            padded_rows = None if all(c == width for c in counts) else rows.masked_fill(~active[:, None], 1)
+            reconstruction, mus, logvars = ensemble.forward(batch, noise, weights.expand(len(replicates), -1))
+            terms = replicate_loss(
+                reconstruction,
+                batch,
+                mus,
+                logvars,
+                beta,
+                capacities,
+                params.measure,
+                padded_rows,
+                ensemble.step_mask,
+            )
+            gradients = torch.autograd.grad((terms.total * active).sum(), ensemble.parameters)
+            torch.cat([g.reshape(len(replicates), -1) for g in gradients], dim=1, out=gradient)
+            optimiser.step(gradient, None if bool(active.all()) else active)
+            values = torch.stack(
+                [terms.total, terms.reconstruction, terms.action_error, terms.on_off, *terms.kl, *terms.information],
+                dim=1,
+            )
+            sums[epoch] += values.detach() * rows.sum(dim=1, keepdim=True)
+        if (epoch + 1) % LOG_EVERY == 0 or epoch + 1 == params.epochs:
+            _read_log(sums, schedule, sizes, columns, params, logs, on_epoch)
+    for model, trained in zip(models, ensemble.models(), strict=True):
+        model.load_state_dict(trained.state_dict())
+    return [(model.eval(), log) for model, log in zip(models, logs, strict=True)]
+
+
+def _read_log(sums, schedule, sizes, columns, params: TrainingParams, logs: list[list[dict]], on_epoch) -> None:
+    """Turn the epochs accumulated since the last read into log rows (one host read for all of them)."""
+    first = len(logs[0])
+    means = (sums[first : len(schedule)] / torch.tensor(sizes, dtype=sums.dtype)[None, :, None]).tolist()
+    for offset, epoch_means in enumerate(means):
+        epoch = first + offset
+        weights, capacities = schedule[epoch]
+        for k, values in enumerate(epoch_means):
+            row = {"epoch": epoch, **dict(zip(columns, values, strict=True))}
+            row.update({f"capacity_{i + 1}": float(c) for i, c in enumerate(capacities[k])})
+            if params.progressive:
+                row.update({f"weight_{i + 1}": float(w) for i, w in enumerate(weights)})
+            logs[k].append(row)
+            if on_epoch:
+                on_epoch(k, row)
+
+
 def train_favae(
     padded: np.ndarray,
     config: FavaeConfig,
@@ -101,60 +255,37 @@ def train_favae(
     params: TrainingParams,
     on_epoch: Callable[[dict], None] | None = None,
 ) -> tuple[Favae, list[dict]]:
-    """Fit a fresh FAVAE on (S, L, D + 2) padded macro actions; returns it and one log row per epoch.
+    """Fit a fresh FAVAE on (S, L, D + 2) padded macro actions; returns it and one log row per epoch
+    (:func:`train_replicates` with one replicate)."""
+    [result] = train_replicates(
+        [Replicate(padded, config, beta, c_last, params)], None if on_epoch is None else (lambda _, row: on_epoch(row))
+    )
+    return result
 
-    Each row holds the epoch's means of the loss terms, KL per ladder and the capacity C per ladder.
-    """
-    if beta < 0:
-        raise UsageError(f"beta must be >= 0, got {beta}")
-    if len(c_last) != config.ladders:
-        raise UsageError(f"C_last has {len(c_last)} values for {config.ladders} ladders")
-    data = to_input(padded)
-    torch.manual_seed(params.seed)
-    model = Favae(config)
-    optimiser = torch.optim.Adam(model.parameters(), lr=params.learning_rate)
-    shuffle = torch.Generator().manual_seed(params.seed)
-    log = []
-    ladders = config.ladders
-    for epoch in range(params.epochs):
-        weights = ladder_weights(epoch, params.epochs, ladders, params.progressive)
-        capacities = [w * c for w, c in zip(weights, capacity(c_last, epoch, params.epochs), strict=True)]
-        sums = np.zeros(4 + 2 * ladders)
-        for batch_index in torch.randperm(len(data), generator=shuffle).split(params.batch_size):
-            batch = data[batch_index]
-            terms = favae_loss(model(batch, weights=weights), batch, beta, capacities, params.measure)
-            optimiser.zero_grad()
-            terms.total.backward()
-            optimiser.step()
-            values = [terms.total, terms.reconstruction, terms.action_error, terms.on_off, *terms.kl]
-            sums += np.array([v.item() for v in [*values, *terms.information]]) * len(batch)
-        means = sums / len(data)
-        row = {
-            "epoch": epoch,
-            "loss": means[0],
-            "reconstruction": means[1],
-            "action_error": means[2],
-            "on_off": means[3],
-        }
-        row.update({f"kl_{i + 1}": means[4 + i] for i in range(ladders)})
-        row.update({f"information_{i + 1}": means[4 + ladders + i] for i in range(ladders)})
-        row.update({f"capacity_{i + 1}": c for i, c in enumerate(capacities)})
-        if params.progressive:
-            row.update({f"weight_{i + 1}": w for i, w in enumerate(weights)})
-        log.append(row)
-        if on_epoch:
-            on_epoch(row)
-    return model.eval(), log
+
+def calibrate_replicates(
+    replicates: list[Replicate], on_epoch: Callable[[int, dict], None] | None = None
+) -> list[tuple[list[float], list[dict]]]:
+    """The C_last pre-runs of K replicates at once: each ``Replicate``'s beta is its pre-run's (the paper's 0.1),
+    its C_last ignored (C = 0); each ladder's value in the last epoch of what the capacities constrain
+    (``params.measure``: its information, or its KL) is its C_last. Returns (C_last, log) per replicate."""
+    zero = [replace(r, c_last=[0.0] * r.config.ladders) for r in replicates]
+    results = []
+    for replicate, (_, log) in zip(zero, train_replicates(zero, on_epoch), strict=True):
+        column = "kl" if replicate.params.measure == Measure.KL else "information"
+        results.append(([float(log[-1][f"{column}_{i + 1}"]) for i in range(replicate.config.ladders)], log))
+    return results
 
 
 def calibrate(
     padded: np.ndarray, config: FavaeConfig, params: TrainingParams, on_epoch=None, beta: float = CALIBRATION_BETA
 ) -> tuple[list[float], list[dict]]:
-    """The C_last pre-run: train with a small beta (the paper's 0.1) and C = 0; each ladder's value in the last
-    epoch of what the capacities constrain (``params.measure``: its information, or its KL) is its C_last."""
-    _, log = train_favae(padded, config, beta, [0.0] * config.ladders, params, on_epoch)
-    column = "kl" if params.measure == Measure.KL else "information"
-    return [float(log[-1][f"{column}_{i + 1}"]) for i in range(config.ladders)], log
+    """The C_last pre-run of one FAVAE (:func:`calibrate_replicates` with one replicate)."""
+    [result] = calibrate_replicates(
+        [Replicate(padded, config, beta, [0.0] * config.ladders, params)],
+        None if on_epoch is None else (lambda _, row: on_epoch(row)),
+    )
+    return result
 
 
 @torch.no_grad()

@@ -1,0 +1,228 @@
+"""Replicates fitted as one batched model are the replicates each would be alone."""
+
+import json
+
+import numpy as np
+import pytest
+import torch
+from cli_helpers import famarl
+
+from famarl_cli.core.macro_actions import pad
+from famarl_cli.core.replicate_adam import ReplicateAdam
+from famarl_cli.method.favae.ensemble import FavaeEnsemble
+from famarl_cli.method.favae.loss import favae_loss, replicate_loss
+from famarl_cli.method.favae.model import Favae, FavaeConfig
+from famarl_cli.method.favae.training import Replicate, TrainingParams, train_replicates
+from famarl_cli.sweep.plan import Job, batches
+
+LENGTHS = (16, 24, 16)
+
+
+def replicate_segments(n: int, length: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    macros = [rng.uniform(-1, 1, (int(rng.integers(2, length + 1)), 2)) for _ in range(n)]
+    return pad(macros, length)
+
+
+def models_of(decoder: str, head: str) -> list[Favae]:
+    models = []
+    for seed, length in enumerate(LENGTHS):
+        torch.manual_seed(seed)
+        models.append(Favae(FavaeConfig(action_dim=2, length=length, decoder=decoder, head=head)))
+    return models
+
+
+def batched_inputs(rows: int) -> tuple[list[torch.Tensor], torch.Tensor]:
+    """Each replicate's (B, D + 2, L) input and all of them channels last, padded to the longest L."""
+    generator = torch.Generator().manual_seed(0)
+    singles = [torch.randn(rows, 4, length, generator=generator) for length in LENGTHS]
+    batched = torch.zeros(len(LENGTHS), rows, max(LENGTHS), 4)
+    for k, x in enumerate(singles):
+        batched[k, :, : x.shape[2]] = x.transpose(1, 2)
+    return singles, batched
+
+
+@pytest.mark.parametrize("decoder", ["ladder", "shared"])
+@pytest.mark.parametrize("head", ["flatten", "pool"])
+def test_the_ensemble_computes_each_replicates_own_favae_forward_and_backward(decoder, head):
+    models = models_of(decoder, head)
+    ensemble = FavaeEnsemble(models)
+    for model, back in zip(models, ensemble.models(), strict=True):
+        for (name, a), b in zip(model.state_dict().items(), back.state_dict().values(), strict=True):
+            assert torch.equal(a, b), name
+    singles, batched = batched_inputs(5)
+    weights = torch.tensor([[0.5, 1.0, 1.0]] * len(LENGTHS))
+    reconstruction, mus, logvars = ensemble.forward(batched, None, weights)
+    loss = reconstruction.pow(2).sum() + sum(
+        m.pow(2).sum() + lv.exp().sum() for m, lv in zip(mus, logvars, strict=True)
+    )
+    gradients = torch.autograd.grad(loss, ensemble.parameters)
+    for k, (model, x) in enumerate(zip(models, singles, strict=True)):
+        output = model(x, sample=False, weights=[0.5, 1.0, 1.0])
+        length = x.shape[2]
+        torch.testing.assert_close(reconstruction[k, :, :length], output.reconstruction.transpose(1, 2))
+        assert not reconstruction[k, :, length:].any(), "a shorter replicate's output is zero past its own L"
+        torch.testing.assert_close(torch.cat(mus, 2)[k], torch.cat(output.mus, 1))
+        torch.testing.assert_close(torch.cat(logvars, 2)[k], torch.cat(output.logvars, 1))
+        model.zero_grad()
+        own = output.reconstruction.pow(2).sum() + sum(
+            m.pow(2).sum() + lv.exp().sum() for m, lv in zip(output.mus, output.logvars, strict=True)
+        )
+        own.backward()
+        named = dict(model.named_parameters())
+        for slot, gradient in zip(ensemble.slots, gradients, strict=True):
+            steps = ensemble.own_steps[slot.steps][k] if slot.steps is not None else 0
+            expected = named[slot.name].grad
+            torch.testing.assert_close(slot.to_single(gradient[k], steps), expected, rtol=1e-4, atol=1e-5)
+            # the padding of a shorter replicate's weights gets no gradient, so it stays zero
+            assert gradient[k].abs().sum().item() == pytest.approx(
+                slot.to_batched(expected, steps).abs().sum().item(), rel=1e-4
+            ), slot.name
+
+
+def test_the_batched_loss_is_each_replicates_loss_with_padded_rows_and_steps_left_out():
+    models = models_of("ladder", "flatten")
+    ensemble = FavaeEnsemble(models)
+    singles, batched = batched_inputs(6)
+    batched[..., -2:] = (batched[..., -2:] > 0).float()  # on/off as 0/1 targets
+    rows = torch.ones(len(LENGTHS), 6)
+    rows[1, 4:] = 0.0  # replicate 1 has 4 real rows in this batch
+    batched[1, 4:] = 0.0
+    reconstruction, mus, logvars = ensemble.forward(batched, None)
+    capacities = torch.tensor([[0.5, 0.0, 2.0]] * len(LENGTHS))
+    terms = replicate_loss(
+        reconstruction,
+        batched,
+        mus,
+        logvars,
+        torch.tensor([1.0, 2.0, 3.0]),
+        capacities,
+        "information",
+        rows,
+        ensemble.step_mask,
+    )
+    for k, model in enumerate(models):
+        n, length = int(rows[k].sum()), LENGTHS[k]
+        x = batched[k, :n, :length].transpose(1, 2)
+        alone = favae_loss(model(x, sample=False), x, float(k + 1), [0.5, 0.0, 2.0], "information")
+        torch.testing.assert_close(terms.total[k], alone.total, rtol=1e-5, atol=1e-5)
+        torch.testing.assert_close(terms.on_off[k], alone.on_off, rtol=1e-5, atol=1e-5)
+        for a, b in zip(terms.information, alone.information, strict=True):
+            torch.testing.assert_close(a[k], b, rtol=1e-5, atol=1e-5)
+
+
+def test_replicate_adam_follows_torch_adam_row_by_row_and_a_left_out_row_waits():
+    generator = torch.Generator().manual_seed(0)
+    start = torch.randn(3, 7, generator=generator)
+    gradients = [torch.randn(3, 7, generator=generator) for _ in range(6)]
+    flat = start.clone()
+    adam = ReplicateAdam(flat, lr=0.01)
+    left_out = 1  # row 1 skips step 2: it then takes the other rows' gradients one step late
+    for step, gradient in enumerate(gradients):
+        active = torch.tensor([True, step != 2, True])
+        adam.step(gradient, active)
+    for row in range(3):
+        reference = start[row].clone().requires_grad_()
+        optimiser = torch.optim.Adam([reference], lr=0.01)
+        for step, gradient in enumerate(gradients):
+            if row == left_out and step == 2:
+                continue
+            reference.grad = gradient[row].clone()
+            optimiser.step()
+        torch.testing.assert_close(flat[row], reference.detach(), rtol=0, atol=1e-6)
+
+
+def fit(segments: list[np.ndarray], seeds: list[int], epochs: int = 6):
+    return train_replicates(
+        [
+            Replicate(
+                padded,
+                FavaeConfig(action_dim=2, length=padded.shape[1]),
+                beta=5.0,
+                c_last=[0.3, 0.2, 1.0],
+                params=TrainingParams(epochs=epochs, batch_size=8, seed=seed, progressive=0.5),
+            )
+            for padded, seed in zip(segments, seeds, strict=True)
+        ]
+    )
+
+
+def test_a_batched_fit_gives_each_replicate_the_model_it_fits_alone():
+    """Three replicates of different L and numbers of segments (20, 12 and 25: 3, 2 and 4 batches of 8 an epoch, so
+    the ensemble pads rows and the shorter replicates skip steps), fitted together and each alone.
+
+    The tolerance: the batched and the lone fit run the same arithmetic in another grouping (a batched matmul over
+    replicates, padded rows adding zeros to a sum), so they differ by float reassociation, ~1e-7 relative per step;
+    over 6 epochs of Adam that stays below 1e-4 of the weights (measured: ~1e-6), while any difference in what a
+    replicate sees (another replicate's rows, a shuffle, a noise draw) moves weights by ~1e-3 after one step."""
+    segments = [replicate_segments(20, 16, 0), replicate_segments(12, 24, 1), replicate_segments(25, 16, 2)]
+    seeds = [4, 5, 6]
+    together = fit(segments, seeds)
+    for k, (model, log) in enumerate(together):
+        [(alone, alone_log)] = fit([segments[k]], [seeds[k]])
+        for (name, a), b in zip(model.state_dict().items(), alone.state_dict().values(), strict=True):
+            torch.testing.assert_close(a, b, rtol=1e-4, atol=1e-5, msg=name)
+        assert [row["loss"] for row in log] == pytest.approx([row["loss"] for row in alone_log], rel=1e-4)
+        z = np.random.default_rng(k).normal(size=(16, model.config.latent_size))
+        np.testing.assert_array_equal(model.decode_macro_actions(z)[1], alone.decode_macro_actions(z)[1])
+    # and another seed is another model: the comparison above can fail
+    [(other, _)] = fit([segments[0]], [7])
+    assert (other.state_dict()["top.0.weight"] - together[0][0].state_dict()["top.0.weight"]).abs().max() > 1e-2
+
+
+def test_a_batched_fit_is_deterministic_and_refuses_replicates_of_different_training():
+    segments = [replicate_segments(10, 16, 0), replicate_segments(12, 16, 1)]
+    first = fit(segments, [0, 1], epochs=2)
+    again = fit(segments, [0, 1], epochs=2)
+    for (a, _), (b, _) in zip(first, again, strict=True):
+        for x, y in zip(a.state_dict().values(), b.state_dict().values(), strict=True):
+            assert torch.equal(x, y)
+    config = FavaeConfig(action_dim=2, length=16)
+    with pytest.raises(ValueError, match="share their training"):
+        train_replicates(
+            [
+                Replicate(segments[0], config, 1.0, [0.0] * 3, TrainingParams(epochs=2)),
+                Replicate(segments[1], config, 1.0, [0.0] * 3, TrainingParams(epochs=3)),
+            ]
+        )
+    with pytest.raises(ValueError, match="same FAVAE config but for L"):
+        FavaeEnsemble([Favae(config), Favae(FavaeConfig(action_dim=2, length=16, latent_dims=(3, 3, 3)))])
+
+
+def test_batches_split_each_setting_over_the_workers_and_leave_other_jobs_alone():
+    def job(name: str, seed: int, beta: float, batched: bool = True) -> Job:
+        return Job(name, "m:f", {"seed": seed, "beta": beta}, batched=batched)
+
+    jobs = [job(f"a{s}", s, 1.0) for s in range(5)] + [job(f"b{s}", s, 2.0) for s in range(2)]
+    jobs.append(job("plain", 0, 1.0, batched=False))
+    assert batches(jobs, workers=2) == [[0, 1, 2], [3, 4], [5], [6], [7]]
+    assert batches(jobs, workers=1) == [[0, 1, 2, 3, 4], [5, 6], [7]]
+    assert batches(jobs, workers=2, most=2) == [[0, 1], [2, 3], [4], [5], [6], [7]]
+    assert batches(jobs, workers=8, most=1) == [[i] for i in range(8)]
+
+
+@pytest.mark.slow
+def test_famarl_sweep_macros_batches_replicates_that_match_famarl_macros_alone(demos_file, tmp_path):
+    """Through the CLI: two replicates fitted in one batch, and seed 1 alone with famarl macros: the same segments,
+    the same macro lengths, weights equal up to float rounding; the batch's outputs feed famarl train."""
+    options = ["--demos", demos_file, "--segment-epochs", 3, "--epochs", 4, "--length", 48]
+    swept = tmp_path / "sweep"
+    result = famarl("sweep", "macros", "--seeds", "0-1", "--out", swept, "--jobs", 1, "--", *options)
+    assert result.exit_code == 0, result.output
+    alone = tmp_path / "alone"
+    result = famarl("macros", "--seed", 1, "--out", alone, *options)
+    assert result.exit_code == 0, result.output
+    batched_metrics = json.loads((swept / "seed1" / "favae.metrics.json").read_text())
+    alone_metrics = json.loads((alone / "favae.metrics.json").read_text())
+    assert batched_metrics["segments"] == alone_metrics["segments"]
+    assert batched_metrics["length_accuracy"] == alone_metrics["length_accuracy"]
+    assert batched_metrics["kl_per_ladder"] == pytest.approx(alone_metrics["kl_per_ladder"], rel=1e-3, abs=1e-4)
+    from famarl_cli.method.favae.checkpoint import load_favae
+
+    a, _ = load_favae(swept / "seed1" / "favae.pt")
+    b, _ = load_favae(alone / "favae.pt")
+    for x, y in zip(a.state_dict().values(), b.state_dict().values(), strict=True):
+        torch.testing.assert_close(x, y, rtol=1e-4, atol=1e-5)
+    run = tmp_path / "run"
+    result = famarl("train", "--favae", swept / "seed0" / "favae.pt", "--steps", 300, "--out", run)
+    assert result.exit_code == 0, result.output
