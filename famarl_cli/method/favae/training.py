@@ -168,7 +168,7 @@ def train_replicates(
     if len(shared) != 1:
         raise ValueError("replicates fitted together must share their training parameters but for the seed")
     params = shared.pop()
-    models, noises = [], []
+    models, noises = [], []  # each replicate's initial weights and noise stream, as it would have them alone
     for replicate in replicates:
         torch.manual_seed(replicate.params.seed)
         models.append(Favae(replicate.config))
@@ -225,9 +225,7 @@ def train_replicates(
             sums[epoch] += values.detach() * rows.sum(dim=1, keepdim=True)
         if (epoch + 1) % LOG_EVERY == 0 or epoch + 1 == params.epochs:
             _read_log(sums, schedule, sizes, columns, params, logs, on_epoch)
-    for model, trained in zip(models, ensemble.models(), strict=True):
-        model.load_state_dict(trained.state_dict())
-    return [(model.eval(), log) for model, log in zip(models, logs, strict=True)]
+    return list(zip(ensemble.models(), logs, strict=True))
 
 
 def _read_log(sums, schedule, sizes, columns, params: TrainingParams, logs: list[list[dict]], on_epoch) -> None:
