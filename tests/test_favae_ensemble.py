@@ -226,3 +226,9 @@ def test_famarl_sweep_macros_batches_replicates_that_match_famarl_macros_alone(d
     run = tmp_path / "run"
     result = famarl("train", "--favae", swept / "seed0" / "favae.pt", "--steps", 300, "--out", run)
     assert result.exit_code == 0, result.output
+
+
+def test_a_sweep_batch_below_one_is_a_usage_error_and_writes_nothing(tmp_path):
+    out = tmp_path / "sweep"
+    result = famarl("sweep", "macros", "--seeds", "0-1", "--batch", 0, "--out", out, "--", "--demos", "d.h5")
+    assert result.exit_code == 2 and "--batch" in result.output and not out.exists()

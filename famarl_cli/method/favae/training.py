@@ -198,8 +198,9 @@ def train_replicates(
             width = index.shape[1]
             noise = torch.zeros(len(replicates), width, latent)
             for k, count in enumerate(counts):
-                if count:
-                    noise[k, :count] = torch.randn(count, latent, generator=noises[k])
+                if count:  # ladder by ladder, as a Favae draws it alone (randn_like of each ladder's mean)
+                    draws = [torch.randn(count, z, generator=noises[k]) for z in ensemble.config.latent_dims]
+                    noise[k, :count] = torch.cat(draws, dim=1)
             batch = data[everyone, index]
             # a replicate without a batch at this step is scored on padding (a finite loss) and weighed 0
             padded_rows = None if all(c == width for c in counts) else rows.masked_fill(~active[:, None], 1)
