@@ -18,6 +18,7 @@ from famarl_cli.method.segmentation import (
     save_autoencoder,
     segment_demos,
     train_autoencoder,
+    train_autoencoders,
 )
 
 
@@ -118,6 +119,21 @@ def test_training_is_deterministic_under_a_seed():
 
     assert torch.equal(weights(1), weights(1))
     assert not torch.equal(weights(1), weights(2))
+
+
+def test_segmenters_trained_together_are_the_segmenters_each_seed_trains_alone():
+    """Three seeds as one batched model and each alone: the same windows and batches, the same arithmetic per seed
+    (a batched matmul computes each seed's product on its own), so the weights agree to float rounding; and another
+    seed is another model, so the comparison can fail."""
+    episodes, _ = step_change_episodes()
+    together = train_autoencoders(episodes, AutoencoderConfig(), TrainingConfig(epochs=4), [3, 4, 5])
+    for (model, mse), seed in zip(together, [3, 4, 5], strict=True):
+        alone, alone_mse = train_autoencoder(episodes, AutoencoderConfig(), TrainingConfig(epochs=4), seed=seed)
+        for a, b in zip(model.state_dict().values(), alone.state_dict().values(), strict=True):
+            torch.testing.assert_close(a, b, rtol=1e-5, atol=1e-6)
+        assert mse == pytest.approx(alone_mse, rel=1e-5)
+    other = together[1][0].state_dict()["encoder.0.weight"] - together[0][0].state_dict()["encoder.0.weight"]
+    assert other.abs().max() > 1e-2
 
 
 def test_episode_shorter_than_the_window_is_named():

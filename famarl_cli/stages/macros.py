@@ -88,8 +88,9 @@ def learn_macros_many(
     on_progress: Callable[[int, str, int, int], None] | None = None,
 ) -> list[dict]:
     """Make (or finish) several replicates, one per folder, whose configs differ only in their seed (and inputs):
-    each is segmented on its own, then their pre-runs and FAVAE fits run as one batched model
-    (:func:`~famarl_cli.stages.method.fit_many`), and each is traversed (and given its prior) on its own. Each
+    their segmenters train at once (:func:`~famarl_cli.stages.method.segment_many`), then their pre-runs and FAVAE
+    fits run as one batched model (:func:`~famarl_cli.stages.method.fit_many`), and each is traversed (and given its
+    prior) on its own. Each
     folder ends with the files :func:`learn_macros` writes; the FAVAE of seed S is the one ``famarl macros --seed
     S`` fits, up to float rounding. ``on_progress(k, phase, done, total)`` follows replicate k."""
 
@@ -97,15 +98,26 @@ def learn_macros_many(
         return None if on_progress is None else (lambda done: on_progress(k, phase, done, total))
 
     segments = []
-    for k, (config, folder) in enumerate(zip(configs, folders, strict=True)):
+    for config, folder in zip(configs, folders, strict=True):
         folder.mkdir(parents=True, exist_ok=True)
         segments.append(segments_path(folder, config))
-        if config.segments is None and not segments[k].with_suffix(".metrics.json").is_file():
-            report = progress(k, "segment", config.segment_epochs)
-            stages.segment(
-                pick(stages.SegmentOptions, config, out=segments[k], epochs=config.segment_epochs),
-                on_epoch=None if report is None else (lambda epoch, _, report=report: report(epoch + 1)),
-            )
+    pending = [
+        k
+        for k, c in enumerate(configs)
+        if c.segments is None and not segments[k].with_suffix(".metrics.json").is_file()
+    ]
+    if pending:
+        stages.segment_many(
+            [
+                pick(stages.SegmentOptions, configs[k], out=segments[k], epochs=configs[k].segment_epochs)
+                for k in pending
+            ],
+            None
+            if on_progress is None
+            else (
+                lambda i, epoch, _: on_progress(pending[i], "segment", epoch + 1, configs[pending[i]].segment_epochs)
+            ),
+        )
 
     def follow(phase: str, among: list[int]):
         """A batched step's on_epoch (replicate index among those it runs, ..., the epoch's row) as progress."""

@@ -143,55 +143,86 @@ class Segmented:
 def segment(options: SegmentOptions, on_epoch: Callable[[int, float], None] | None = None) -> Segmented:
     """Cut ``options.demos`` (only its first ``episodes`` episodes, when given) into macro actions; writes the
     segments (``options.destination``), ``.metrics.json``, the segmenter's ``.segmenter.pt`` (unless a trained
-    ``encoder`` is given) and ``.png``."""
+    ``encoder`` is given) and ``.png`` (:func:`segment_many` of one)."""
+    [segmented] = segment_many([options], None if on_epoch is None else (lambda _, epoch, mse: on_epoch(epoch, mse)))
+    return segmented
+
+
+def segment_many(
+    options: list[SegmentOptions], on_epoch: Callable[[int, int, float], None] | None = None
+) -> list[Segmented]:
+    """Segment several replicates: the segmenters of those without a trained ``encoder`` are trained at once
+    (:func:`~famarl_cli.method.segmentation.train_autoencoders`; they must read the same demos and episodes with
+    the same segmenter options, their seeds apart), and each replicate writes what :func:`segment` writes.
+    ``on_epoch(k, epoch, mse)`` follows replicate k's segmenter."""
     from famarl_cli.method.segmentation import (
         AutoencoderConfig,
         TrainingConfig,
         load_autoencoder,
         save_autoencoder,
         segment_demos,
-        train_autoencoder,
+        train_autoencoders,
     )
     from famarl_cli.report.plots import plot_segmentation
 
-    demos, encoder, episodes = options.demos, options.encoder, options.episodes
-    params, segmenter = pick(SegmentParams, options), pick(SegmenterOptions, options)
-    out = prepare_output(options.destination)
-    metrics_path, segmenter_path = out.with_suffix(".metrics.json"), out.with_suffix(".segmenter.pt")
-    loaded = read_demos(demos)
-    if episodes is not None:
-        if not 1 <= episodes <= len(loaded.episodes):
-            raise UsageError(f"{demos} holds {len(loaded.episodes)} episodes; cannot take the first {episodes}")
-        loaded = replace(loaded, episodes=loaded.episodes[:episodes])
-    recorded = {**to_json(params), **to_json(segmenter), "episodes": episodes}
-    inputs = [demos] + ([encoder] if encoder else [])
-    if encoder:
-        model, train_mse = load_autoencoder(encoder), None
-    else:
+    outs = [prepare_output(o.destination) for o in options]
+    demos = [_episodes_of(o) for o in options]
+    trained: dict[int, tuple] = {}
+    untrained = [k for k, o in enumerate(options) if o.encoder is None]
+    if untrained:
+        shared = {(options[k].demos, options[k].episodes, pick(SegmenterOptions, options[k])) for k in untrained}
+        if len(shared) > 1:
+            raise ValueError("segmenters trained together must read the same demos with the same options")
+        first = options[untrained[0]]
         config = AutoencoderConfig(
-            window=segmenter.window,
-            action_dim=loaded.episodes[0].actions.shape[1],
-            hidden=segmenter.hidden,
-            code_dim=segmenter.code_dim,
+            window=first.window,
+            action_dim=demos[untrained[0]].episodes[0].actions.shape[1],
+            hidden=first.hidden,
+            code_dim=first.code_dim,
         )
-        model, train_mse = train_autoencoder(
-            [e.actions for e in loaded.episodes], config, TrainingConfig(epochs=segmenter.epochs), params.seed, on_epoch
+        results = train_autoencoders(
+            [e.actions for e in demos[untrained[0]].episodes],
+            config,
+            TrainingConfig(epochs=first.epochs),
+            [options[k].seed for k in untrained],
+            None if on_epoch is None else (lambda i, epoch, mse: on_epoch(untrained[i], epoch, mse)),
         )
-    segments, metrics = segment_demos(loaded, model, params)
-    metrics["autoencoder_mse"] = train_mse
-    segments.provenance = provenance("famarl segment", recorded, params.seed, inputs)
-    write_segments(out, segments)
-    written = [out]
-    if not encoder:
-        save_autoencoder(segmenter_path, model, provenance("famarl segment", recorded, params.seed, [demos]))
-        written.append(segmenter_path)
-    # The metrics last: their presence says the stage finished (famarl_cli.stages.macros resumes by it).
-    if options.plot:
-        plot_segmentation(loaded, segments, out.with_suffix(".png"))
-        written.append(out.with_suffix(".png"))
-    write_json(metrics_path, metrics)
-    written.append(metrics_path)
-    return Segmented(segments, metrics, written)
+        trained = dict(zip(untrained, results, strict=True))
+    segmented = []
+    for k, (o, out, loaded) in enumerate(zip(options, outs, demos, strict=True)):
+        params, segmenter = pick(SegmentParams, o), pick(SegmenterOptions, o)
+        metrics_path, segmenter_path = out.with_suffix(".metrics.json"), out.with_suffix(".segmenter.pt")
+        recorded = {**to_json(params), **to_json(segmenter), "episodes": o.episodes}
+        inputs = [o.demos] + ([o.encoder] if o.encoder else [])
+        model, train_mse = trained[k] if o.encoder is None else (load_autoencoder(o.encoder), None)
+        segments, metrics = segment_demos(loaded, model, params)
+        metrics["autoencoder_mse"] = train_mse
+        segments.provenance = provenance("famarl segment", recorded, params.seed, inputs)
+        write_segments(out, segments)
+        written = [out]
+        if o.encoder is None:
+            save_autoencoder(segmenter_path, model, provenance("famarl segment", recorded, params.seed, [o.demos]))
+            written.append(segmenter_path)
+        if o.plot:
+            plot_segmentation(loaded, segments, out.with_suffix(".png"))
+            written.append(out.with_suffix(".png"))
+        # The metrics last: their presence says the stage finished (famarl_cli.stages.macros resumes by it).
+        write_json(metrics_path, metrics)
+        written.append(metrics_path)
+        segmented.append(Segmented(segments, metrics, written))
+    return segmented
+
+
+def _episodes_of(options: SegmentOptions):
+    """The demos a segmentation reads: all of ``options.demos``, or its first ``options.episodes`` episodes."""
+    loaded = read_demos(options.demos)
+    if options.episodes is None:
+        return loaded
+    if not 1 <= options.episodes <= len(loaded.episodes):
+        raise UsageError(
+            f"{options.demos} holds {len(loaded.episodes)} episodes; cannot take the first {options.episodes}"
+        )
+    return replace(loaded, episodes=loaded.episodes[: options.episodes])
 
 
 def favae_setup(segments: Path, options: FavaeOptions):
