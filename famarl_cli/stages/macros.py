@@ -90,9 +90,9 @@ def learn_macros_many(
     """Make (or finish) several replicates, one per folder, whose configs differ only in their seed (and inputs):
     their segmenters train at once (:func:`~famarl_cli.stages.method.segment_many`), then their pre-runs and FAVAE
     fits run as one batched model (:func:`~famarl_cli.stages.method.fit_many`), and each is traversed (and given its
-    prior) on its own. Each
-    folder ends with the files :func:`learn_macros` writes; the FAVAE of seed S is the one ``famarl macros --seed
-    S`` fits, up to float rounding. ``on_progress(k, phase, done, total)`` follows replicate k."""
+    prior) on its own. Each folder ends with the files :func:`learn_macros` writes; the FAVAE of seed S is the one
+    ``famarl macros --seed S`` fits, up to float rounding (docs/favae.md, "Replicates in one batched model").
+    ``on_progress(k, phase, done, total)`` follows replicate k."""
 
     def progress(k: int, phase: str, total: int):
         return None if on_progress is None else (lambda done: on_progress(k, phase, done, total))
