@@ -27,6 +27,18 @@ def echo(config: dict, folder: Path, context) -> dict:
     return {**config, "pid": os.getpid(), "met": met}
 
 
+def echo_batch(configs: list[dict], contexts) -> list[dict]:
+    """A batched runner: every job of the batch in this one process, each writing into its own folder."""
+    for config, context in zip(configs, contexts, strict=True):
+        context.check_lease()
+        (context.folder / "out.json").write_text(json.dumps(config))
+    return [{**config, "pid": os.getpid(), "batch": len(configs)} for config in configs]
+
+
+def boom_batch(configs: list[dict], contexts) -> list[dict]:
+    raise ValueError(f"bad data in a batch of {len(configs)}")
+
+
 def boom(config: dict, folder: Path, context) -> dict:
     raise ValueError(f"bad data in job {config['n']}")
 

@@ -181,6 +181,32 @@ def test_executor_contract(kind, tmp_path, request, monkeypatch):
     assert [by_name[f"j{i}"].result["met"] for i in (0, 1)] == [kind != "serial"] * 2
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["serial", "local", "ray"])
+def test_batched_jobs_run_a_batch_per_task_and_keep_their_own_folders(kind, tmp_path, request, monkeypatch):
+    """Four runs of one setting and two of another: each setting split over the workers, a batch in one process, every
+    run complete in its own folder; a batch that raises fails each of its runs, and nothing else."""
+    monkeypatch.syspath_prepend(str(TESTS))
+    monkeypatch.setenv("PYTHONPATH", str(TESTS))
+    jobs = [Job(f"a{s}", "sweep_jobs:echo_batch", {"seed": s, "beta": 1}, batched=True) for s in range(4)]
+    jobs += [Job(f"bad{s}", "sweep_jobs:boom_batch", {"seed": s}, batched=True) for s in range(2)]
+    with _executor(kind, request) as executor:
+        workers = executor.workers
+        state = run_sweep(tmp_path, jobs, executor)
+    by_name = {s.job.name: s for s in state.jobs}
+    size = -(-4 // workers)
+    for s in range(4):
+        run = by_name[f"a{s}"]
+        assert run.status == "done" and run.result["seed"] == s and run.result["batch"] == size
+        assert json.loads((tmp_path / f"a{s}" / "out.json").read_text())["seed"] == s
+        assert json.loads((tmp_path / f"a{s}" / JOB_FILE).read_text())["complete"] is True
+        assert not (tmp_path / f"a{s}" / ".lease").exists() and not (tmp_path / f"a{s}" / ".progress").exists()
+    for first in range(0, 4, size):  # the runs of a batch ran in one process
+        assert len({by_name[f"a{s}"].result["pid"] for s in range(first, first + size)}) == 1
+    assert sorted(s.job.name for s in state.failed) == ["bad0", "bad1"]
+    assert all("ValueError: bad data in a batch of" in by_name[f"bad{s}"].error for s in range(2))
+
+
 def _tiny_train_jobs(runner: str, seeds: str, steps: int = 1280) -> list[Job]:
     jobs = plan("train", [*TINY_PPO, "--steps", str(steps), "--checkpoint-every", "2"], seeds, [], None)
     return [Job(j.name, runner, j.config, j.inputs, j.resumable, j.point) for j in jobs]
