@@ -41,7 +41,7 @@ class _Slot:
     to_single: Callable[[torch.Tensor, int], torch.Tensor]
     """The inverse: the batched layout cropped to the replicate's map steps, in the Favae's layout."""
     steps: int | None = None
-    """The depth (0-based; -1: none) whose map steps this tensor depends on."""
+    """The depth (0-based) whose map steps this tensor's layout depends on; None: it depends on none."""
 
 
 def _pad_steps(tensor: torch.Tensor, dim: int, steps: int) -> torch.Tensor:
@@ -54,11 +54,16 @@ def _pad_steps(tensor: torch.Tensor, dim: int, steps: int) -> torch.Tensor:
     return torch.cat([tensor, tensor.new_zeros(shape)], dim=dim)
 
 
+def _bias_slot(name: str, outputs: int) -> _Slot:
+    """A bias (out,) -> (1, out), added to every row of x @ W."""
+    return _Slot(f"{name}.bias", (1, outputs), lambda b, _: b[None], lambda b, _: b[0])
+
+
 def _linear_slots(name: str, inputs: int, outputs: int) -> list[_Slot]:
     """nn.Linear: weight (out, in) -> (in, out) for x @ W; bias -> (1, out)."""
     return [
         _Slot(f"{name}.weight", (inputs, outputs), lambda w, _: w.T, lambda w, _: w.T),
-        _Slot(f"{name}.bias", (1, outputs), lambda b, _: b[None], lambda b, _: b[0]),
+        _bias_slot(name, outputs),
     ]
 
 
@@ -74,7 +79,7 @@ def _from_map_slots(name: str, channels: int, steps: int, outputs: int, depth: i
 
     return [
         _Slot(f"{name}.weight", (steps * channels, outputs), batched, single, depth),
-        _Slot(f"{name}.bias", (1, outputs), lambda b, _: b[None], lambda b, _: b[0]),
+        _bias_slot(name, outputs),
     ]
 
 
@@ -108,7 +113,7 @@ def _conv_slots(name: str, inputs: int, outputs: int) -> list[_Slot]:
             lambda w, _: w.permute(1, 2, 0).reshape(inputs * 3, outputs),
             lambda w, _: w.reshape(inputs, 3, outputs).permute(2, 0, 1),
         ),
-        _Slot(f"{name}.bias", (1, outputs), lambda b, _: b[None], lambda b, _: b[0]),
+        _bias_slot(name, outputs),
     ]
 
 
@@ -121,7 +126,7 @@ def _deconv_slots(name: str, inputs: int, outputs: int) -> list[_Slot]:
             lambda w, _: w.permute(0, 2, 1).reshape(inputs, 4 * outputs),
             lambda w, _: w.reshape(inputs, 4, outputs).permute(0, 2, 1),
         ),
-        _Slot(f"{name}.bias", (1, outputs), lambda b, _: b[None], lambda b, _: b[0]),
+        _bias_slot(name, outputs),
     ]
 
 
@@ -193,11 +198,11 @@ class FavaeEnsemble:
         self.flat = torch.zeros(self.replicates, sum(sizes))
         self.parameters: list[torch.Tensor] = []
         offset = 0
+        states = [model.state_dict() for model in models]
         for slot, size in zip(self.slots, sizes, strict=True):
             view = self.flat[:, offset : offset + size].view(self.replicates, *slot.shape)
-            for k, model in enumerate(models):
-                state = model.state_dict()[slot.name].detach()
-                view[k] = slot.to_batched(state, self._own(slot, k))
+            for k, state in enumerate(states):
+                view[k] = slot.to_batched(state[slot.name].detach(), self._own(slot, k))
             self.parameters.append(view.requires_grad_())
             offset += size
         self.named = dict(zip((s.name for s in self.slots), self.parameters, strict=True))
@@ -296,10 +301,9 @@ class FavaeEnsemble:
         for i, part in enumerate(reversed(parts[:-1]), start=1):
             t = self._mlp(f"top_down.{i}", torch.cat([torch.relu(t), part], dim=2))
         h = self._to_map("to_features", torch.relu(t), deepest)
-        last = self.config.ladders - 1
         for i, depth in enumerate(range(deepest - 1, -2, -1)):
             h = self._deconv(i, h)
-            h = self._mask(torch.relu(h) if i < last else h, depth)
+            h = self._mask(torch.relu(h) if depth >= 0 else h, depth)  # no ReLU on the output
         return h
 
     def forward(
