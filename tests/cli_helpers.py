@@ -30,9 +30,10 @@ def digest(path):
 
 
 def one_line_error(result, code, needle):
+    """The command failed with ``code`` and said so in exactly one line on stderr, its first, ``error: ...``."""
     assert result.exit_code == code
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], result.stderr
+    lines = result.stderr.removesuffix("\n").split("\n")
+    assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], repr(result.stderr)
     assert "Traceback" not in result.output
 
 

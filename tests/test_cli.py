@@ -125,7 +125,7 @@ def test_segment_bad_inputs(demos_file, tmp_path):
     one_line_error(
         famarl("segment", "--demos", demos_file, "--encoder", demos_file, "--out", tmp_path / "x.h5"),
         1,
-        "not a readable checkpoint",
+        "is an HDF5 file of schema famarl.demos, expected a famarl.segmenter checkpoint (a torch .pt file)",
     )
 
     demos = read_demos(demos_file)
@@ -227,7 +227,11 @@ def test_favae_and_traverse_bad_inputs(demos_file, segments_file, tmp_path):
         famarl("favae", "fit", "--segments", segments_file, "--ladders", 5, "--epochs", 1), 2, "divisible by 32"
     )
     assert "greater than or equal to 0" in usage_error(famarl("favae", "fit", "--beta", -1))
-    one_line_error(famarl("traverse", "--model", segments_file), 1, "not a readable checkpoint")
+    one_line_error(
+        famarl("traverse", "--model", segments_file),
+        1,
+        f"{segments_file}: is an HDF5 file of schema famarl.segments, expected a famarl.favae checkpoint",
+    )
 
     model = tmp_path / "m.pt"
     famarl("favae", "fit", "--segments", segments_file, "--epochs", 1, "--out", model)
@@ -325,10 +329,10 @@ def test_train_and_evaluate_bad_inputs(tmp_path, favae_file, segments_file):
     one_line_error(famarl("train", "--agent", "ppo", "--out", out), 2, "already holds a run")
     assert famarl("train", "--agent", "ppo", *TINY_TRAINING, "--out", out, "--overwrite").exit_code == 0
     kept = (out / "checkpoint.pt").read_bytes()
-    one_line_error(famarl("train", "--favae", segments_file, "--out", out, "--overwrite"), 1, "not a readable")
+    one_line_error(famarl("train", "--favae", segments_file, "--out", out, "--overwrite"), 1, "is an HDF5 file")
     assert (out / "checkpoint.pt").read_bytes() == kept, "a failed --overwrite must leave the old run"
     one_line_error(famarl("train", "--out", tmp_path / "empty", "--resume"), 1, "nothing to resume")
-    one_line_error(famarl("train", "--favae", segments_file, "--out", tmp_path / "x"), 1, "not a readable checkpoint")
+    one_line_error(famarl("train", "--favae", segments_file, "--out", tmp_path / "x"), 1, "expected a famarl.favae")
     one_line_error(
         famarl("train", "--env", "NoSuchEnv-v9", "--agent", "ppo", "--out", tmp_path / "y"), 2, "unknown environment"
     )
@@ -438,3 +442,66 @@ def test_favae_design_options_are_bounded_and_recorded(segments_file, tmp_path):
     )  # fmt: skip
     one_line_error(refused, 1, "C_last there measures kl, but this fit constrains information")
     assert not (tmp_path / "x.pt").exists()
+
+
+FAILING = [
+    (("segment", "--demos", "missing.h5"), 1, "error: missing.h5: no such file"),
+    (("favae", "calibrate"), 1, "error: no segments given, and neither data/segments/pushed-down-only.h5"),
+    (("favae", "fit"), 1, "error: no segments given"),
+    (("prior", "fit"), 1, "error: no segments given"),
+    (("traverse",), 1, "error: no FAVAE given, and neither data/favae/pushed-down-only.pt"),
+    (("train", "--steps", 100), 1, "error: no FAVAE given"),
+    (("evaluate",), 1, "error: no run given, and data/maze/runs (dvc repro) does not exist; make one, or give --run"),
+    (("macros", "--demos", "missing.h5"), 1, "error: missing.h5: no such file"),
+    (("report", "--experiment", "maze"), 1, "error: data: nothing to report for maze"),
+    (("export-minari", "missing.h5", "--dataset-id", "a-v0"), 1, "error: missing.h5: no such file"),
+]
+
+
+@pytest.mark.parametrize(("args", "code", "first_line"), FAILING, ids=[" ".join(map(str, a[0])) for a in FAILING])
+def test_a_failing_command_says_so_on_its_first_line_and_leaves_nothing(tmp_path, monkeypatch, args, code, first_line):
+    monkeypatch.chdir(tmp_path)
+    result = famarl(*args)
+    one_line_error(result, code, "")
+    assert result.stderr.startswith(first_line), repr(result.stderr)
+    assert list(tmp_path.iterdir()) == [], "a failed command must not leave files or empty folders"
+
+
+def test_a_file_of_the_wrong_kind_is_named_by_what_it_is(favae_file, segments_file, tmp_path):
+    one_line_error(
+        famarl("favae", "fit", "--segments", favae_file, "--out", tmp_path / "x.pt"),
+        1,
+        f"{favae_file}: is a torch checkpoint (.pt), expected an HDF5 famarl.segments file",
+    )
+    (tmp_path / "notes.json").write_text('{"a": 1}')
+    one_line_error(famarl("traverse", "--model", tmp_path / "notes.json"), 1, "is a JSON file, expected a famarl.favae")
+
+
+def test_a_sweep_says_where_a_commands_own_option_goes(tmp_path):
+    result = famarl("sweep", "train", "--agent", "famarl", "--out", tmp_path / "runs")
+    assert result.exit_code == 2
+    assert (
+        "No such option: --agent. --agent is an option of famarl train: a command's own options go after --, e.g. "
+        "famarl sweep train --seeds 0-2 --out DIR -- --agent ..."
+    ) in " ".join(result.stderr.split())
+    assert "go after --" not in famarl("sweep", "train", "--nope", "--out", tmp_path / "runs").stderr
+    assert not (tmp_path / "runs").exists()
+
+
+def test_stages_given_no_inputs_take_the_main_jobs(favae_file, segments_file, tmp_path, monkeypatch):
+    """After dvc repro (its replicate folders, stood in for by the fixtures' files), famarl train, favae fit and
+    traverse run without naming their inputs: each takes the main job's replicate (train: of its own seed)."""
+    monkeypatch.chdir(tmp_path)
+    for seed in (0, 1):
+        replicate = tmp_path / f"data/maze/macros/seed{seed}"
+        replicate.mkdir(parents=True)
+        (replicate / "favae.pt").write_bytes(favae_file.read_bytes())
+        (replicate / "segments.h5").write_bytes(segments_file.read_bytes())
+    result = famarl("train", *TINY_TRAINING, "--seed", 1, "--out", "run")
+    assert result.exit_code == 0, result.output
+    assert json.loads((tmp_path / "run/run.json").read_text())["spec"]["favae"] == "data/maze/macros/seed1/favae.pt"
+    result = famarl("favae", "fit", "--epochs", 1, "--ladders", 2, "--out", "fitted.pt")
+    assert result.exit_code == 0, result.output
+    assert "data/maze/macros/seed0/segments.h5" in result.stdout
+    result = famarl("traverse", "--values=-1,1", "--out", "traverse.h5")
+    assert result.exit_code == 0 and "replicate 0 of the default pipeline" in result.stdout

@@ -125,7 +125,9 @@ def test_import_by_id_matches_what_minari_loads():
         # Without famarl's ground truth each episode is one phase of no factors.
         assert np.array_equal(episode.segment_starts, [0]) and episode.factors.shape == (1, 0)
     assert [e.seed for e in demos.episodes] == [11, 12]
-    assert (demos.env_id, demos.env_kwargs, demos.script) == ("Pendulum-v1", {}, "minari:pendulum/random-v0")
+    # Recorded under TimeLimit(..., 12), not Pendulum's registered 200: the env the data came from takes it back.
+    expected = ("Pendulum-v1", {"max_episode_steps": 12}, "minari:pendulum/random-v0")
+    assert (demos.env_id, demos.env_kwargs, demos.script) == expected
     assert demos.factor_names == () and demos.seed == -1
 
 
@@ -351,3 +353,95 @@ def test_imported_success_is_the_recorded_report_else_the_threshold_never_termin
     assert reporting.success_rule == "info['success'] reported by the env"
     without = import_minari(collected("reporting/no-infos-v0", "Reporting-v0", [1, 2]))
     assert without.success_rate == 1.0 and "reward_threshold" in without.success_rule  # return -5 >= -100
+
+
+def check_like_minari(dataset_id: str, env_id: str, env_kwargs: dict) -> minari.MinariDataset:
+    """The checks Minari's own test-suite makes of every dataset it writes, in our words: the recovered env is the
+    one ``gymnasium.make`` builds (spec, spaces), the dataset's spaces are that env's, every observation and action
+    lies in them, lengths and step counts agree, and the dataset lists, loads and deletes by its id."""
+    from gymnasium.utils.env_checker import data_equivalence
+
+    dataset = minari.load_dataset(dataset_id)
+    made, recovered = gym.make(env_id, **env_kwargs), dataset.recover_environment()
+    assert recovered.spec == made.spec, f"{recovered.spec} != {made.spec}"
+    for space in ("observation_space", "action_space"):
+        assert data_equivalence(getattr(recovered, space), getattr(made, space)), space
+        assert data_equivalence(getattr(dataset.spec, space), getattr(made, space)), space
+    total = 0
+    for episode in dataset.iterate_episodes():
+        steps = len(episode.rewards)
+        total += steps
+        assert len(episode.observations) == steps + 1 and len(episode.actions) == steps
+        assert all(dataset.observation_space.contains(o) for o in episode.observations)
+        assert all(dataset.action_space.contains(a) for a in episode.actions)
+        assert len(episode.terminations) == len(episode.truncations) == steps
+        if episode.truncations[-1]:  # cut by the time limit: at the limit the recovered env has
+            assert steps == recovered.spec.max_episode_steps
+    assert total == dataset.total_steps
+    assert dataset_id in minari.list_local_datasets() and minari.load_dataset(dataset_id).spec.dataset_id == dataset_id
+    minari.delete_dataset(dataset_id)
+    assert dataset_id not in minari.list_local_datasets()
+    return dataset
+
+
+def test_exported_demos_recover_their_env_and_lie_in_its_spaces(tiny_demos):
+    notes = []
+    export_minari(tiny_demos, "famarl/tiny-v0", on_note=notes.append)
+    assert notes == []  # ContinuousWorld's spaces hold famarl's demos exactly
+    dataset = check_like_minari("famarl/tiny-v0", tiny_demos.env_id, tiny_demos.env_kwargs)
+    assert dataset.env_spec.max_episode_steps == gym.spec(tiny_demos.env_id).max_episode_steps
+    assert dataset.observation_space == gym.make(tiny_demos.env_id).observation_space  # bounded, not (-inf, inf)
+
+
+def test_demos_under_a_shorter_time_limit_keep_it_and_their_truncations(tiny_demos):
+    limit = 20
+    cut = []
+    for episode in tiny_demos.episodes:
+        starts = episode.segment_starts[episode.segment_starts < limit]
+        cut.append(
+            Episode(
+                observations=episode.observations[: limit + 1],
+                actions=episode.actions[:limit],
+                rewards=episode.rewards[:limit],
+                terminations=np.zeros(limit, dtype=bool),
+                truncations=np.arange(limit) == limit - 1,
+                seed=episode.seed,
+                segment_starts=starts,
+                factors=episode.factors[: len(starts)],
+                success=False,
+            )
+        )
+    kwargs = {**tiny_demos.env_kwargs, "max_episode_steps": limit}
+    demos = Demos(cut, tiny_demos.env_id, tiny_demos.script, tiny_demos.seed, tiny_demos.factor_names, kwargs, {})
+    export_minari(demos, "famarl/cut-v0")
+    assert all(episode.truncations[-1] for episode in minari.load_dataset("famarl/cut-v0").iterate_episodes())
+    dataset = check_like_minari("famarl/cut-v0", demos.env_id, kwargs)  # truncated at the limit the env has
+    assert dataset.env_spec.max_episode_steps == limit
+
+
+def test_an_imported_gymnasium_dataset_exports_again_with_the_same_env():
+    original = minari.load_dataset(pendulum())  # recorded under TimeLimit(Pendulum-v1, 12)
+    spec = original.env_spec
+    demos = import_minari("pendulum/random-v0")
+    export_minari(demos, "pendulum/again-v0")
+    again = minari.load_dataset("pendulum/again-v0")
+    assert again.env_spec == spec and spec.max_episode_steps == 12
+    assert again.observation_space == original.observation_space and again.action_space == original.action_space
+    check_like_minari("pendulum/again-v0", "Pendulum-v1", demos.env_kwargs)
+
+
+def test_a_goal_envs_dict_observations_are_exported_flat_with_a_note():
+    notes, demos = [], famarl_demos(env_id="PointMaze_UMaze-v3")  # 8 values: its Dict of 4 + 2 + 2
+    demos.env_kwargs = {}
+    export_minari(demos, "maze/flat-v0", on_note=notes.append)
+    assert len(notes) == 1 and "Dict space, kept flattened by famarl" in notes[0]
+    assert minari.load_dataset("maze/flat-v0").observation_space == gym.spaces.Box(-np.inf, np.inf, (8,), np.float32)
+
+
+def test_cli_export_says_what_it_could_not_keep_in_a_note_line(tmp_path):
+    demos_file = tmp_path / "demos.h5"
+    write_demos(demos_file, famarl_demos(env_id="elsewhere/Unknown-v0"))
+    result = famarl("export-minari", demos_file, "--dataset-id", "unknown-v0", "--root", tmp_path / "root")
+    assert result.exit_code == 0
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("note: elsewhere/Unknown-v0 cannot be made here"), result.stderr

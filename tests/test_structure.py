@@ -25,13 +25,14 @@ FLOORS = {
     "sweep": 3,
     "experts": 2,
     "artifacts": 2,
+    "__init__": 1.5,
     "envs": 1,
-    "__init__": 0.5,
     "core": 0,
 }
 """Each room of famarl_cli (a folder, or a module at the top) and its floor: a room imports only rooms below it
-(docs/design.md). The package's face (famarl_cli/__init__.py: its version, set up before numpy loads) stands
-just above the ground: it imports only core, and everything else may import it."""
+(docs/design.md). The package's face (famarl_cli/__init__.py: its version, the environment set before numpy loads,
+and the envs registered with gymnasium) stands just above the envs: it imports core and envs, and every room from
+artifacts up may import it."""
 
 
 def room(module: str) -> str:
@@ -163,7 +164,7 @@ def test_every_sweepable_runner_resolves_to_its_function():
     examples = {
         "demos": DemosOptions(),
         "macros": MacrosConfig(demos=Path("d.h5")),
-        "train": TrainOptions(),
+        "train": TrainOptions(favae=Path("f.pt")),
         "prior": PriorFitOptions(),
     }
     assert set(SWEEPABLE) == set(examples)

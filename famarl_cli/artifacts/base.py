@@ -40,6 +40,10 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     gives no chance to clean up) are removed by the next write of the same file.
     """
     path = prepare_output(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ArtifactError(f"cannot write {path}: {exc.strerror or exc}") from exc
     remove_stale_temporaries(path)
     try:
         fd, temp = tempfile.mkstemp(prefix=f".{path.name}{TEMP_MARKER}{os.getpid()}-", dir=path.parent)
@@ -82,19 +86,17 @@ def _process_exists(pid: int) -> bool:
 
 
 def prepare_output(path: str | os.PathLike) -> Path:
-    """Make ``path``'s folder and check a file can be written there, before a stage spends time on it."""
+    """Check that ``path`` can be written, before a stage spends time on it; creates nothing (its folders are made
+    when the first file is written, :func:`atomic_path`), so that a stage that fails leaves no empty folder."""
     path = Path(path)
     if path.is_dir():
         raise ArtifactError(f"cannot write {path}: it is a directory")
     for parent in reversed(path.parents):
         if parent.exists() and not parent.is_dir():
             raise ArtifactError(f"cannot write {path}: {parent} is not a directory")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ArtifactError(f"cannot write {path}: {exc.strerror or exc}") from exc
-    if not os.access(path.parent, os.W_OK):
-        raise ArtifactError(f"cannot write {path}: {path.parent} is not writable")
+    existing = next(parent for parent in path.parents if parent.exists())
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise ArtifactError(f"cannot write {path}: {existing} is not writable")
     return path
 
 
@@ -130,6 +132,35 @@ def write_header(handle: h5py.File, schema: str, version: int, prov: dict, **att
         handle.attrs[key] = value if isinstance(value, str | int | float | np.number) else json.dumps(value)
 
 
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+ZIP_SIGNATURE = b"PK\x03\x04"
+"""How a torch file (``torch.save``'s zip archive) begins."""
+
+
+def describe_file(path: str | os.PathLike) -> str | None:
+    """What a file that failed to load is, in words ("an HDF5 file of schema famarl.segments"), so that an error
+    can say it was given the wrong kind of file; None where famarl cannot tell (truncated, or foreign bytes)."""
+    try:
+        with open(path, "rb") as handle:
+            head = handle.read(8)
+    except OSError:
+        return None
+    if not head:
+        return "an empty file"
+    if head == HDF5_SIGNATURE:
+        try:
+            with h5py.File(path, "r") as handle:
+                schema = handle.attrs.get("schema")
+        except OSError:
+            return None
+        return "an HDF5 file without a famarl schema" if schema is None else f"an HDF5 file of schema {schema}"
+    if head.startswith(ZIP_SIGNATURE):
+        return "a torch checkpoint (.pt)"
+    if head.lstrip()[:1] in (b"{", b"["):
+        return "a JSON file"
+    return None
+
+
 def _open_hdf5(path: Path, expected: str) -> h5py.File:
     """An open, readable HDF5 file that carries a ``schema`` attribute; ``expected`` words the errors."""
     if not path.exists():
@@ -139,7 +170,10 @@ def _open_hdf5(path: Path, expected: str) -> h5py.File:
     try:
         handle = h5py.File(path, "r")
     except OSError as exc:
-        raise ArtifactError(f"{path}: not a readable HDF5 file (empty, truncated or corrupt?)") from exc
+        kind = describe_file(path)
+        if kind is not None:
+            raise ArtifactError(f"{path}: is {kind}, expected {expected}") from exc
+        raise ArtifactError(f"{path}: not a readable HDF5 file (truncated or corrupt?)") from exc
     if handle.attrs.get("schema") is None:
         handle.close()
         raise ArtifactError(f"{path}: has no 'schema' attribute; not a famarl artifact")

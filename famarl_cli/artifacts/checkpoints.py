@@ -15,7 +15,7 @@ import numpy as np
 import torch
 
 from famarl_cli import __version__
-from famarl_cli.artifacts.base import atomic_path, check
+from famarl_cli.artifacts.base import atomic_path, check, describe_file
 from famarl_cli.core.errors import ArtifactError
 
 
@@ -75,6 +75,9 @@ def load_checkpoint(path: str | os.PathLike, schema: str, version: int) -> dict[
     try:
         payload = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # torch.load on foreign bytes raises almost any kind (IndexError on 6 bytes, ...)
+        kind = describe_file(path)
+        if kind is not None and "torch" not in kind:
+            raise ArtifactError(f"{path}: is {kind}, expected a {schema} checkpoint (a torch .pt file)") from exc
         raise ArtifactError(f"{path}: not a readable checkpoint (truncated or not a torch file?)") from exc
     check(isinstance(payload, dict) and "schema" in payload, path, "has no 'schema'; not a famarl checkpoint")
     check(payload["schema"] == schema, path, f"is a {payload['schema']!r} checkpoint, expected {schema!r}")

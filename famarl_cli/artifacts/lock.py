@@ -24,14 +24,15 @@ LOCK_FILE = ".famarl.lock"
 
 @contextlib.contextmanager
 def claim_folder(folder: str | os.PathLike, wait_s: float = 0.0) -> Iterator[Path]:
-    """Hold ``folder`` (created if missing, and removed again if it is left empty) for writing; raise UsageError
-    if another process holds it for more than ``wait_s`` seconds."""
+    """Hold ``folder`` (created if missing, and removed again with the parents it had to create if it is left
+    empty: a command that fails leaves no empty folders) for writing; raise UsageError if another process holds it
+    for more than ``wait_s`` seconds."""
     folder = Path(folder)
     deadline = time.monotonic() + wait_s
     path = folder / LOCK_FILE
     while True:
         # Made again on every try: a holder that created the folder removes it when it leaves it empty.
-        created = not folder.exists()
+        created = [path for path in (folder, *folder.parents) if not path.exists()]
         try:
             folder.mkdir(parents=True, exist_ok=True)
             fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
@@ -47,9 +48,7 @@ def claim_folder(folder: str | os.PathLike, wait_s: float = 0.0) -> Iterator[Pat
             if time.monotonic() < deadline:
                 time.sleep(0.1)
                 continue
-            if created:
-                with contextlib.suppress(OSError):
-                    folder.rmdir()
+            _remove_empty(created)
             raise UsageError(
                 f"{folder} is being written by another famarl process (pid {holder}); wait for it to finish, or "
                 "choose another folder"
@@ -70,6 +69,13 @@ def claim_folder(folder: str | os.PathLike, wait_s: float = 0.0) -> Iterator[Pat
         with contextlib.suppress(FileNotFoundError):
             path.unlink()
         os.close(fd)
-        if created:
-            with contextlib.suppress(OSError):
-                folder.rmdir()  # only if empty: nothing was written
+        _remove_empty(created)
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    """Remove ``folders`` (deepest first) as long as they are empty: nothing was written in them."""
+    for folder in folders:
+        try:
+            folder.rmdir()
+        except OSError:
+            return

@@ -7,11 +7,13 @@ What maps to what, per episode:
 
 - **observations** (T+1, D) float32: a Box observation space is reshaped to (T+1, D); a Dict, Tuple, Discrete,
   MultiDiscrete or MultiBinary one is flattened step by step with ``gymnasium.spaces.flatten``, a Dict's entries in
-  the space's key order (which gymnasium sorts), discrete values one-hot. Export writes them as they are, under
-  ``Box(-inf, inf, (D,), float32)``: famarl keeps no observation space.
+  the space's key order (which gymnasium sorts), discrete values one-hot. Export writes them under the env's own
+  observation space where gymnasium can make ``demos.env_id`` (famarl's ids, gymnasium's, gymnasium-robotics'), it
+  is a Box of D values and the data lie in it (reshaped to its shape, in its dtype); otherwise, and for a Dict of
+  a goal env (famarl keeps observations flattened), under ``Box(-inf, inf, (D,), float32)``, and says so in a note.
 - **actions** (T, A) float32: the action space must be a Box, since famarl learns continuous macro actions; on
-  export the space is the env's own Box when gymnasium can make ``demos.env_id`` (famarl's ids, gymnasium's,
-  gymnasium-robotics') and its shape is (A,), else ``Box(-inf, inf, (A,), float32)``.
+  export the space is the env's own Box when gymnasium can make the env, its shape is (A,) and the actions lie in
+  it, else ``Box(-inf, inf, (A,), float32)`` with a note.
 - **rewards** float64, **terminations** and **truncations** bool: the same arrays.
 - **seed**: Minari's episode seed; -1 ("unknown") when Minari recorded none, and on export no seed for -1.
 - **ground truth** (segment_starts, factors): only datasets exported by famarl have it. Any other episode is one
@@ -29,7 +31,10 @@ Where an export keeps what only famarl knows, so that importing it gives back th
   phase, not per step, so per-step ``infos`` (T+1 rows by Minari's convention) would only repeat it; attributes
   keep it exactly as famarl has it.
 
-The dataset's ``env_spec`` is recorded when gymnasium can make the env, so ``dataset.recover_environment()`` works.
+The dataset's ``env_spec`` is the spec of the env ``gymnasium.make(env_id, **env_kwargs)`` builds (its time limit,
+order enforcer and checker flags, kwargs), so ``dataset.recover_environment()`` gives that very env, whose spaces are
+the dataset's. An imported dataset keeps a time limit that differs from its id's registered one as
+``env_kwargs["max_episode_steps"]``, so exporting it again records the same spec.
 """
 
 from __future__ import annotations
@@ -38,6 +43,8 @@ import json
 import os
 import secrets
 import shutil
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -119,10 +126,22 @@ def import_minari(dataset: str, success_return: float | None = None) -> Demos:
         script=f"minari:{loaded.id}",
         seed=-1,
         factor_names=(),
-        env_kwargs=_json_or_empty(spec.kwargs) if spec is not None else {},
+        env_kwargs=_env_kwargs(spec),
         provenance=made,
         success_rule=described,
     )
+
+
+def _env_kwargs(spec: Any) -> dict:
+    """What ``gymnasium.make(spec.id, **kwargs)`` needs to build the env of ``spec``: its kwargs, and its time limit
+    where it differs from the id's registered one (a dataset recorded under its own ``TimeLimit``)."""
+    if spec is None:
+        return {}
+    kwargs = _json_or_empty(spec.kwargs)
+    registered = _registered_spec(spec.id)
+    if registered is not None and spec.max_episode_steps != registered.max_episode_steps:
+        kwargs["max_episode_steps"] = spec.max_episode_steps
+    return kwargs
 
 
 def _registered_spec(env_id: str) -> Any:
@@ -133,9 +152,17 @@ def _registered_spec(env_id: str) -> Any:
         return None
 
 
-def export_minari(demos: Demos, dataset_id: str, root: Path | None = None, *, overwrite: bool = False) -> Path:
+def export_minari(
+    demos: Demos,
+    dataset_id: str,
+    root: Path | None = None,
+    *,
+    overwrite: bool = False,
+    on_note: Callable[[str], None] | None = None,
+) -> Path:
     """Write ``demos`` as the Minari dataset ``dataset_id`` under ``root`` (default: Minari's local storage, where
-    ``minari.load_dataset(dataset_id)`` finds it) and return its folder.
+    ``minari.load_dataset(dataset_id)`` finds it) and return its folder. ``on_note`` hears, one line each, what of the
+    env could not be written exactly (an observation space famarl keeps flattened, an env gymnasium cannot make).
 
     The dataset is built in a hidden folder beside its final one (Minari lists no hidden folders) and renamed into
     place when complete, so a failure leaves no half-written dataset. An existing dataset is replaced only with
@@ -166,25 +193,30 @@ def export_minari(demos: Demos, dataset_id: str, root: Path | None = None, *, ov
             raise UsageError(f"Minari dataset {dataset_id} already exists at {folder}; use another id, or --overwrite")
         if not (folder / "data").is_dir():
             raise UsageError(f"{folder} exists and is not a Minari dataset; not overwriting it")
-    observation_space, action_space, env_spec = _spaces(demos)
+    spaces = _spaces(demos)
+    for note in spaces.notes if on_note is not None else ():
+        on_note(note)
     temp = folder.parent / f".{folder.name}{TEMP_MARKER}{os.getpid()}-{secrets.token_hex(4)}"
     try:
         temp.mkdir(parents=True)
         storage = MinariStorage.new(
-            temp / "data", observation_space=observation_space, action_space=action_space, env_spec=env_spec
+            temp / "data",
+            observation_space=spaces.observation_space,
+            action_space=spaces.action_space,
+            env_spec=spaces.env_spec,
         )
         storage.update_metadata(_dataset_metadata(demos, dataset_id, minari.__version__))
         storage.update_episodes(
             [
                 EpisodeBuffer(
                     seed=None if episode.seed == -1 else int(episode.seed),
-                    observations=episode.observations.astype(np.float32),
+                    observations=observations,
                     actions=episode.actions.astype(np.float32),
                     rewards=episode.rewards.astype(np.float64),
                     terminations=episode.terminations.astype(bool),
                     truncations=episode.truncations.astype(bool),
                 )
-                for episode in demos.episodes
+                for episode, observations in zip(demos.episodes, spaces.observations, strict=True)
             ]
         )
         storage.update_episode_metadata(
@@ -366,24 +398,64 @@ def _json_or_empty(kwargs: dict) -> dict:
     return dict(kwargs)
 
 
-def _spaces(demos: Demos) -> tuple[gym.spaces.Box, gym.spaces.Box, Any]:
-    """The export's observation space, action space, and the env's spec (None when gymnasium cannot make it)."""
+@dataclass
+class _Spaces:
+    """What an export writes about its env: its spaces, the observations in the observation space's shape, its spec
+    (None where gymnasium cannot make the env), and what could not be kept exactly, one line each."""
+
+    observation_space: gym.spaces.Box
+    action_space: gym.spaces.Box
+    env_spec: Any
+    observations: list[np.ndarray]
+    notes: list[str]
+
+
+def _spaces(demos: Demos) -> _Spaces:
+    """The env's own spaces and spec (``gymnasium.make(env_id, **env_kwargs)``, time limit and wrappers included)
+    where the demos fit them, so that ``recover_environment()`` gives the env the data came from; unbounded Boxes
+    otherwise, each with a note saying why."""
     from famarl_cli.envs.external import make_env
 
     obs_dim = demos.episodes[0].observations.shape[1]
     act_dim = demos.episodes[0].actions.shape[1]
-    observation_space = gym.spaces.Box(-np.inf, np.inf, (obs_dim,), np.float32)
-    unbounded = gym.spaces.Box(-np.inf, np.inf, (act_dim,), np.float32)
+    flat = [episode.observations.astype(np.float32) for episode in demos.episodes]
+    unbounded = _Spaces(
+        gym.spaces.Box(-np.inf, np.inf, (obs_dim,), np.float32),
+        gym.spaces.Box(-np.inf, np.inf, (act_dim,), np.float32),
+        None,
+        flat,
+        [],
+    )
     try:
         env = make_env(demos.env_id, demos.env_kwargs)
-    except FamarlError:
-        # An unknown id (an imported dataset's, say) or a missing dependency only means the bounds are unknown.
-        return observation_space, unbounded, None
-    space, spec = env.action_space, env.unwrapped.spec
+    except FamarlError as exc:
+        # An unknown id (an imported dataset's, say) or a missing dependency only means the spaces are unknown.
+        unbounded.notes.append(f"{demos.env_id} cannot be made here ({exc}): no env spec, unbounded spaces")
+        return unbounded
+    obs_space, act_space, unbounded.env_spec = env.observation_space, env.action_space, env.spec
     env.close()
-    if isinstance(space, gym.spaces.Box) and space.shape == (act_dim,):
-        return observation_space, gym.spaces.Box(space.low, space.high, dtype=np.float32), spec
-    return observation_space, unbounded, spec
+    actions = np.concatenate([episode.actions for episode in demos.episodes])
+    if act_space.shape == (act_dim,) and _inside(actions, act_space):
+        unbounded.action_space = act_space
+    else:
+        unbounded.notes.append(f"the demos' actions do not fit {demos.env_id}'s {act_space}: written as unbounded")
+    if not isinstance(obs_space, gym.spaces.Box):
+        unbounded.notes.append(
+            f"{demos.env_id}'s observations are a {type(obs_space).__name__} space, kept flattened by famarl: "
+            f"written as an unbounded Box of their {obs_dim} values"
+        )
+    elif obs_space.shape and int(np.prod(obs_space.shape)) == obs_dim and _inside(np.concatenate(flat), obs_space):
+        unbounded.observation_space = obs_space
+        unbounded.observations = [o.reshape(len(o), *obs_space.shape).astype(obs_space.dtype) for o in flat]
+    else:
+        unbounded.notes.append(f"the demos' observations do not fit {demos.env_id}'s {obs_space}: written as unbounded")
+    return unbounded
+
+
+def _inside(rows: np.ndarray, space: gym.spaces.Box) -> bool:
+    """Whether every row of flat values lies in ``space`` (its bounds, after the cast to its dtype)."""
+    values = rows.reshape(len(rows), -1).astype(space.dtype)
+    return bool(np.all(values >= space.low.reshape(-1)) and np.all(values <= space.high.reshape(-1)))
 
 
 def _dataset_metadata(demos: Demos, dataset_id: str, minari_version: str) -> dict:

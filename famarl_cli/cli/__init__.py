@@ -145,6 +145,9 @@ def sweepable(
 
 
 def progress_bar() -> Progress:
+    """A bar on a terminal that leaves no trace when done. Off when stderr is not a terminal (a log, DVC, a pipe):
+    there a transient bar draws nothing anyway, but would leave an empty line before the command's output or its
+    ``error:`` line."""
     return Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -152,6 +155,7 @@ def progress_bar() -> Progress:
         TimeRemainingColumn(),
         console=console,
         transient=True,
+        disable=not console.is_terminal,
     )
 
 

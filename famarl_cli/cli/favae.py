@@ -39,6 +39,7 @@ def favae_calibrate(options: CalibrateOptions) -> None:
     from famarl_cli.stages import method as stages
 
     torch_on_one_thread()
+    options = stages.given_segments(options)
     with progress_bar() as progress:
         task = progress.add_task("calibrate", total=options.epochs)
         c_last, _ = stages.calibrate(options, _epoch_reporter(progress, task, "C_last pre-run"))
@@ -52,6 +53,7 @@ def favae_fit(options: FitOptions) -> None:
     from famarl_cli.stages import method as stages
 
     torch_on_one_thread()
+    options = stages.given_segments(options)
     epochs = options.epochs
     with progress_bar() as progress:
         tasks = {} if options.calibration else {"calibrate": progress.add_task("calibrate", total=epochs)}

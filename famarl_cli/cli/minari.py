@@ -34,7 +34,9 @@ def export_minari(
     from famarl_cli.artifacts.minari_datasets import export_minari as write_dataset
 
     recorded = read_demos(demos)
-    folder = write_dataset(recorded, dataset_id, root, overwrite=overwrite)
+    folder = write_dataset(
+        recorded, dataset_id, root, overwrite=overwrite, on_note=lambda note: typer.echo(f"note: {note}", err=True)
+    )
     table = Table(title=f"Minari dataset: {dataset_id}", show_header=False)
     table.add_row("dataset id", dataset_id)
     table.add_row("folder", str(folder))

@@ -25,6 +25,7 @@ def prior_fit(options: PriorFitOptions) -> None:
     from famarl_cli.stages.prior import fit_prior
 
     torch_on_one_thread()
+    options = options.given()
     with progress_bar() as progress:
         task = progress.add_task("fit", total=options.epochs)
 
@@ -65,4 +66,5 @@ def prior_job(options: PriorFitOptions) -> JobRecipe:
     from famarl_cli.stages.prior import run_job
 
     config = {key: value for key, value in to_json(options).items() if key != "out"}
-    return JobRecipe(run_job, config, tuple(str(path) for path in (options.demos, options.segments, options.favae)))
+    given = (options.demos, options.segments, options.favae)  # a default one is found when the point runs
+    return JobRecipe(run_job, config, tuple(str(path) for path in given if path is not None))

@@ -15,7 +15,40 @@ from famarl_cli.cli import SWEEPABLE, app, progress_bar, reports_errors
 from famarl_cli.core.errors import FamarlError, UsageError
 
 
-@app.command(no_args_is_help=True)
+class _SweepCommand(typer.core.TyperCommand):
+    """``famarl sweep``, whose parser says where a stage's own option goes when it is given before ``--``."""
+
+    def parse_args(self, ctx, args: list[str]) -> list[str]:
+        given = list(args)  # the parser consumes its list
+        try:
+            return super().parse_args(ctx, args)
+        except Exception as exc:
+            # click's NoSuchOption (typer vendors its own click, so the class is matched by name and attribute).
+            if type(exc).__name__ == "NoSuchOption" and hasattr(exc, "option_name"):
+                hint = _stage_option_hint(exc.option_name, given)
+                if hint is not None:
+                    exc.message = f"{exc.message}. {hint}"
+            raise
+
+
+def _stage_option_hint(option: str, args: list[str]) -> str | None:
+    """Where ``option``, unknown to the sweep, belongs when it is an option of the command being swept."""
+    from famarl_cli.core.declare import declared
+
+    command = next((arg for arg in args if arg in SWEEPABLE), None)
+    if command is None:
+        return None
+    name = option.split("=", 1)[0]
+    flags = {option.flag for option in declared(SWEEPABLE[command].options)}
+    if name not in flags | {"--no-" + flag.removeprefix("--") for flag in flags}:
+        return None
+    return (
+        f"{name} is an option of famarl {SWEEPABLE[command].command}: a command's own options go after --, e.g. "
+        f"famarl sweep {command} --seeds 0-2 --out DIR -- {name} ..."
+    )
+
+
+@app.command(cls=_SweepCommand, no_args_is_help=True)
 @reports_errors
 def sweep(
     command: Annotated[

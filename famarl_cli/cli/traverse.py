@@ -16,13 +16,14 @@ from famarl_cli.stages.method import TraverseOptions
 def traverse(options: TraverseOptions) -> None:
     """Decode sweeps of single latent variables and draw the paths their macro actions take (paper Fig. 5)."""
     from famarl_cli.method.traversal import EMPTY_LADDER_NATS, empty_ladders
+    from famarl_cli.stages import defaults
     from famarl_cli.stages import method as stages
 
     torch_on_one_thread()
     # The default FAVAE is looked up once: the output's name and the traversal take it from the options.
-    options = replace(options, model=options.model or stages.default_favae())
+    options = replace(options, model=options.model or defaults.favae("--model"))
     model = options.model
-    if model == stages.PIPELINE_FAVAE:
+    if defaults.is_main_jobs(model):
         Console().print(f"traversing {model}: replicate 0 of the default pipeline (dvc repro)")
     out = options.destination
     result, carried = stages.traverse(options)

@@ -1,4 +1,5 @@
-"""Environments, registered with gymnasium under the ``famarl/`` namespace when this package is imported.
+"""Environments, registered with gymnasium under the ``famarl/`` namespace when this package is imported, which
+``import famarl_cli`` does (then ``gymnasium.make("famarl/ContinuousWorld-Maze-v0")``).
 
 ``gymnasium.make("famarl_cli.envs:famarl/ContinuousWorld-Maze-v0")`` imports and registers in one call.
 """

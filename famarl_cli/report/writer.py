@@ -19,7 +19,7 @@ def write_report(names: list[str], data: Path, out: Path, version: str) -> dict[
     experiments with runs, ``<name>-curves.csv`` (their learning curves, for ``dvc plots show``). Experiments
     without data are listed with the command that makes them; it is an error when none of them has data."""
     known = experiments()
-    out.mkdir(parents=True, exist_ok=True)
+    # No mkdir: each file makes its folder as it is written (atomic_path), so a report of nothing leaves nothing.
     sections = {name: known[name].build(data, out) for name in names}
     built = {name: section for name, section in sections.items() if section is not None}
     if not built:

@@ -7,7 +7,9 @@ from pathlib import Path
 
 from famarl_cli.artifacts import provenance, write_json
 from famarl_cli.core.declare import option, same_as
+from famarl_cli.core.errors import ArtifactError
 from famarl_cli.envs.success import SuccessOptions
+from famarl_cli.stages import defaults
 from famarl_cli.stages.train import TrainOptions
 
 
@@ -42,8 +44,15 @@ class EvaluateOptions:
 
     @property
     def runs(self) -> list[Path]:
-        """The run folders given, else famarl train's default run."""
-        return self.run or [TrainOptions().destination]
+        """The run folders given, else famarl train's default run, else the main job's runs
+        (:mod:`famarl_cli.stages.defaults`)."""
+        if self.run:
+            return self.run
+        try:
+            manual = TrainOptions().destination
+        except ArtifactError:  # no FAVAE anywhere, so no default famarl run either
+            manual = None
+        return [defaults.runs("--run", manual)]
 
 
 def evaluate_run(

@@ -97,10 +97,7 @@ def learn_macros_many(
     def progress(k: int, phase: str, total: int):
         return None if on_progress is None else (lambda done: on_progress(k, phase, done, total))
 
-    segments = []
-    for config, folder in zip(configs, folders, strict=True):
-        folder.mkdir(parents=True, exist_ok=True)
-        segments.append(segments_path(folder, config))
+    segments = [segments_path(folder, config) for config, folder in zip(configs, folders, strict=True)]
     pending = [
         k
         for k, c in enumerate(configs)

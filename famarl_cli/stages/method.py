@@ -19,24 +19,20 @@ import numpy as np
 from famarl_cli.artifacts import prepare_output, provenance, read_demos, write_csv, write_json
 from famarl_cli.artifacts.segments import Segments, read_segments, write_segments
 from famarl_cli.core.declare import option, pick, same_as, to_json
-from famarl_cli.core.errors import ArtifactError, UsageError
+from famarl_cli.core.errors import UsageError
 from famarl_cli.envs import DEFAULT_WORLD, World
 from famarl_cli.envs.external import MakeOptions
 from famarl_cli.method.favae import FavaeOptions, FitChoices
 from famarl_cli.method.segment_params import SegmenterOptions, SegmentParams
 from famarl_cli.method.traversal import DRAWS, parse_dims, parse_values
-
-DEFAULT_DEMOS = Path("data/demos/pushed-down-only.h5")
-"""What famarl demos writes with its defaults."""
-DEFAULT_SEGMENTS = Path("data/segments/pushed-down-only.h5")
-"""What famarl segment writes with its defaults."""
+from famarl_cli.stages import defaults
 
 
 @dataclass(frozen=True)
 class SegmentOptions(SegmentParams, SegmenterOptions):
     """``famarl segment``: cut demos into macro actions."""
 
-    demos: Path = option(DEFAULT_DEMOS, "Demos HDF5 file to segment.")
+    demos: Path = option(defaults.DEMOS, "Demos HDF5 file to segment.")
     out: Path | None = option(None, "Output segments HDF5.  [default: data/segments/<demos name>.h5]", path="file")
     encoder: Path | None = option(None, "Use this trained segmenter (a .segmenter.pt) instead of training one.")
     plot: bool = option(True, "Also draw distance curves and boundaries to <out>.png.")
@@ -47,30 +43,41 @@ class SegmentOptions(SegmentParams, SegmenterOptions):
         return self.out or Path("data/segments") / f"{self.demos.stem}.h5"
 
 
+SEGMENTS_HELP = (
+    f"Segments HDF5 file (from famarl segment).  [default: {defaults.SEGMENTS}, else the main job's "
+    f"{defaults.replicate(0)}/segments.h5]"
+)
+
+
+def given_segments(options):
+    """``options`` with its ``segments`` filled in where it gave none (:func:`famarl_cli.stages.defaults.segments`)."""
+    return options if options.segments is not None else replace(options, segments=defaults.segments("--segments"))
+
+
 @dataclass(frozen=True)
 class CalibrateOptions(FavaeOptions):
     """``famarl favae calibrate``: the C_last pre-run."""
 
-    segments: Path = option(DEFAULT_SEGMENTS, "Segments HDF5 file (from famarl segment).")
+    segments: Path | None = option(None, SEGMENTS_HELP)
     out: Path | None = option(None, "Calibration JSON.  [default: data/favae/<segments name>.calibration.json]")
     calibration_beta: float = same_as(FavaeOptions, "calibration_beta", flags=("--beta",))
 
     @property
     def destination(self) -> Path:
-        return self.out or Path("data/favae") / f"{self.segments.stem}.calibration.json"
+        return self.out or Path("data/favae") / f"{given_segments(self).segments.stem}.calibration.json"
 
 
 @dataclass(frozen=True)
 class FitOptions(FitChoices, FavaeOptions):
     """``famarl favae fit``: the FAVAE on segments, after the pre-run unless a calibration is given."""
 
-    segments: Path = option(DEFAULT_SEGMENTS, "Segments HDF5 file (from famarl segment).")
+    segments: Path | None = option(None, SEGMENTS_HELP)
     calibration: Path | None = option(None, "C_last from famarl favae calibrate; without it the pre-run runs first.")
     out: Path | None = option(None, "Checkpoint.  [default: data/favae/<segments name>.pt]", path="file")
 
     @property
     def destination(self) -> Path:
-        return self.out or Path("data/favae") / f"{self.segments.stem}.pt"
+        return self.out or Path("data/favae") / f"{given_segments(self).segments.stem}.pt"
 
 
 @dataclass(frozen=True)
@@ -108,8 +115,8 @@ class TraverseOptions(TraversalPlace):
 
     model: Path | None = option(
         None,
-        "FAVAE checkpoint (from famarl favae fit).  [default: data/favae/pushed-down-only.pt, else the main job's "
-        "data/maze/macros/seed0/favae.pt]",
+        f"FAVAE checkpoint (from famarl favae fit).  [default: {defaults.FAVAE}, else the main job's "
+        f"{defaults.replicate(0) / defaults.REPLICATE_FAVAE}]",
     )
     ladder: int | None = option(None, "Traverse this ladder's variables (from 1).  [default: all]")
     index: int | None = option(None, "Only this variable of the ladder (from 1).")
@@ -127,7 +134,7 @@ class TraverseOptions(TraversalPlace):
 
     @property
     def destination(self) -> Path:
-        model = self.model or default_favae()
+        model = self.model or defaults.favae("--model")
         name = model.stem + (f"-ladder{self.ladder}" if self.ladder else "")
         name += f"-index{self.index}" if self.index else ""
         return self.out or Path("data/traverse") / f"{name}.h5"
@@ -262,6 +269,7 @@ def calibrate_many(
     from famarl_cli.method.favae.checkpoint import write_calibration
     from famarl_cli.method.favae.training import Replicate, TrainingParams, calibrate_replicates
 
+    options = [given_segments(o) for o in options]
     outs = [prepare_output(o.destination) for o in options]
     setups = [favae_setup(o.segments, o) for o in options]
     replicates = [
@@ -313,6 +321,7 @@ def fit_many(options: list[FitOptions], on_epoch: Callable[[int, str, dict], Non
     def phase(name: str, among: list[int]):
         return None if on_epoch is None else (lambda k, row: on_epoch(among[k], name, row))
 
+    options = [given_segments(o) for o in options]
     outs = [prepare_output(o.destination) for o in options]
     setups = [favae_setup(o.segments, o) for o in options]
     params = [TrainingParams.of(o) for o in options]
@@ -366,27 +375,10 @@ def fit_many(options: list[FitOptions], on_epoch: Callable[[int, str, dict], Non
     return results
 
 
-MANUAL_FAVAE = Path("data/favae/pushed-down-only.pt")
-"""Where famarl favae fit writes by default, after famarl demos and famarl segment with their defaults."""
-PIPELINE_FAVAE = Path("data/maze/macros/seed0/favae.pt")
-"""Replicate 0 of the default pipeline's FAVAEs (dvc repro)."""
-
-
-def default_favae() -> Path:
-    """The FAVAE ``famarl traverse`` takes without ``--model``: the manual chain's, else the main job's replicate 0."""
-    for path in (MANUAL_FAVAE, PIPELINE_FAVAE):
-        if path.is_file():
-            return path
-    raise ArtifactError(
-        f"no FAVAE to traverse: neither {MANUAL_FAVAE} (famarl demos --script pushed-down-only, famarl segment, "
-        f"famarl favae fit) nor {PIPELINE_FAVAE} (dvc repro) exists; make one, or give --model"
-    )
-
-
 def traverse(options: TraverseOptions):
-    """Traverse the FAVAE ``options.model`` (:func:`default_favae` when None) in the empty ``world`` of a famarl env
-    family, or in the gymnasium env ``options.env`` when given, drawing observation ``obs_dims``. Writes the HDF5
-    (``options.destination``), ``.png`` and ``.json`` (effect per variable, in the path's units, and the
+    """Traverse the FAVAE ``options.model`` (:mod:`~famarl_cli.stages.defaults` when None) in the empty ``world``
+    of a famarl env family, or in the gymnasium env ``options.env`` when given, drawing observation ``obs_dims``.
+    Writes the HDF5 (``options.destination``), ``.png`` and ``.json`` (effect per variable, in the path's units, and the
     information and KL each carries, nats, where the checkpoint records them) and, with ``frames``,
     ``.frames.png`` (what the env renders at the end of each macro action). Returns the Traversal and a Carried:
     what each traversed variable carries."""
@@ -400,7 +392,7 @@ def traverse(options: TraverseOptions):
         raise UsageError("--env-kwargs goes with --env")
     if options.frames and options.env is None:
         raise UsageError("--frames goes with --env: the frames are what that env renders")
-    model, out = options.model or default_favae(), prepare_output(options.destination)
+    model, out = options.model or defaults.favae("--model"), prepare_output(options.destination)
     values, env_id, dims = options.values, options.env, options.obs_dims
     favae, payload = load_favae(model)
     result = run_traversal(

@@ -8,7 +8,7 @@ Writes the prior file (both networks, their held-out scores, the FAVAE's content
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -16,16 +16,21 @@ import numpy as np
 from famarl_cli.artifacts import prepare_output, provenance, read_demos, write_csv, write_json
 from famarl_cli.core.declare import option, to_json, with_paths
 from famarl_cli.method.prior import PriorFitChoices
-from famarl_cli.stages.method import DEFAULT_DEMOS, DEFAULT_SEGMENTS, MANUAL_FAVAE
+from famarl_cli.stages import defaults
+from famarl_cli.stages.method import SEGMENTS_HELP
 
 
 @dataclass(frozen=True)
 class PriorFitOptions(PriorFitChoices):
     """``famarl prior fit``: p(z | s) and pi(a | s, z) from demos, their segments and a FAVAE."""
 
-    demos: Path = option(DEFAULT_DEMOS, "Demos HDF5 file the segments were cut from.")
-    segments: Path = option(DEFAULT_SEGMENTS, "Segments HDF5 file (from famarl segment) the FAVAE was fitted on.")
-    favae: Path = option(MANUAL_FAVAE, "FAVAE checkpoint whose latents the prior proposes and the decoder reads.")
+    demos: Path = option(defaults.DEMOS, "Demos HDF5 file the segments were cut from.")
+    segments: Path | None = option(None, f"The segments the FAVAE was fitted on. {SEGMENTS_HELP}")
+    favae: Path | None = option(
+        None,
+        "FAVAE checkpoint whose latents the prior proposes and the decoder reads.  [default: "
+        f"{defaults.FAVAE}, else the main job's {defaults.replicate(0) / defaults.REPLICATE_FAVAE}]",
+    )
     out: Path | None = option(None, "Prior file.  [default: <favae folder>/<favae name>.prior.pt]", path="file")
     plot: bool = option(
         True,
@@ -38,7 +43,17 @@ class PriorFitOptions(PriorFitChoices):
 
     @property
     def destination(self) -> Path:
-        return self.out or self.favae.with_name(f"{self.favae.stem}.prior.pt")
+        favae = self.given().favae
+        return self.out or favae.with_name(f"{favae.stem}.prior.pt")
+
+    def given(self) -> PriorFitOptions:
+        """These options with the segments and FAVAE filled in where none was given
+        (:mod:`famarl_cli.stages.defaults`)."""
+        return replace(
+            self,
+            segments=self.segments or defaults.segments("--segments"),
+            favae=self.favae or defaults.favae("--favae"),
+        )
 
 
 def fit_prior(options: PriorFitOptions, on_epoch: Callable[[int, dict], None] | None = None) -> dict:
@@ -50,6 +65,7 @@ def fit_prior(options: PriorFitOptions, on_epoch: Callable[[int, dict], None] | 
     from famarl_cli.method.prior.data import skill_pairs
     from famarl_cli.method.prior.training import fit_prior as fit
 
+    options = options.given()
     out = prepare_output(options.destination)
     favae = load_favae(options.favae)[0]
     demos, segments = read_demos(options.demos), read_segments(options.segments)

@@ -22,10 +22,10 @@ from famarl_cli.rl import (
     MacroDiscount,
     agent_defaults,
 )
+from famarl_cli.stages import defaults as inputs
 
 DEFAULT_ENV = "famarl/ContinuousWorld-Maze-v0"
 DEFAULT_STEPS = 1_000_000
-DEFAULT_FAVAE = Path("data/favae/pushed-down-only.pt")
 
 
 @dataclass(frozen=True)
@@ -40,7 +40,11 @@ class TrainOptions:
         "famarl: search FAVAE latents; ppo: primitive actions; figar: action + repeat count; hybrid: each decision "
         "a primitive action or a macro action.",
     )
-    favae: Path = option(DEFAULT_FAVAE, "FAVAE checkpoint whose decoder makes the macro actions (famarl and hybrid).")
+    favae: Path | None = option(
+        None,
+        "FAVAE checkpoint whose decoder makes the macro actions (famarl and hybrid).  [default: "
+        f"{inputs.FAVAE}, else the main job's {inputs.replicate(0).parent}/seed<S>/{inputs.REPLICATE_FAVAE}]",
+    )
     prior: Path | None = option(
         None,
         "famarl, hybrid: a prior file of famarl prior fit on this FAVAE's latents: the latent policy starts at its "
@@ -134,13 +138,21 @@ class TrainOptions:
 
     @property
     def destination(self) -> Path:
+        if self.out is not None:
+            return self.out
         env_name = self.env.split("/")[-1].rsplit("-v", 1)[0].lower()
-        suffix = f"-{self.favae.stem}" if self.agent.decodes_macros else ""
+        suffix = f"-{self.favae_file.stem}" if self.agent.decodes_macros else ""
         if self.agent.decodes_macros and self.prior is not None:
             suffix += ("-prior" if self.prior_guide else "") + (
                 "-closed" if self.decoder == MacroDecoder.CLOSED else ""
             )
-        return self.out or Path("data/runs") / f"{env_name}-{self.agent}{suffix}-seed{self.seed}"
+        return Path("data/runs") / f"{env_name}-{self.agent}{suffix}-seed{self.seed}"
+
+    @property
+    def favae_file(self) -> Path:
+        """--favae, else the manual chain's FAVAE, else the main job's of this seed
+        (:mod:`famarl_cli.stages.defaults`)."""
+        return self.favae or inputs.favae("--favae", self.seed)
 
     def __post_init__(self) -> None:
         if self.decoder == MacroDecoder.CLOSED and self.prior is None:
@@ -161,6 +173,8 @@ def run_spec(options: TrainOptions):
 
     def given(value, name: str):
         return defaults[name] if value is None else value
+
+    favae = o.favae_file if o.agent.decodes_macros else None
 
     try:
         ppo = PPOConfig(
@@ -193,13 +207,16 @@ def run_spec(options: TrainOptions):
         macro_horizon=given(o.macro_horizon, "macro_horizon"),
         residual=given(o.residual, "residual"),
         max_repeat=o.max_repeat,
-        favae=str(o.favae) if o.agent.decodes_macros else None,
+        favae=None if favae is None else str(favae),
         prior=None if o.prior is None else str(o.prior),
         prior_guide=o.prior_guide,
         prior_weight=o.prior_weight,
         prior_target_kl=o.prior_target_kl,
         prior_obs_prefix=o.prior_obs_prefix,
         decoder=o.decoder,
-        label=o.label or default_label(o.agent, o.favae, o.prior is not None and o.prior_guide, o.decoder),
+        label=o.label
+        or default_label(
+            o.agent, o.favae_file if o.agent.decodes_macros else None, o.prior is not None and o.prior_guide, o.decoder
+        ),
         success_return=o.success_return,
     )
