@@ -1,87 +1,71 @@
-"""The ceiling of training several seeds in one process as batched networks (PureJaxRL's idea, on torch CPU).
+"""Seeds trained together in one process (one batched network, PureJaxRL's idea) against the same seeds each alone.
 
-    python benchmarks/batched_seeds.py [--seconds 3]
+    python benchmarks/batched_seeds.py [--steps 100000] [--seeds 0-4] [--agents ppo figar famarl] [--favae PT]
 
-Our PPO step is bound by per-call overhead. If k seeds shared every torch and numpy call, a minibatch step would
-carry k times the rows for the same number of calls. This measures that directly, on the real loss and update,
-without building the batched trainer: one PPO minibatch step (forward, written-out gradient, clipping, Adam) and one
-policy call and environment step of a rollout, at k = 1, 2, 4, 8 times the rows of one seed. If k times the rows
-cost close to k times the time, batching seeds gains nothing over running them on separate cores; the closer to 1x
-it stays, the more it could pay.
+For each agent, the seeds are trained one after another alone (``Run.train``) and then as one batch
+(``train_together``), on one core, with `famarl train`'s defaults on the Maze; the figure is env steps per second
+of all seeds over the time they took. FaMARL needs a FAVAE (``--favae``, else it is left out). Results in
+benchmarks/results/batched_seeds.json.
 """
 
 from __future__ import annotations
 
 import argparse
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
 
-import numpy as np
 import torch
-from common import RESULTS, rate, write_result
+from common import RESULTS, write_result
 
-from famarl_cli.envs.batched import ContinuousWorldBatch
-from famarl_cli.rl.optimizer import FlatAdam
-from famarl_cli.rl.policy import ActorCritic
-from famarl_cli.rl.ppo import Minibatch, PPOConfig, clipped_objective_gradient
-
-MINIBATCH, N_ENVS, OBS, ACTION = 256, 16, 12, 2  # the Maze's observation and action sizes
+from famarl_cli.rl import Agent
+from famarl_cli.stages.train import TrainOptions, run_spec
+from famarl_cli.sweep.plan import parse_values
 
 
-def update_step(rows: int):
-    torch.manual_seed(0)
-    policy = ActorCritic(OBS, ACTION)
-    optimizer = FlatAdam(policy.flat, lr=3e-4, eps=1e-5)
-    batch = Minibatch(
-        obs=torch.randn(rows, OBS),
-        u=torch.randn(rows, ACTION),
-        index=torch.zeros(rows, dtype=torch.long),
-        logp=torch.randn(rows),
-        values=torch.randn(rows),
-        advantages=torch.randn(rows),
-        returns=torch.randn(rows),
-    )
-    config = PPOConfig()
+def runs(agent: Agent, seeds: list[int], steps: int, favae: Path | None):
+    from famarl_cli.rl.training import Run
 
-    @torch.inference_mode()
-    def step() -> None:
-        clipped_objective_gradient(policy, batch, config)
-        norm = float(policy.gradient.norm())
-        if norm > config.max_grad_norm:
-            policy.gradient.mul_(config.max_grad_norm / norm)
-        optimizer.step(policy.gradient)
-
-    return step
-
-
-def rollout_step(envs: int):
-    env = ContinuousWorldBatch("maze", n_envs=envs, seed=0)
-    policy = ActorCritic(env.observation_size, ACTION)
-    rng = np.random.default_rng(0)
-    obs = env.reset()
-
-    def step() -> None:
-        action = policy.act(obs.astype(np.float32), rng)
-        env.step(np.clip(action.u, -1, 1).astype(np.float64))
-
-    return step
+    spec = run_spec(TrainOptions(agent=agent, steps=steps, favae=favae))
+    return [Run.start(replace(spec, seed=seed)) for seed in seeds]
 
 
 def main() -> None:
+    from famarl_cli.rl.training import train_together
+
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seconds", type=float, default=3.0)
+    parser.add_argument("--steps", type=int, default=100_000)
+    parser.add_argument("--seeds", default="0-4")
+    parser.add_argument("--agents", nargs="+", default=["ppo", "figar", "famarl"])
+    parser.add_argument("--favae", type=Path)
     args = parser.parse_args()
     torch.set_num_threads(1)
+    seeds = [int(s) for s in parse_values(args.seeds)]
     rows = []
-    print(f"{'seeds':>5} {'update: steps/s':>16} {'x rows per s':>13} {'rollout: steps/s':>17} {'x rows per s':>13}")
-    for k in (1, 2, 4, 8):
-        update = rate(update_step(k * MINIBATCH), 1, args.seconds)
-        rollout = rate(rollout_step(k * N_ENVS), 1, args.seconds)
-        rows.append({"seeds": k, "update_steps_per_s": update, "rollout_steps_per_s": rollout})
-        base = rows[0]
+    print(f"{'agent':<8} {'seeds':>5} {'alone (s)':>10} {'together (s)':>13} {'speed-up':>9} {'env steps/s':>12}")
+    for name in args.agents:
+        agent = Agent(name)
+        if agent.decodes_macros and args.favae is None:
+            print(f"{name:<8} left out: give --favae")
+            continue
+        with tempfile.TemporaryDirectory() as folder:
+            alone, together = (runs(agent, seeds, args.steps, args.favae) for _ in range(2))
+            start = time.perf_counter()
+            for k, run in enumerate(alone):
+                run.train(Path(folder) / f"a{k}", 20)
+            alone_s = time.perf_counter() - start
+            start = time.perf_counter()
+            train_together(together, [Path(folder) / f"t{k}" for k in range(len(seeds))], 20)
+            together_s = time.perf_counter() - start
+        steps = sum(run.trainer.members[run.member].env_steps for run in together)
+        row = {"agent": name, "seeds": len(seeds), "alone_s": alone_s, "together_s": together_s, "env_steps": steps}
+        rows.append(row)
         print(
-            f"{k:>5} {update:>16,.0f} {k * update / base['update_steps_per_s']:>12.2f}x "
-            f"{rollout:>17,.0f} {k * rollout / base['rollout_steps_per_s']:>12.2f}x"
+            f"{name:<8} {len(seeds):>5} {alone_s:>10.1f} {together_s:>13.1f} {alone_s / together_s:>8.2f}x "
+            f"{steps / together_s:>12,.0f}"
         )
-    write_result(RESULTS / "batched_seeds.json", {"rows": rows})
+    write_result(RESULTS / "batched_seeds.json", {"steps": args.steps, "seeds": seeds, "rows": rows})
 
 
 if __name__ == "__main__":

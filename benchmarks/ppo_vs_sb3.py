@@ -1,13 +1,15 @@
 """Our PPO against Stable-Baselines3's on the same work: env steps per second and learning curves.
 
     pip install -e ".[bench]"
-    python benchmarks/ppo_vs_sb3.py [--steps 200000] [--seeds 0 1 2] [--out benchmarks/results/ppo_vs_sb3.json]
+    python benchmarks/ppo_vs_sb3.py [--steps 200000] [--seeds 0 1 2] [--together] [--out ...ppo_vs_sb3.json]
 
 Both learn `famarl/ContinuousWorld-Maze-v0` on primitive actions with the same PPO: 16 environments x 128 steps
 per rollout, minibatches of 256, 10 epochs, 64-64 tanh networks, gamma 0.99, lambda 0.95, clip 0.2, lr 3e-4
 annealed linearly, observation and reward normalisation, one torch thread. Each uses its best vector-env setup:
 ours the numpy batch (all worlds in one call), SB3 a DummyVecEnv of gymnasium envs with VecNormalize.
-They run in one process, alternating seed by seed; the speed is total env steps over total seconds.
+They run in one process, alternating seed by seed (with ``--together``, our seeds first, as one batch: one
+batched network for all, as ``famarl sweep train`` trains a setting's seeds); the speed is total env steps over total
+seconds, so it is the rate of one core, and two cores run two such processes.
 Learning is compared on the curves: env steps until 80% success and the mean success over the last fifth of
 training, each a mean over seeds. The JSON holds every learning curve (success rate and return of the last 100
 episodes against env steps) and a PNG draws them.
@@ -31,19 +33,27 @@ from famarl_cli.rl.ppo import PPOConfig, PPOTrainer
 N_ENVS, N_STEPS, MINIBATCH, EPOCHS = 16, 128, 256, 10
 
 
-def ours(steps: int, seed: int) -> dict:
-    env = ContinuousWorldBatch("maze", n_envs=N_ENVS, seed=seed)
+def ours(steps: int, seeds: list[int]) -> list[dict]:
+    """Our PPO on ``seeds``, trained together in one process (PPOTrainer.together; one seed: alone); each seed's
+    time is the batch's share, the batch's wall over its seeds."""
     config = PPOConfig(
         total_steps=steps, n_envs=N_ENVS, n_steps=N_STEPS, minibatches=N_ENVS * N_STEPS // MINIBATCH, epochs=EPOCHS
     )
-    trainer = PPOTrainer(env, PrimitiveActions(*env.action_bounds), config, seed)
-    curve = []
+    trainers = []
+    for seed in seeds:
+        env = ContinuousWorldBatch("maze", n_envs=N_ENVS, seed=seed)
+        trainers.append(PPOTrainer(env, PrimitiveActions(*env.action_bounds), config, seed))
+    trainer = trainers[0] if len(trainers) == 1 else PPOTrainer.together(trainers)
+    curves = [[] for _ in seeds]
 
-    def record(trainer: PPOTrainer, row: dict) -> None:
-        curve.append((row["env_steps"], row["episode_success"], row["episode_return"]))
+    def record(k: int, row: dict) -> None:
+        curves[k].append((row["env_steps"], row["episode_success"], row["episode_return"]))
 
-    _, seconds = timed(lambda: trainer.train(record))
-    return {"env_steps": trainer.env_steps, "seconds": seconds, "curve": curve}
+    _, seconds = timed(lambda: trainer.train(on_member_update=record))
+    return [
+        {"env_steps": member.env_steps, "seconds": seconds / len(seeds), "curve": curve}
+        for member, curve in zip(trainer.members, curves, strict=True)
+    ]
 
 
 def sb3_ppo(env, n_steps: int, minibatch: int, seed: int):
@@ -135,11 +145,17 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=200_000)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--out", type=Path, default=RESULTS / "ppo_vs_sb3.json")
+    parser.add_argument(
+        "--together", action="store_true", help="Train our seeds together in one process (as famarl sweep train does)."
+    )
     args = parser.parse_args()
     torch.set_num_threads(1)
     results = {"famarl": [], "stable-baselines3": []}
+    if args.together:
+        results["famarl"] = ours(args.steps, args.seeds)
     for seed in args.seeds:  # alternating, so that a slow spell of the machine slows both
-        results["famarl"].append(ours(args.steps, seed))
+        if not args.together:
+            results["famarl"] += ours(args.steps, [seed])
         results["stable-baselines3"].append(stable_baselines3(args.steps, seed))
     header = f"{'implementation':<18} {'env steps':>10} {'seconds':>8} {'env steps/s':>12}"
     print(f"{header} {'to 80% success':>15} {'late success':>13}")
@@ -154,7 +170,15 @@ def main() -> None:
     ratio = rate(results["famarl"]) / rate(results["stable-baselines3"])
     print(f"ratio famarl / stable-baselines3: {ratio:.2f}x")
     write_result(
-        args.out, {"steps": args.steps, "seeds": args.seeds, "ratio": ratio, "summary": summary, "results": results}
+        args.out,
+        {
+            "steps": args.steps,
+            "seeds": args.seeds,
+            "together": args.together,
+            "ratio": ratio,
+            "summary": summary,
+            "results": results,
+        },
     )
     plot(results, args.out.with_suffix(".png"))
     print(f"written {args.out.with_suffix('.png')}")

@@ -26,7 +26,7 @@ from common import RESULTS, write_result
 from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.method.prior.checkpoint import load_skills
 from famarl_cli.rl import Agent, MacroDecoder
-from famarl_cli.rl.optimizer import FlatAdam, clip_norm
+from famarl_cli.rl.optimizer import FlatAdam, clip_norms
 from famarl_cli.rl.policy import ActorCritic
 from famarl_cli.rl.ppo import Minibatch, PPOConfig, PPOTrainer, clipped_objective_gradient
 from famarl_cli.rl.training import RunSpec, build_guide, build_mode
@@ -52,7 +52,7 @@ def minibatch_step(latent: int, guided: bool, steps: int) -> float:
         start = time.perf_counter()
         for _ in range(steps):
             clipped_objective_gradient(policy, batch, cfg, 0.0, 0.1 if guided else 0.0, mask if guided else None)
-            clip_norm(policy.gradient, cfg.max_grad_norm)
+            clip_norms(policy.gradient_pieces, policy.rows, cfg.max_grad_norm)
             optimizer.step(policy.gradient)
     return (time.perf_counter() - start) / steps
 

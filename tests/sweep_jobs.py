@@ -51,11 +51,11 @@ def train_recording_resumes(config: dict, folder: Path, context) -> dict:
     """famarl's train job; an attempt that resumes from a checkpoint first records its env steps in
     resumed_from.txt."""
     from famarl_cli.artifacts.runs import read_run_file
-    from famarl_cli.rl.training import run_job
+    from famarl_cli.rl.training import run_jobs
 
     if context.resume and (folder / "run.json").exists():
         (folder / "resumed_from.txt").write_text(str(read_run_file(folder)["env_steps"]))
-    return run_job(config, folder, context)
+    return run_jobs([config], [context])[0]
 
 
 def train_dying_after_first_checkpoint(config: dict, folder: Path, context) -> dict:

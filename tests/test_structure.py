@@ -199,17 +199,22 @@ def test_flat_adam_matches_torch_adam():
         torch.testing.assert_close(ours, theirs.detach(), rtol=1e-6, atol=1e-7)
 
 
-@pytest.mark.parametrize("scale", [0.01, 10.0])
-def test_gradient_clip_matches_torch(scale):
-    from famarl_cli.rl.optimizer import clip_norm
+def test_gradient_clip_matches_torch_for_each_replicate_alone():
+    from famarl_cli.rl.optimizer import Rows, clip_norms
 
-    gradient = torch.linspace(-1, 2, 30) * scale
-    parameter = torch.nn.Parameter(torch.zeros(30))
-    parameter.grad = gradient.clone()
-    torch.nn.utils.clip_grad_norm_([parameter], max_norm=0.5)
-    clip_norm(gradient, 0.5)
-    torch.testing.assert_close(gradient, parameter.grad, rtol=0, atol=1e-7)
-    assert float(gradient.norm()) <= 0.5 + 1e-6
+    # Two replicates' values interleaved as a network's flat tensor holds them: one far above the limit, one below.
+    parts = [torch.linspace(-1, 2, 30) * 10.0, torch.linspace(-1, 2, 30) * 0.01]
+    rows = Rows(((0, 10), (10, 10), (20, 20), (40, 20)), (0, 1, 0, 1), 2)
+    gradient = torch.zeros(60)
+    for k, part in enumerate(parts):
+        rows.set_row(gradient, k, part)
+    clip_norms(rows.views(gradient), rows, 0.5)
+    for k, part in enumerate(parts):
+        parameter = torch.nn.Parameter(torch.zeros(30))
+        parameter.grad = part.clone()
+        torch.nn.utils.clip_grad_norm_([parameter], max_norm=0.5)
+        torch.testing.assert_close(rows.row(gradient, k), parameter.grad, rtol=0, atol=1e-7)
+        assert float(rows.row(gradient, k).norm()) <= 0.5 + 1e-6
 
 
 def test_a_policy_checkpoint_carries_its_layout_and_refuses_another_network():

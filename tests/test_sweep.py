@@ -207,9 +207,10 @@ def test_batched_jobs_run_a_batch_per_task_and_keep_their_own_folders(kind, tmp_
     assert all("ValueError: bad data in a batch of" in by_name[f"bad{s}"].error for s in range(2))
 
 
-def _tiny_train_jobs(runner: str, seeds: str, steps: int = 1280) -> list[Job]:
+def _tiny_train_jobs(runner: str | None, seeds: str, steps: int = 1280) -> list[Job]:
+    """The tiny PPO sweep's jobs, run by ``runner`` one at a time (None: as planned, famarl's batched runner)."""
     jobs = plan("train", [*TINY_PPO, "--steps", str(steps), "--checkpoint-every", "2"], seeds, [], None)
-    return [Job(j.name, runner, j.config, j.inputs, j.resumable, j.point) for j in jobs]
+    return jobs if runner is None else [Job(j.name, runner, j.config, j.inputs, j.resumable, j.point) for j in jobs]
 
 
 def _weights_and_log(folder: Path) -> tuple[dict, str]:
@@ -219,10 +220,11 @@ def _weights_and_log(folder: Path) -> tuple[dict, str]:
 
 @pytest.fixture(scope="module")
 def straight_runs(tmp_path_factory):
-    """Seeds 0 and 1 of the tiny PPO sweep, run without interruption."""
+    """Seeds 0 and 1 of the tiny PPO sweep, run without interruption, each alone (as a sweep on two workers runs
+    them: a batch's rounding is not a run's alone, docs/sweeps.md)."""
     out = tmp_path_factory.mktemp("straight")
     with SerialExecutor() as executor:
-        state = run_sweep(out, _tiny_train_jobs("famarl_cli.rl.training:run_job", "0-1"), executor)
+        state = run_sweep(out, _tiny_train_jobs(None, "0-1"), executor, batch=1)
     assert not state.failed
     return out
 

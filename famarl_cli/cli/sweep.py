@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Annotated
 
@@ -100,7 +101,8 @@ def sweep(
         int | None,
         typer.Option(
             min=1,
-            help="For commands that batch their runs (macros: replicates fitted as one batched model), at most this "
+            help="For commands that batch their runs (macros: replicates fitted as one batched model; train: seeds "
+            "trained as one batched network), at most this "
             "many runs in one process; 1 runs each alone.  [default: the runs of each setting split evenly over the "
             "workers]",
         ),
@@ -164,8 +166,11 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
                 argv += _axis_flag(field, value)
         recipe = sweepable.make(sweepable.options(**parse_options(app, sweepable.command, sweepable.options, argv)))
         job_name = fill(name, point) if name else default_name(point)
+        # A setting is the same options for every seed ("--favae .../seed{seed}/favae.pt" included).
+        setting = json.dumps([options, {axis: value for axis, value in point.items() if axis != "seed"}])
+        runner = name_of(recipe.runner)
         jobs.append(
-            Job(job_name, name_of(recipe.runner), recipe.config, recipe.inputs, recipe.resumable, point, recipe.batched)
+            Job(job_name, runner, recipe.config, recipe.inputs, recipe.resumable, point, recipe.batched, setting)
         )
     return jobs
 

@@ -55,15 +55,17 @@ def train(options: TrainOptions) -> None:
     refused={"--tensorboard": "every run's train.csv is in its folder, and the pipelines draw them as DVC plots"},
 )
 def train_job(options: TrainOptions) -> JobRecipe:
-    """``famarl sweep train``: each run of the sweep is what ``famarl train`` with the same options would do."""
-    from famarl_cli.rl.training import run_job
+    """``famarl sweep train``: each run of the sweep is what ``famarl train`` with the same options would do; the
+    seeds of one setting train together in batches (famarl sweep --batch), each run in its own folder."""
+    from famarl_cli.rl.training import run_jobs
 
     spec = run_spec(options)
     return JobRecipe(
-        run_job,
+        run_jobs,
         {"spec": spec.to_dict(), "checkpoint_every": options.checkpoint_every},
         inputs=tuple(path for path in (spec.favae, spec.prior) if path),
         resumable=True,
+        batched=True,
     )
 
 

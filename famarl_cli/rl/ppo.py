@@ -23,7 +23,7 @@ from __future__ import annotations
 import json
 from collections import deque
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 import torch
@@ -32,7 +32,7 @@ from famarl_cli.rl import MacroDiscount
 from famarl_cli.rl.action_modes import ActionMode
 from famarl_cli.rl.executor import SequenceResult, run_sequences
 from famarl_cli.rl.normalization import ObservationNormalizer, RewardScaler
-from famarl_cli.rl.optimizer import FlatAdam, clip_norm
+from famarl_cli.rl.optimizer import FlatAdam, clip_norms
 from famarl_cli.rl.policy import LOG_SQRT_2PI, ActorCritic
 from famarl_cli.rl.prior_guide import PriorGuide
 from famarl_cli.rl.semi_mdp import decision_reward
@@ -118,51 +118,62 @@ STATS = ("policy_loss", "value_loss", "entropy", "approx_kl", "clip_fraction")
 
 @dataclass
 class Minibatch:
+    """A minibatch of K replicates, B rows each: every field (K, B, ...), or without the replicate axis for one."""
+
     obs: torch.Tensor
     u: torch.Tensor
     index: torch.Tensor
     logp: torch.Tensor
-    """(B,) log-probability of (u, index) under the policy that collected the rollout."""
+    """(K, B) log-probability of (u, index) under the policy that collected the rollout."""
     values: torch.Tensor
-    """(B,) the critic's estimates when the rollout was collected."""
+    """(K, B) the critic's estimates when the rollout was collected."""
     advantages: torch.Tensor
-    """(B,) normalised over the minibatch."""
+    """(K, B) normalised over the minibatch."""
     returns: torch.Tensor
     base_mean: torch.Tensor | None = None
-    """(B, action) the prior's mean the policy's is written relative to (:mod:`~famarl_cli.rl.prior_guide`)."""
+    """(K, B, action) the prior's mean the policy's is written relative to (:mod:`~famarl_cli.rl.prior_guide`)."""
     base_log_std: torch.Tensor | None = None
-    """(B, action) the prior's log std, likewise."""
+    """(K, B, action) the prior's log std, likewise."""
+
+    def with_replicate_axis(self) -> Minibatch:
+        return Minibatch(**{f.name: None if (v := getattr(self, f.name)) is None else v[None] for f in fields(self)})
 
 
 def clipped_objective_gradient(
     policy: ActorCritic,
     batch: Minibatch,
     cfg: PPOConfig,
-    entropy_floor: float = 0.0,
-    prior_weight: float = 0.0,
+    entropy_floor: float | torch.Tensor = 0.0,
+    prior_weight: float | torch.Tensor = 0.0,
     prior_mask: torch.Tensor | None = None,
 ) -> torch.Tensor:
-    """Writes into ``policy.gradient`` the gradient of PPO's loss on one minibatch; returns the :data:`STATS` (and
-    the prior's KL where the batch has a prior).
+    """Writes into ``policy.gradient`` the gradient of PPO's loss on one minibatch of each replicate; returns the
+    :data:`STATS` (and the prior's KL where the batch has a prior), (K, stats), or (stats,) for a minibatch without
+    the replicate axis.
 
     loss = clipped policy loss - ent_coef * entropy + vf_coef * (clipped) value loss, each a mean over the
     minibatch, plus ``type_entropy_coef * max(0, entropy_floor - H(choice))`` where the policy has a categorical
-    head. The derivative of each term with respect to the network's heads is written beside it; where a ``max``
-    picks the clipped term, the clip is active and passes no gradient.
+    head (``entropy_floor``: a number, or one per replicate). The derivative of each term with respect to the
+    network's heads is written beside it; where a ``max`` picks the clipped term, the clip is active and passes no
+    gradient. Replicates share nothing but the calls.
 
     With branches (the hybrid), only the chosen branch's outputs enter a row's log-density, and the entropy is
     H(choice) + sum_k p(k) H(branch k).
 
     With a prior (``batch.base_mean``), the Gaussian is N(base mean + mean, (e^(base log std + log std))^2) and the
-    loss adds ``prior_weight`` times the mean KL(pi || prior) over the outputs of ``prior_mask``
-    (:mod:`~famarl_cli.rl.prior_guide`).
+    loss adds ``prior_weight`` (a number, or one per replicate) times the mean KL(pi || prior) over the outputs of
+    ``prior_mask`` (:mod:`~famarl_cli.rl.prior_guide`).
     """
-    size, log_std = len(batch.obs), policy.log_std
-    heads = policy(batch.obs)
+    alone = batch.obs.dim() == 2
+    if alone:
+        batch = batch.with_replicate_axis()
+    size, log_std = batch.obs.shape[1], policy.batched["log_std"]  # (K, 1, action)
+    outputs = log_std.shape[2]
+    heads = policy.forward(batch.obs)
     guided = batch.base_mean is not None
     # Every torch call costs ~5 us here, more than its arithmetic: in-place where possible, nothing computed twice.
     if guided:
-        row_log_std = batch.base_log_std + log_std  # (B, action): each row's own
+        row_log_std = batch.base_log_std + log_std  # (K, B, action): each row's own
         inv_std = row_log_std.neg().exp()
         z = (batch.u - batch.base_mean - heads.mean).mul_(inv_std)
     else:
@@ -173,23 +184,20 @@ def clipped_objective_gradient(
         z.mul_(rows)
     z2 = z.square()
     if rows is None:
-        # sum(log_std) + const, also the entropy (a row's own, averaged, with a prior)
-        gaussian_constant = (
-            row_log_std.sum(1) + LOG_SQRT_2PI * len(log_std) if guided else log_std.sum() + LOG_SQRT_2PI * len(log_std)
-        )
-        log_ratio = z2.sum(1).mul_(-0.5).sub_(gaussian_constant).sub_(batch.logp)
+        # sum(log_std) + const, also the entropy (a row's own, averaged, with a prior): (K, B) or (K, 1)
+        gaussian_constant = (row_log_std if guided else log_std).sum(2) + LOG_SQRT_2PI * outputs
+        log_ratio = z2.sum(2).mul_(-0.5).sub_(gaussian_constant).sub_(batch.logp)
     else:
-        # each output's share of -log density and (+ 1/2) of the entropy; (B, action) with a prior
+        # each output's share of -log density and (+ 1/2) of the entropy; (K, B, action) with a prior
         per_output = (row_log_std if guided else log_std) + LOG_SQRT_2PI
-        density = (rows * per_output).sum(1) if guided else rows @ per_output
-        log_ratio = z2.sum(1).mul_(-0.5).sub_(density).sub_(batch.logp)
+        log_ratio = z2.sum(2).mul_(-0.5).sub_((rows * per_output).sum(2)).sub_(batch.logp)
     if heads.logits is not None:
-        log_p = heads.logits.log_softmax(1)
-        log_ratio += log_p.gather(1, batch.index[:, None]).squeeze(1)
+        log_p = heads.logits.log_softmax(2)
+        log_ratio += log_p.gather(2, batch.index[..., None]).squeeze(2)
     ratio = log_ratio.exp()
     clipped_ratio = ratio.clamp(1 - cfg.clip, 1 + cfg.clip)
     gain, clipped_gain = batch.advantages * ratio, batch.advantages * clipped_ratio
-    policy_loss = -torch.minimum(gain, clipped_gain).mean()
+    policy_loss = -torch.minimum(gain, clipped_gain).mean(1)
     # d policy_loss / d logp = -advantage * ratio / size where the unclipped term is the min, else 0
     d_logp = gain.mul_(gain <= clipped_gain).mul_(-1.0 / size)
 
@@ -200,65 +208,64 @@ def clipped_objective_gradient(
         change = heads.value - batch.values
         clipped_error = change.clamp(-cfg.clip, cfg.clip).sub_(change).add_(error)
         clipped_squared_error = clipped_error.square()
-        value_loss = torch.maximum(squared_error, clipped_squared_error).mean().mul_(0.5)
+        value_loss = torch.maximum(squared_error, clipped_squared_error).mean(1).mul_(0.5)
         d_value = error.mul_(clipped_squared_error <= squared_error)
     else:
-        value_loss, d_value = squared_error.mean().mul_(0.5), error
+        value_loss, d_value = squared_error.mean(1).mul_(0.5), error
     d_value = d_value.mul_(cfg.vf_coef / size)
 
     # d logp / d mean = z / std and d logp / d log_std = z^2 - 1 (on the chosen branch's outputs, 0 elsewhere)
-    d_log_std = torch.mv(z2.sub_(1 if rows is None else rows).T, d_logp)
-    d_mean = z.mul_(d_logp[:, None]).mul_(inv_std)
+    d_log_std = torch.bmm(d_logp[:, None], z2.sub_(1 if rows is None else rows)).squeeze(1)  # (K, action)
+    d_mean = z.mul_(d_logp[..., None]).mul_(inv_std)
     d_logits = None
     if heads.logits is None:
-        entropy = (gaussian_constant + 0.5 * len(log_std)).mean()
+        entropy = (gaussian_constant + 0.5 * outputs).mean(1)
         d_log_std.sub_(cfg.ent_coef)
     else:
         p = log_p.exp()
-        choice_entropy = -(p * log_p).sum(1)
+        choice_entropy = -(p * log_p).sum(2)
         # d log p[index] / d logits = onehot(index) - p;  d H(choice) / d logits = -p (log p + H(choice))
-        d_logits = -p * d_logp[:, None]
-        d_logits.scatter_add_(1, batch.index[:, None], d_logp[:, None])
+        d_logits = -p * d_logp[..., None]
+        d_logits.scatter_add_(2, batch.index[..., None], d_logp[..., None])
         d_choice_entropy = cfg.ent_coef / size
-        if entropy_floor > 0:
-            below = (choice_entropy < entropy_floor).float()
-            d_choice_entropy = d_choice_entropy + below[:, None] * (cfg.type_entropy_coef / size)
-        d_logits += d_choice_entropy * p * (log_p + choice_entropy[:, None])
+        floors = torch.as_tensor(entropy_floor, dtype=torch.float32).reshape(-1, 1)  # one, or one per replicate
+        if bool((floors > 0).any()):
+            below = (choice_entropy < floors).float()
+            d_choice_entropy = d_choice_entropy + below[..., None] * (cfg.type_entropy_coef / size)
+        d_logits += d_choice_entropy * p * (log_p + choice_entropy[..., None])
         if rows is None:
-            entropy = (gaussian_constant + 0.5 * len(log_std)).mean() + choice_entropy.mean()
+            entropy = (gaussian_constant + 0.5 * outputs).mean(1) + choice_entropy.mean(1)
             d_log_std.sub_(cfg.ent_coef)
         else:
             # sum_k p(k) H(branch k): d / d log_std = E_rows[p @ mask]; d / d logits = p (H(branch) - that sum)
-            if guided:
-                branch_entropy = (per_output + 0.5) @ policy.branch_mask.T  # (B, choices)
-                expected = (p * branch_entropy).sum(1)
-            else:
-                branch_entropy = policy.branch_mask @ (per_output + 0.5)
-                expected = p @ branch_entropy
+            branch_entropy = (per_output + 0.5) @ policy.branch_mask.T  # (K, B or 1, choices)
+            expected = (p * branch_entropy).sum(2)
             weights = p @ policy.branch_mask
-            entropy = (choice_entropy + expected).mean()
-            d_log_std.sub_(weights.mean(0), alpha=cfg.ent_coef)
-            d_logits -= (cfg.ent_coef / size) * p * (branch_entropy - expected[:, None])
+            entropy = (choice_entropy + expected).mean(1)
+            d_log_std.sub_(weights.mean(1), alpha=cfg.ent_coef)
+            d_logits -= (cfg.ent_coef / size) * p * (branch_entropy - expected[..., None])
     stats = [policy_loss, value_loss, entropy]
     if guided:
         # KL(pi || prior) per guided output j: -l_j + e^(2 l_j) / 2 + m_j^2 e^(-2 base log std_j) / 2 - 1/2
         mean = heads.mean * prior_mask
         inv_prior_var = batch.base_log_std.mul(-2).exp_()
         scaled = mean * inv_prior_var
-        guided_log_std = log_std * prior_mask
+        guided_log_std = log_std * prior_mask  # (K, 1, action)
         variance_less_one = guided_log_std.mul(2).exp_().sub_(1).mul_(prior_mask)  # e^(2 l) - 1, also d KL / d l
-        kl = (
-            variance_less_one.mul(0.5).sub_(guided_log_std).mul_(prior_mask).sum() + 0.5 * (scaled * mean).sum(1).mean()
-        )
-        if prior_weight > 0:
-            d_mean.add_(scaled, alpha=prior_weight / size)
-            d_log_std.add_(variance_less_one, alpha=prior_weight)
+        kl = variance_less_one.mul(0.5).sub_(guided_log_std).mul_(prior_mask).sum((1, 2)) + 0.5 * (scaled * mean).sum(
+            2
+        ).mean(1)
+        weight = torch.as_tensor(prior_weight, dtype=torch.float32).expand(len(kl))
+        if bool((weight > 0).any()):
+            d_mean.addcmul_(scaled, weight[:, None, None], value=1.0 / size)
+            d_log_std.addcmul_(variance_less_one.squeeze(1), weight[:, None])
         stats.append(kl)
     policy.backward(heads, d_mean, d_log_std, d_value, d_logits)
-    approx_kl = (ratio - log_ratio).mean() - 1
-    clip_fraction = (ratio != clipped_ratio).mean(dtype=torch.float32)
+    approx_kl = (ratio - log_ratio).mean(1) - 1
+    clip_fraction = (ratio != clipped_ratio).mean(1, dtype=torch.float32)
     stats[3:3] = [approx_kl, clip_fraction]
-    return torch.stack(stats)
+    found = torch.stack(stats, 1)
+    return found[0] if alone else found
 
 
 @dataclass
@@ -327,196 +334,384 @@ class EpisodeTracker:
         self.finished = int(state["finished"])
 
 
+@dataclass
+class Member:
+    """Everything of one run (one seed) in a :class:`PPOTrainer`, but its network and optimiser rows."""
+
+    env: BatchedEnv
+    mode: ActionMode
+    seed: int
+    guide: PriorGuide | None
+    rng: np.random.Generator
+    """The rollouts' sampling."""
+    choice_rng: np.random.Generator
+    """The hybrid's type choices (ActorCritic.act)."""
+    shuffles: torch.Generator
+    """The minibatch shuffles: torch's global generator as the network's initialisation left it."""
+    obs_norm: ObservationNormalizer
+    reward_scaler: RewardScaler
+    episodes: EpisodeTracker
+    obs: np.ndarray
+    env_steps: int = 0
+    decisions: int = 0
+    updates: int = 0
+    log: list[dict[str, float]] = field(default_factory=list)
+
+
 class PPOTrainer:
-    """Owns everything that changes while training; :meth:`state_dict` captures all of it for exact resumes."""
+    """Owns everything that changes while training; :meth:`state_dict` captures all of it for exact resumes.
+
+    One trainer may train several runs of one agent at once, one per seed (:meth:`together`): their networks are
+    the replicates of one :class:`ActorCritic` and one :class:`FlatAdam`, so that every call of acting and learning
+    serves all of them, and all else (environments, random generators, statistics, logs) is each run's own. A run's
+    numbers are those it computes alone, up to the rounding of batched kernels. Runs that reach their budget leave
+    the batch; the others go on. Built for one seed, the trainer's members are reachable as its attributes
+    (``trainer.env``, ``trainer.episodes``, ...).
+    """
 
     def __init__(
         self, env: BatchedEnv, mode: ActionMode, config: PPOConfig, seed: int, guide: PriorGuide | None = None
     ) -> None:
-        self.env, self.mode, self.config, self.guide = env, mode, config, guide
-        torch.manual_seed(seed)  # initialisation and the minibatch shuffles
-        self.rng = np.random.default_rng(seed)  # the rollouts' sampling
-        self.choice_rng = np.random.default_rng([1, seed])  # the hybrid's type choices (ActorCritic.act)
+        self.config = config
+        torch.manual_seed(seed)  # initialisation, then the minibatch shuffles
+        rng, choice_rng = np.random.default_rng(seed), np.random.default_rng([1, seed])
         self.policy = ActorCritic(
             env.observation_size, mode.policy_action_size, mode.choices, config.hidden, mode.branches
         )
         if guide is not None:
             # The latent head starts at 0 relative to the prior: the policy starts exactly at p(z | s).
             self.policy.params["w_mean"][:, guide.columns] = 0.0
+        shuffles = torch.Generator()
+        shuffles.set_state(torch.get_rng_state())
         self.optimizer = FlatAdam(self.policy.flat, lr=config.learning_rate, eps=1e-5)
-        self.obs_norm = ObservationNormalizer((env.observation_size,), config.normalize_obs)
-        self.reward_scaler = RewardScaler(config.n_envs, config.scale_rewards)
-        self.episodes = EpisodeTracker(config.n_envs)
-        self.obs = env.reset()
-        self.env_steps = 0
-        self.decisions = 0
-        self.updates = 0
-        self.log: list[dict[str, float]] = []
+        member = Member(
+            env,
+            mode,
+            seed,
+            guide,
+            rng,
+            choice_rng,
+            shuffles,
+            ObservationNormalizer((env.observation_size,), config.normalize_obs),
+            RewardScaler(config.n_envs, config.scale_rewards),
+            EpisodeTracker(config.n_envs),
+            env.reset(),
+        )
+        self.members = [member]
+        self.active = [0]
+        """Indices of the members still training, in the order of the network's replicates."""
+        self.finished: dict[int, dict] = {}
+        """The final state of each member that left the batch."""
+
+    @staticmethod
+    def together(trainers: list[PPOTrainer]) -> PPOTrainer:
+        """One trainer of the members of ``trainers`` (each of one seed, same config and network shape), their
+        networks and optimisers copied into replicates; the members keep everything else."""
+        first = trainers[0]
+        if any(trainer.config != first.config for trainer in trainers):
+            raise ValueError("runs trained together must share their PPO config (budget included)")
+        joint = object.__new__(PPOTrainer)
+        joint.config = first.config
+        joint.members = [member for trainer in trainers for member in trainer.members]
+        joint.finished = {}
+        joint.active = list(range(len(joint.members)))
+        joint._rebuild([(trainer, 0) for trainer in trainers])
+        return joint
+
+    def _rebuild(self, sources: list[tuple[PPOTrainer, int]]) -> None:
+        """A network and optimiser with one replicate per ``(trainer, replicate)`` of ``sources``, copied."""
+        first = sources[0][0].policy
+        self.policy = ActorCritic(
+            first.arrays["w1"].shape[1],
+            first.arrays["w_mean"].shape[2],
+            first.choices,
+            self.config.hidden,
+            first.branches,
+            replicates=len(sources),
+        )
+        policy = self.policy
+        self.optimizer = FlatAdam(policy.flat, self.config.learning_rate, eps=1e-5, rows=policy.rows)
+        for k, (trainer, replicate) in enumerate(sources):
+            policy.load_state_dict(trainer.policy.state_dict(replicate), k)
+            self.optimizer.load_state_dict(trainer.optimizer.state_dict(replicate), k)
+
+    def __getattr__(self, name: str):
+        # A trainer of one seed shows its member's state as its own (trainer.env, trainer.episodes, ...).
+        members = self.__dict__.get("members")
+        if members is not None and len(members) == 1 and name in Member.__dataclass_fields__:
+            return getattr(members[0], name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def __setattr__(self, name: str, value) -> None:
+        members = self.__dict__.get("members")
+        if members is not None and len(members) == 1 and name in Member.__dataclass_fields__:
+            setattr(members[0], name, value)
+        else:
+            super().__setattr__(name, value)
+
+    def member_done(self, index: int) -> bool:
+        return self.members[index].env_steps >= self.config.total_steps
 
     @property
     def done(self) -> bool:
-        return self.env_steps >= self.config.total_steps
+        return all(self.member_done(i) for i in range(len(self.members)))
+
+    def collect_rollouts(self) -> list[Rollout]:
+        """One rollout of every active member, their networks acting in one call per decision."""
+        cfg, n = self.config, self.config.n_envs
+        members = [self.members[i] for i in self.active]
+        obs = np.zeros((len(members), cfg.n_steps, n, members[0].env.observation_size), np.float32)
+        u = np.zeros((len(members), cfg.n_steps, n, members[0].mode.policy_action_size), np.float32)
+        index, steps = (np.zeros((len(members), cfg.n_steps, n), np.int64) for _ in range(2))
+        macro = np.zeros((len(members), cfg.n_steps, n), bool)
+        logp, values, rewards, dones, discounts, lengths = (np.zeros((len(members), cfg.n_steps, n)) for _ in range(6))
+        guided = members[0].guide is not None
+        base_mean = base_log_std = None
+        if guided:
+            base_mean, base_log_std = (np.zeros_like(u) for _ in range(2))
+        bases = [None] * len(members)
+        for t in range(cfg.n_steps):
+            for k, member in enumerate(members):
+                if guided:
+                    bases[k] = base_mean[k, t], base_log_std[k, t] = member.guide.base(member.obs)
+                obs[k, t] = member.obs_norm(member.obs, update=True)
+            actions = self.policy.act_replicates(
+                obs[:, t], [m.rng for m in members], [m.choice_rng for m in members], bases
+            )
+            finals = []
+            for k, (member, action) in enumerate(zip(members, actions, strict=True)):
+                u[k, t], index[k, t], logp[k, t], values[k, t] = action.u, action.index, action.logp, action.value
+                sequences, lengths[k, t] = member.mode.to_sequences(u[k, t].astype(np.float64), index[k, t])
+                macro[k, t] = member.mode.macro(index[k, t])
+                result = run_sequences(member.env, member.obs, sequences, lengths[k, t].astype(np.int64))
+                dones[k, t] = result.terminated | result.truncated
+                rewards[k, t], discounts[k, t] = decision_reward(
+                    result, cfg.macro_discount, cfg.gamma, member.reward_scaler
+                )
+                finals.append(result)
+                member.episodes.record(result)
+                steps[k, t] = result.steps
+                member.env_steps += int(result.steps.sum())
+                member.decisions += n
+                member.obs = result.obs
+            self._bootstrap_truncations(members, finals, rewards[:, t], discounts[:, t])
+        next_values = self._values(members, [m.obs for m in members])
+        rollouts = []
+        for k in range(len(members)):
+            advantages, returns = compute_gae(
+                rewards[k], values[k], dones[k], discounts[k], next_values[k], cfg.gae_lambda
+            )
+            rollouts.append(
+                Rollout(
+                    obs[k],
+                    u[k],
+                    index[k],
+                    logp[k],
+                    values[k],
+                    rewards[k],
+                    dones[k],
+                    advantages,
+                    returns,
+                    lengths[k],
+                    macro[k],
+                    steps[k],
+                    None if base_mean is None else base_mean[k],
+                    None if base_log_std is None else base_log_std[k],
+                )
+            )
+        return rollouts
+
+    def _values(self, members: list[Member], states: list[np.ndarray]) -> list[np.ndarray]:
+        """Each member's critic on its raw states (normalised by its frozen statistics)."""
+        rows = max(len(state) for state in states)
+        obs = np.zeros((len(members), rows, members[0].env.observation_size), np.float32)
+        for k, (member, state) in enumerate(zip(members, states, strict=True)):
+            obs[k, : len(state)] = member.obs_norm(state, update=False)
+        actions = self.policy.act_replicates(obs, [None] * len(members), [None] * len(members), [None] * len(members))
+        return [action.value[: len(state)] for action, state in zip(actions, states, strict=True)]
+
+    def _bootstrap_truncations(self, members, results, rewards: np.ndarray, discounts: np.ndarray) -> None:
+        """A decision cut by the time limit gets V(final obs), discounted, added to its reward."""
+        cut = [result.truncated for result in results]
+        if not any(c.any() for c in cut):
+            return
+        finals = [result.final_obs[c] for result, c in zip(results, cut, strict=True)]
+        for k, value in enumerate(self._values(members, finals)):
+            rewards[k, cut[k]] += discounts[k, cut[k]] * value
 
     def collect_rollout(self) -> Rollout:
-        cfg, n = self.config, self.config.n_envs
-        obs = np.zeros((cfg.n_steps, n, self.env.observation_size), np.float32)
-        u = np.zeros((cfg.n_steps, n, self.mode.policy_action_size), np.float32)
-        index, steps = (np.zeros((cfg.n_steps, n), np.int64) for _ in range(2))
-        macro = np.zeros((cfg.n_steps, n), bool)
-        logp, values, rewards, dones, discounts, lengths = (np.zeros((cfg.n_steps, n)) for _ in range(6))
-        base_mean = base_log_std = base = None
-        if self.guide is not None:
-            base_mean, base_log_std = (np.zeros_like(u) for _ in range(2))
-        for t in range(cfg.n_steps):
-            if self.guide is not None:
-                base = base_mean[t], base_log_std[t] = self.guide.base(self.obs)
-            obs[t] = self.obs_norm(self.obs, update=True)
-            action = self.policy.act(obs[t], self.rng, self.choice_rng, base)
-            u[t], index[t], logp[t], values[t] = action.u, action.index, action.logp, action.value
-            actions, lengths[t] = self.mode.to_sequences(u[t].astype(np.float64), index[t])
-            macro[t] = self.mode.macro(index[t])
-            result = run_sequences(self.env, self.obs, actions, lengths[t].astype(np.int64))
-            dones[t] = result.terminated | result.truncated
-            rewards[t], discounts[t] = decision_reward(result, cfg.macro_discount, cfg.gamma, self.reward_scaler)
-            if result.truncated.any():
-                cut = result.truncated
-                final = self.obs_norm(result.final_obs[cut], update=False)
-                rewards[t, cut] += discounts[t, cut] * self.policy.act(final).value
-            self.episodes.record(result)
-            steps[t] = result.steps
-            self.env_steps += int(result.steps.sum())
-            self.decisions += n
-            self.obs = result.obs
-        next_value = self.policy.act(self.obs_norm(self.obs, update=False)).value
-        advantages, returns = compute_gae(rewards, values, dones, discounts, next_value, cfg.gae_lambda)
-        return Rollout(
-            obs,
-            u,
-            index,
-            logp,
-            values,
-            rewards,
-            dones,
-            advantages,
-            returns,
-            lengths,
-            macro,
-            steps,
-            base_mean,
-            base_log_std,
-        )
+        """The rollout of a trainer of one seed."""
+        [rollout] = self.collect_rollouts()
+        return rollout
 
     # inference_mode: no autograd bookkeeping on any tensor (the gradient is written out), a third off every call.
     @torch.inference_mode()
-    def update(self, rollout: Rollout) -> dict[str, float]:
-        cfg, size = self.config, rollout.index.size
-        # One table, so that an epoch's shuffle is one gather; the repeat index rides along as a float.
+    def update(self, rollouts: list[Rollout] | Rollout) -> list[dict[str, float]] | dict[str, float]:
+        """PPO's epochs on every active member's rollout (one rollout for a trainer of one seed); the stats of each."""
+        alone = isinstance(rollouts, Rollout)
+        rollouts = [rollouts] if alone else rollouts
+        cfg, size = self.config, rollouts[0].index.size
+        members = [self.members[i] for i in self.active]
+        guides = [member.guide for member in members]
+        guided = guides[0] is not None
+        # One table per member, so that an epoch's shuffle is one gather; the repeat index rides along as a float.
         names = ("obs", "u", "logp", "values", "advantages", "returns", "index")
-        if self.guide is not None:
+        if guided:
             names += ("base_mean", "base_log_std")
-        arrays = [getattr(rollout, name).reshape(size, -1) for name in names]
-        data = torch.from_numpy(np.concatenate(arrays, axis=1, dtype=np.float32))
-        split = [array.shape[1] for array in arrays]
+        tables, split = [], None
+        for rollout in rollouts:
+            arrays = [getattr(rollout, name).reshape(size, -1) for name in names]
+            tables.append(np.concatenate(arrays, axis=1, dtype=np.float32))
+            split = [array.shape[1] for array in arrays]
+        data = torch.from_numpy(np.stack(tables))
         minibatch = size // cfg.minibatches
-        stat_names = STATS if self.guide is None else (*STATS, "prior_kl")
-        totals = torch.zeros(len(stat_names))
-        gradient = self.policy.gradient
-        mask = None if self.guide is None else torch.from_numpy(self.guide.mask.astype(np.float32))
-        early = self.env_steps <= cfg.type_entropy_until * cfg.total_steps
-        floor = cfg.type_entropy_floor if early else 0.0
+        used = minibatch * cfg.minibatches
+        stat_names = STATS if not guided else (*STATS, "prior_kl")
+        totals = torch.zeros(len(members), len(stat_names))
+        gradient, policy = self.policy.gradient, self.policy
+        mask = None if not guided else torch.from_numpy(guides[0].mask.astype(np.float32))
+        floor = torch.tensor(
+            [
+                cfg.type_entropy_floor if m.env_steps <= cfg.type_entropy_until * cfg.total_steps else 0.0
+                for m in members
+            ]
+        )
         for _ in range(cfg.epochs):
-            shuffled = data[torch.randperm(size)][: minibatch * cfg.minibatches]
-            columns = dict(zip(names, shuffled.split(split, dim=1), strict=True))
+            order = torch.stack([torch.randperm(size, generator=m.shuffles) for m in members])[:, :used]
+            shuffled = data.gather(1, order[..., None].expand(-1, -1, data.shape[2]))
+            columns = dict(zip(names, shuffled.split(split, dim=2), strict=True))
             for name in ("logp", "values", "advantages", "returns", "index"):
-                columns[name] = columns[name].view(-1)
+                columns[name] = columns[name].squeeze(2)
             columns["index"] = columns["index"].long()
-            # Advantages are normalised per minibatch; all of an epoch's minibatches at once.
-            advantages = columns["advantages"].view(cfg.minibatches, minibatch)
-            advantages.sub_(advantages.mean(1, keepdim=True)).div_(advantages.std(1, keepdim=True).add_(1e-8))
-            minibatches = {name: column.split(minibatch) for name, column in columns.items()}
+            # Advantages are normalised per member and minibatch; all of an epoch's minibatches at once.
+            advantages = columns["advantages"].view(len(members), cfg.minibatches, minibatch)
+            advantages.sub_(advantages.mean(2, keepdim=True)).div_(advantages.std(2, keepdim=True).add_(1e-8))
+            minibatches = {name: column.split(minibatch, dim=1) for name, column in columns.items()}
             for i in range(cfg.minibatches):
                 batch = Minibatch(**{name: parts[i] for name, parts in minibatches.items()})
-                if self.guide is None:
-                    totals += clipped_objective_gradient(self.policy, batch, cfg, floor)
+                if not guided:
+                    totals += clipped_objective_gradient(policy, batch, cfg, floor)
                 else:
-                    step = clipped_objective_gradient(self.policy, batch, cfg, floor, self.guide.weight, mask)
+                    weights = torch.tensor([guide.weight for guide in guides], dtype=torch.float32)
+                    step = clipped_objective_gradient(policy, batch, cfg, floor, weights, mask)
                     totals += step
-                    self.guide.tune(float(step[-1]))
-                clip_norm(gradient, cfg.max_grad_norm)
+                    for guide, kl in zip(guides, step[:, -1].tolist(), strict=True):
+                        guide.tune(kl)
+                clip_norms(policy.gradient_pieces, policy.rows, cfg.max_grad_norm)
                 self.optimizer.step(gradient)
-        stats = dict(zip(stat_names, (totals / (cfg.epochs * cfg.minibatches)).tolist(), strict=True))
-        if self.guide is not None:
-            stats["prior_weight"] = self.guide.weight
-        variance = np.var(rollout.returns)
-        stats["explained_variance"] = (
-            float(1 - np.var(rollout.returns - rollout.values) / variance) if variance else float("nan")
-        )
-        return stats
+        found = []
+        for k, rollout in enumerate(rollouts):
+            stats = dict(zip(stat_names, (totals[k] / (cfg.epochs * cfg.minibatches)).tolist(), strict=True))
+            if guided:
+                stats["prior_weight"] = guides[k].weight
+            variance = np.var(rollout.returns)
+            stats["explained_variance"] = (
+                float(1 - np.var(rollout.returns - rollout.values) / variance) if variance else float("nan")
+            )
+            found.append(stats)
+        return found[0] if alone else found
 
-    def train(self, on_update: Callable[[PPOTrainer, dict[str, float]], None] | None = None) -> None:
-        """Rollout and update until the budget of environment steps is spent; ``on_update`` sees every log row."""
+    def train(
+        self,
+        on_update: Callable[[PPOTrainer, dict[str, float]], None] | None = None,
+        on_member_update: Callable[[int, dict[str, float]], None] | None = None,
+        on_finish: Callable[[int], None] | None = None,
+    ) -> None:
+        """Rollout and update until every member has spent its budget of environment steps. ``on_update`` sees
+        every log row of a trainer of one seed, ``on_member_update(member, row)`` every member's; ``on_finish(member)``
+        is called as a member reaches its budget, before it leaves the batch."""
         cfg = self.config
-        while not self.done:
-            learning_rate = cfg.learning_rate * (1.0 - self.env_steps / cfg.total_steps if cfg.anneal_lr else 1.0)
-            self.optimizer.lr = learning_rate
-            rollout = self.collect_rollout()
-            stats = self.update(rollout)
-            self.updates += 1
-            row = {
-                "update": self.updates,
-                "env_steps": self.env_steps,
-                "decisions": self.decisions,
-                "episodes": self.episodes.finished,
-                **self.episodes.summary(),
-                "macro_length": float(rollout.macro_lengths.mean()),
-                "steps_per_decision": rollout.env_steps / rollout.macro_lengths.size,
-                "macro_share": float(rollout.macro.mean()),
-                "macro_step_share": float(rollout.steps[rollout.macro].sum() / max(rollout.env_steps, 1)),
-                "learning_rate": learning_rate,
-                **stats,
-            }
-            self.log.append(row)
-            if on_update is not None:
-                on_update(self, row)
+        while True:
+            leaving = [index for index in self.active if self.member_done(index)]
+            for index in leaving:
+                if on_finish is not None:
+                    on_finish(index)
+                self.finished[index] = self.state_dict(index)
+            if leaving:
+                self._leave(leaving)
+            if not self.active:
+                return
+            members = [self.members[i] for i in self.active]
+            rates = [
+                cfg.learning_rate * (1.0 - m.env_steps / cfg.total_steps if cfg.anneal_lr else 1.0) for m in members
+            ]
+            self.optimizer.lr[:] = rates
+            rollouts = self.collect_rollouts()
+            for index, member, rollout, stats, learning_rate in zip(
+                list(self.active), members, rollouts, self.update(rollouts), rates, strict=True
+            ):
+                member.updates += 1
+                row = {
+                    "update": member.updates,
+                    "env_steps": member.env_steps,
+                    "decisions": member.decisions,
+                    "episodes": member.episodes.finished,
+                    **member.episodes.summary(),
+                    "macro_length": float(rollout.macro_lengths.mean()),
+                    "steps_per_decision": rollout.env_steps / rollout.macro_lengths.size,
+                    "macro_share": float(rollout.macro.mean()),
+                    "macro_step_share": float(rollout.steps[rollout.macro].sum() / max(rollout.env_steps, 1)),
+                    "learning_rate": learning_rate,
+                    **stats,
+                }
+                member.log.append(row)
+                if on_update is not None:
+                    on_update(self, row)
+                if on_member_update is not None:
+                    on_member_update(index, row)
 
-    def state_dict(self) -> dict:
+    def _leave(self, leaving: list[int]) -> None:
+        """Take the members ``leaving`` out of the batch: the network and optimiser keep only the others' rows."""
+        staying = [index for index in self.active if index not in leaving]
+        if staying:
+            old = object.__new__(PPOTrainer)
+            old.policy, old.optimizer = self.policy, self.optimizer
+            self._rebuild([(old, self.active.index(index)) for index in staying])
+        self.active = staying
+
+    def state_dict(self, member: int = 0) -> dict:
+        """Everything of one member (in the format of a trainer of one seed, which a resume loads)."""
+        if member in self.finished:
+            return self.finished[member]
+        m, row = self.members[member], self.active.index(member)
         return {
-            "policy": self.policy.state_dict(),
-            "optimizer": self.optimizer.state_dict(),
-            "torch_rng": torch.get_rng_state(),
-            "sampling_rng": json.dumps(self.rng.bit_generator.state),
-            "choice_rng": json.dumps(self.choice_rng.bit_generator.state),
-            "obs_norm": self.obs_norm.state_dict(),
-            "reward_scaler": self.reward_scaler.state_dict(),
-            "episodes": self.episodes.state_dict(),
-            "env": self.env.state_dict(),
-            "obs": self.obs.copy(),
-            "counters": {"env_steps": self.env_steps, "decisions": self.decisions, "updates": self.updates},
-            "log": list(self.log),
-            **({} if self.guide is None else {"guide": self.guide.state_dict()}),
+            "policy": self.policy.state_dict(row),
+            "optimizer": self.optimizer.state_dict(row),
+            "torch_rng": m.shuffles.get_state(),
+            "sampling_rng": json.dumps(m.rng.bit_generator.state),
+            "choice_rng": json.dumps(m.choice_rng.bit_generator.state),
+            "obs_norm": m.obs_norm.state_dict(),
+            "reward_scaler": m.reward_scaler.state_dict(),
+            "episodes": m.episodes.state_dict(),
+            "env": m.env.state_dict(),
+            "obs": m.obs.copy(),
+            "counters": {"env_steps": m.env_steps, "decisions": m.decisions, "updates": m.updates},
+            "log": list(m.log),
+            **({} if m.guide is None else {"guide": m.guide.state_dict()}),
         }
 
-    def load_state_dict(self, state: dict) -> None:
-        self.policy.load_state_dict(state["policy"])
-        self.optimizer.load_state_dict(state["optimizer"])
-        torch.set_rng_state(state["torch_rng"])
-        self.rng.bit_generator.state = json.loads(state["sampling_rng"])
+    def load_state_dict(self, state: dict, member: int = 0) -> None:
+        m, row = self.members[member], self.active.index(member)
+        self.policy.load_state_dict(state["policy"], row)
+        self.optimizer.load_state_dict(state["optimizer"], row)
+        m.shuffles.set_state(state["torch_rng"])
+        m.rng.bit_generator.state = json.loads(state["sampling_rng"])
         if "choice_rng" in state:  # checkpoints from before the hybrid agent have none; only the hybrid uses it
-            self.choice_rng.bit_generator.state = json.loads(state["choice_rng"])
-        if self.guide is not None:
-            self.guide.load_state_dict(state["guide"])
-        self.obs_norm.load_state_dict(state["obs_norm"])
-        self.reward_scaler.load_state_dict(state["reward_scaler"])
-        self.log = list(state["log"])
+            m.choice_rng.bit_generator.state = json.loads(state["choice_rng"])
+        if m.guide is not None:
+            m.guide.load_state_dict(state["guide"])
+        m.obs_norm.load_state_dict(state["obs_norm"])
+        m.reward_scaler.load_state_dict(state["reward_scaler"])
+        m.log = list(state["log"])
         counters = state["counters"]
-        self.env_steps, self.decisions, self.updates = counters["env_steps"], counters["decisions"], counters["updates"]
+        m.env_steps, m.decisions, m.updates = counters["env_steps"], counters["decisions"], counters["updates"]
         if state["env"] is not None:
-            self.env.load_state_dict(state["env"])
-            self.obs = np.asarray(state["obs"], dtype=np.float32)
-            self.episodes.load_state_dict(state["episodes"])
+            m.env.load_state_dict(state["env"])
+            m.obs = np.asarray(state["obs"], dtype=np.float32)
+            m.episodes.load_state_dict(state["episodes"])
         else:
             # An environment without a snapshot restarts its episodes; the ones in progress are not counted.
-            self.obs = self.env.reset()
-            self.episodes.load_state_dict(
+            m.obs = m.env.reset()
+            m.episodes.load_state_dict(
                 {**state["episodes"], **{k: np.zeros(self.config.n_envs) for k in EpisodeTracker.FIELDS[:-1]}}
             )

@@ -175,6 +175,8 @@ class Run:
             check_skills(spec, skills, favae, env, spec.favae if state is None else None)
         mode = build_mode(spec, env, favae, skills)
         self.trainer = PPOTrainer(env, mode, spec.ppo, spec.seed, build_guide(spec, mode, skills))
+        self.member = 0
+        """This run's member of :attr:`trainer` (another after :func:`train_together`)."""
         if state is not None:
             self.trainer.load_state_dict(state)
         self.wall_s = 0.0
@@ -208,16 +210,21 @@ class Run:
         return run
 
     def save(self, run_dir: str | os.PathLike) -> None:
-        trainer = self.trainer
+        trainer, member = self.trainer, self.trainer.members[self.member]
         status = {
-            "complete": trainer.done,
-            "env_steps": trainer.env_steps,
-            "decisions": trainer.decisions,
-            "updates": trainer.updates,
+            "complete": trainer.member_done(self.member),
+            "env_steps": member.env_steps,
+            "decisions": member.decisions,
+            "updates": member.updates,
             "wall_s": round(self.wall_s, 2),
         }
         mode = _favae_state(self.favae, self.skills)
-        write_run(run_dir, self.spec.to_dict(), trainer.state_dict(), mode, self.provenance, status)
+        write_run(run_dir, self.spec.to_dict(), trainer.state_dict(self.member), mode, self.provenance, status)
+
+    @property
+    def summary(self) -> dict[str, float]:
+        """Means over the run's most recent episodes (:class:`~famarl_cli.rl.ppo.EpisodeTracker`)."""
+        return self.trainer.members[self.member].episodes.summary()
 
     def train(
         self,
@@ -228,22 +235,46 @@ class Run:
     ) -> None:
         """Train to the budget, saving every ``checkpoint_every`` updates and at the end. ``before_save`` may raise
         to stop the run without writing (a sweep attempt that lost its lease)."""
-        started = time.perf_counter() - self.wall_s
+        train_together(
+            [self],
+            [run_dir],
+            checkpoint_every,
+            None if on_update is None else (lambda _, row: on_update(row)),
+            None if before_save is None else (lambda _: before_save()),
+        )
 
-        def save() -> None:
-            if before_save is not None:
-                before_save()
-            self.save(run_dir)
 
-        def after_update(trainer: PPOTrainer, row: dict) -> None:
-            self.wall_s = time.perf_counter() - started
-            if trainer.updates % checkpoint_every == 0 and not trainer.done:
-                save()
-            if on_update is not None:
-                on_update(row)
+def train_together(
+    runs: list[Run],
+    folders: list[str | os.PathLike],
+    checkpoint_every: int,
+    on_update: Callable[[int, dict], None] | None = None,
+    before_save: Callable[[int], None] | None = None,
+) -> None:
+    """Train several runs of one agent and config, their seeds apart, as one batch (:meth:`PPOTrainer.together`):
+    run k saves into ``folders[k]`` every ``checkpoint_every`` of its updates and when it reaches its budget, exactly
+    as :meth:`Run.train` alone would; ``on_update(k, row)`` sees its log rows and ``before_save(k)`` may raise to
+    stop it without writing. A run's ``wall_s`` is the batch's time (its runs share every call)."""
+    if len(runs) > 1:
+        joint = PPOTrainer.together([run.trainer for run in runs])
+        for k, run in enumerate(runs):
+            run.trainer, run.member = joint, k
+    trainer = runs[0].trainer
+    started = [time.perf_counter() - run.wall_s for run in runs]
 
-        self.trainer.train(after_update)
-        save()
+    def save(k: int) -> None:
+        if before_save is not None:
+            before_save(k)
+        runs[k].save(folders[k])
+
+    def after_update(k: int, row: dict) -> None:
+        runs[k].wall_s = time.perf_counter() - started[k]
+        if row["update"] % checkpoint_every == 0 and not trainer.member_done(k):
+            save(k)
+        if on_update is not None:
+            on_update(k, row)
+
+    trainer.train(on_member_update=after_update, on_finish=save)
 
 
 @dataclass
@@ -270,24 +301,39 @@ def load_agent(run_dir: str | os.PathLike) -> TrainedAgent:
     return TrainedAgent(spec, policy, trainer["obs_norm"], favae, int(trainer["counters"]["env_steps"]), skills)
 
 
-def run_job(config: dict, folder: Path, context) -> dict:
-    """A training run as a sweep job (:mod:`famarl_cli.sweep`): ``config`` holds the run's ``spec`` and its
-    ``checkpoint_every``; an unfinished run in ``folder`` continues from its checkpoint, exactly as
-    ``famarl train --resume`` would."""
-    if context.resume and (folder / CHECKPOINT_FILE).exists():
-        run = Run.resume(folder)
-    else:
-        run = Run.start(RunSpec.from_dict(config["spec"]))
-    total = run.trainer.config.total_steps
-    run.train(
-        folder,
-        int(config["checkpoint_every"]),
-        on_update=lambda row: context.progress(min(row["env_steps"], total), total),
-        before_save=context.check_lease,
+def run_jobs(configs: list[dict], contexts: list) -> list:
+    """Training runs as sweep jobs (:mod:`famarl_cli.sweep`), batched: runs of one setting, their seeds apart,
+    trained together (:func:`train_together`). ``config`` holds a run's ``spec`` and its ``checkpoint_every``; an
+    unfinished run in its context's folder continues from its checkpoint, exactly as ``famarl train --resume``
+    would."""
+    from famarl_cli.sweep.worker import Failed
+
+    results: list[dict | Failed] = []
+    runs, started = [], []
+    for config, context in zip(configs, contexts, strict=True):
+        try:
+            resume = context.resume and (context.folder / CHECKPOINT_FILE).exists()
+            runs.append(Run.resume(context.folder) if resume else Run.start(RunSpec.from_dict(config["spec"])))
+        except Exception as exc:  # noqa: BLE001 - a run that cannot start (bad input) fails alone
+            results.append(Failed.of(exc))
+            continue
+        started.append(len(results))
+        results.append({})
+    if not runs:
+        return results
+    every = {int(configs[k]["checkpoint_every"]) for k in started}
+    if len(every) > 1:
+        raise ValueError(f"runs trained together checkpoint at one interval, not {sorted(every)}")
+    total, mine = runs[0].trainer.config.total_steps, [contexts[k] for k in started]
+    train_together(
+        runs,
+        [context.folder for context in mine],
+        every.pop(),
+        on_update=lambda k, row: mine[k].progress(min(row["env_steps"], total), total),
+        before_save=lambda k: mine[k].check_lease(),
     )
-    summary = run.trainer.episodes.summary()
-    return {
-        "env_steps": run.trainer.env_steps,
-        "success": summary["episode_success"],
-        "return": summary["episode_return"],
-    }
+    for k, run in zip(started, runs, strict=True):
+        summary = run.summary
+        steps = run.trainer.members[run.member].env_steps
+        results[k] = {"env_steps": steps, "success": summary["episode_success"], "return": summary["episode_return"]}
+    return results

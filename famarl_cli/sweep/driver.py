@@ -34,7 +34,15 @@ from famarl_cli.sweep.plan import (
     batches,
     reconcile,
 )
-from famarl_cli.sweep.worker import LEASE_FILE, PROGRESS_FILE, execute, execute_batch, name_of, read_progress
+from famarl_cli.sweep.worker import (
+    LEASE_FILE,
+    PROGRESS_FILE,
+    Failed,
+    execute,
+    execute_batch,
+    name_of,
+    read_progress,
+)
 
 MAX_ATTEMPTS = 3
 MAX_REQUEUES = 10
@@ -184,8 +192,11 @@ def _run(out: Path, jobs: list[Job], executor: Executor, max_attempts: int, on_u
                         _fail(job_state, f"{type(cause).__name__}: {cause}".splitlines()[0])
                 continue
             for job_state, result in zip(group, results if group[0].job.batched else [results], strict=True):
-                job_state.result = result
                 job_state.attempts += 1
+                if isinstance(result, Failed):
+                    _fail(job_state, result.error)
+                    continue
+                job_state.result = result
                 _complete(out, job_state, keys)
         if died:
             if executor.breaks_as_a_whole:

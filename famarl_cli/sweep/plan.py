@@ -121,6 +121,9 @@ class Job:
     batched: bool = False
     """The runner takes a batch of jobs, ``runner(configs, contexts)``: jobs of the same :attr:`group` run
     together in one process (replicates fitted as one batched model)."""
+    setting: str | None = None
+    """What the jobs of one setting share, where the sweep knows it (the command's options before the seed is filled
+    in, and the other axes' values); a batched job's :attr:`group`."""
 
     def __post_init__(self) -> None:
         if not re.fullmatch(r"[A-Za-z0-9_.+=-]+", self.name) or self.name.startswith("."):
@@ -132,11 +135,11 @@ class Job:
 
     @property
     def group(self) -> str | None:
-        """Jobs that may share a batch have the same group: the runner and the config but for the seed (None: the
-        job runs alone)."""
+        """Jobs that may share a batch have the same group: the runner and the :attr:`setting`, else the config but
+        for the seed (None: the job runs alone)."""
         if not self.batched:
             return None
-        rest = {key: value for key, value in self.config.items() if key != "seed"}
+        rest = self.setting or {key: value for key, value in self.config.items() if key != "seed"}
         return json.dumps([self.runner, rest], sort_keys=True)
 
 

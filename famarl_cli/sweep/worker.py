@@ -39,6 +39,18 @@ def read_token(path: Path) -> str | None:
 
 
 @dataclass
+class Failed:
+    """What a batched runner returns for a job of its batch that failed on its own (bad input, say) while the others
+    ran: the error, in one line."""
+
+    error: str
+
+    @staticmethod
+    def of(exc: BaseException) -> Failed:
+        return Failed(f"{type(exc).__name__}: {exc}".splitlines()[0])
+
+
+@dataclass
 class JobContext:
     folder: Path
     token: str
@@ -94,8 +106,8 @@ def execute(runner: str, config: dict, folder: str, token: str, resume: bool, cw
 
 def execute_batch(runner: str, jobs: list[tuple[dict, str, str, bool]], cwd: str) -> list[dict]:
     """One attempt of a batch of jobs ((config, folder, token, resume) each) in one process, by a batched runner
-    (``runner(configs, contexts)``, one result per job); each job holds its own folder, lease and progress as
-    :func:`execute`'s does."""
+    (``runner(configs, contexts)``, one result per job, or :class:`Failed` for a job that failed alone); each job
+    holds its own folder, lease and progress as :func:`execute`'s does."""
     function, contexts = _attempt(runner, [job[1:] for job in jobs], cwd)
     with _claimed(contexts):
         return [result or {} for result in function([job[0] for job in jobs], contexts)]
