@@ -52,7 +52,46 @@ class ContinuousWorldBatch:
         self.goal_rows = tuple(goal_rows)
         self.max_episode_steps = max_episode_steps or self.task.max_episode_steps
         self.rng = np.random.default_rng(seed)
+        self.groups = [(slice(0, n_envs), self.rng)]
+        """Runs of worlds and the generator that draws their episodes: one here, one per part when joined."""
+        self.parts: list[ContinuousWorldBatch] = []
         self.load(sample_layouts(self.rng, n_envs, self.task, self.goal_rows))
+
+    @staticmethod
+    def join(parts: list[ContinuousWorldBatch]) -> ContinuousWorldBatch:
+        """One batch of the worlds of ``parts`` (same task, goal rows and time limit), stepped in one call: each
+        part's worlds draw their next episodes from the part's own generator, so every world goes exactly as in its
+        part alone. :meth:`write_back` puts the worlds' state back into the parts."""
+        first = parts[0]
+        settings = {(p.task, p.goal_rows, p.max_episode_steps) for p in parts}
+        if len(settings) > 1:
+            raise ValueError("only batches of one task, goal rows and time limit can be joined")
+        joined = object.__new__(ContinuousWorldBatch)
+        joined.task, joined.goal_rows, joined.max_episode_steps = first.task, first.goal_rows, first.max_episode_steps
+        joined.n_envs, joined.rng, joined.parts = sum(p.n_envs for p in parts), None, list(parts)
+        starts = np.cumsum([0, *[p.n_envs for p in parts]])
+        joined.groups = [(slice(int(a), int(b)), p.rng) for a, b, p in zip(starts[:-1], starts[1:], parts, strict=True)]
+        joined.layouts = Layouts.concatenate([p.layouts for p in parts])
+        joined.pos, joined.vel = (np.concatenate([getattr(p, f) for p in parts]) for f in ("pos", "vel"))
+        joined.elapsed = np.concatenate([p.elapsed for p in parts])
+        return joined
+
+    def write_back(self) -> None:
+        """Copy the joined worlds' state into the parts (their state dicts then describe them)."""
+        for (part, _), batch in zip(self.groups, self.parts, strict=True):
+            batch.layouts = Layouts(*(getattr(self.layouts, f)[part].copy() for f in Layouts.__dataclass_fields__))
+            batch.pos, batch.vel = self.pos[part].copy(), self.vel[part].copy()
+            batch.elapsed = self.elapsed[part].copy()
+
+    def _draw(self, done: np.ndarray) -> Layouts:
+        """Fresh layouts for the worlds ``done``, in their order, each from its group's generator."""
+        return Layouts.concatenate(
+            [
+                sample_layouts(rng, int(done[part].sum()), self.task, self.goal_rows)
+                for part, rng in self.groups
+                if done[part].any()
+            ]
+        )
 
     def load(self, layouts: Layouts) -> np.ndarray:
         """Start a fresh episode in every world from the given layouts; returns the observations."""
@@ -65,7 +104,7 @@ class ContinuousWorldBatch:
         return observe(self.pos, self.vel, self.layouts, self.task.entrances_observed)
 
     def reset(self) -> np.ndarray:
-        return self.load(sample_layouts(self.rng, self.n_envs, self.task, self.goal_rows))
+        return self.load(self._draw(np.ones(self.n_envs, dtype=bool)))
 
     @property
     def observation_size(self) -> int:
@@ -94,7 +133,7 @@ class ContinuousWorldBatch:
         if done.any():
             info["final_obs"] = obs.copy()
             info["success"] = terminated.astype(np.float64)
-            fresh = sample_layouts(self.rng, int(done.sum()), self.task, self.goal_rows)
+            fresh = self._draw(done)
             self.layouts = self.layouts.assign(done, fresh)
             self.pos[done] = fresh.start
             self.vel[done] = 0.0

@@ -12,7 +12,7 @@ state the step starts in (a :class:`Plan`: the closed-loop macro decoder's).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Protocol
 
 import numpy as np
@@ -43,6 +43,10 @@ class SequenceResult:
     it ended and success is not defined (the batch's ``info["success"]``, :mod:`famarl_cli.envs.success`)."""
     final_obs: np.ndarray
     """(N, obs) last observation of an episode that ended (meaningful where terminated | truncated)."""
+
+    def rows(self, part: slice) -> SequenceResult:
+        """The result of the environments ``part`` of the batch alone."""
+        return SequenceResult(*(getattr(self, f.name)[part] for f in fields(self)))
 
 
 def run_sequences(

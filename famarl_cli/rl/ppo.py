@@ -28,6 +28,7 @@ from dataclasses import asdict, dataclass, field, fields
 import numpy as np
 import torch
 
+from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.rl import MacroDiscount
 from famarl_cli.rl.action_modes import ActionMode
 from famarl_cli.rl.executor import SequenceResult, run_sequences
@@ -398,6 +399,8 @@ class PPOTrainer:
             env.reset(),
         )
         self.members = [member]
+        self.worlds: ContinuousWorldBatch | None = None
+        """The members' worlds joined into one batch, stepped in one call (ContinuousWorld only; else None)."""
         self.active = [0]
         """Indices of the members still training, in the order of the network's replicates."""
         self.finished: dict[int, dict] = {}
@@ -416,7 +419,17 @@ class PPOTrainer:
         joint.finished = {}
         joint.active = list(range(len(joint.members)))
         joint._rebuild([(trainer, 0) for trainer in trainers])
+        joint.worlds = joint._joined()
         return joint
+
+    def _joined(self) -> ContinuousWorldBatch | None:
+        """The active members' worlds as one batch, where they are ContinuousWorld batches of one setting."""
+        envs = [self.members[i].env for i in self.active]
+        if len(envs) < 2 or not all(isinstance(env, ContinuousWorldBatch) for env in envs):
+            return None
+        if len({(env.task, env.goal_rows, env.max_episode_steps) for env in envs}) > 1:
+            return None
+        return ContinuousWorldBatch.join(envs)
 
     def _rebuild(self, sources: list[tuple[PPOTrainer, int]]) -> None:
         """A network and optimiser with one replicate per ``(trainer, replicate)`` of ``sources``, copied."""
@@ -478,17 +491,18 @@ class PPOTrainer:
             actions = self.policy.act_replicates(
                 obs[:, t], [m.rng for m in members], [m.choice_rng for m in members], bases
             )
-            finals = []
+            sequences = []
             for k, (member, action) in enumerate(zip(members, actions, strict=True)):
                 u[k, t], index[k, t], logp[k, t], values[k, t] = action.u, action.index, action.logp, action.value
-                sequences, lengths[k, t] = member.mode.to_sequences(u[k, t].astype(np.float64), index[k, t])
+                decisions, lengths[k, t] = member.mode.to_sequences(u[k, t].astype(np.float64), index[k, t])
+                sequences.append(decisions)
                 macro[k, t] = member.mode.macro(index[k, t])
-                result = run_sequences(member.env, member.obs, sequences, lengths[k, t].astype(np.int64))
+            finals = self._run(members, sequences, lengths[:, t].astype(np.int64))
+            for k, (member, result) in enumerate(zip(members, finals, strict=True)):
                 dones[k, t] = result.terminated | result.truncated
                 rewards[k, t], discounts[k, t] = decision_reward(
                     result, cfg.macro_discount, cfg.gamma, member.reward_scaler
                 )
-                finals.append(result)
                 member.episodes.record(result)
                 steps[k, t] = result.steps
                 member.env_steps += int(result.steps.sum())
@@ -520,6 +534,17 @@ class PPOTrainer:
                 )
             )
         return rollouts
+
+    def _run(self, members: list[Member], sequences: list, lengths: np.ndarray) -> list[SequenceResult]:
+        """Each member's decisions in its environments: in one batch where the worlds are joined and the sequences
+        open-loop, else member by member."""
+        if self.worlds is None or not all(isinstance(s, np.ndarray) for s in sequences):
+            return [run_sequences(m.env, m.obs, s, n) for m, s, n in zip(members, sequences, lengths, strict=True)]
+        longest = max(s.shape[1] for s in sequences)
+        padded = [np.pad(s, ((0, 0), (0, longest - s.shape[1]), (0, 0))) for s in sequences]
+        obs = np.concatenate([m.obs for m in members])
+        result = run_sequences(self.worlds, obs, np.concatenate(padded), lengths.reshape(-1))
+        return [result.rows(part) for part, _ in self.worlds.groups]
 
     def _values(self, members: list[Member], states: list[np.ndarray]) -> list[np.ndarray]:
         """Each member's critic on its raw states (normalised by its frozen statistics)."""
@@ -667,12 +692,17 @@ class PPOTrainer:
             old = object.__new__(PPOTrainer)
             old.policy, old.optimizer = self.policy, self.optimizer
             self._rebuild([(old, self.active.index(index)) for index in staying])
+        if self.worlds is not None:
+            self.worlds.write_back()
         self.active = staying
+        self.worlds = self._joined()
 
     def state_dict(self, member: int = 0) -> dict:
         """Everything of one member (in the format of a trainer of one seed, which a resume loads)."""
         if member in self.finished:
             return self.finished[member]
+        if self.worlds is not None:
+            self.worlds.write_back()
         m, row = self.members[member], self.active.index(member)
         return {
             "policy": self.policy.state_dict(row),
@@ -715,3 +745,5 @@ class PPOTrainer:
             m.episodes.load_state_dict(
                 {**state["episodes"], **{k: np.zeros(self.config.n_envs) for k in EpisodeTracker.FIELDS[:-1]}}
             )
+        if self.worlds is not None:
+            self.worlds = self._joined()  # the worlds as the member's env now has them
