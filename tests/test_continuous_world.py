@@ -215,3 +215,28 @@ def test_blind_maze_hides_the_entrances_and_nothing_else():
     np.testing.assert_array_equal(obs_blind, obs_seen[:8])
     assert blind.observation_space.shape == (8,)
     np.testing.assert_array_equal(seen.unwrapped.layout.entrance_x, blind.unwrapped.layout.entrance_x)
+
+
+def test_joined_batches_step_exactly_as_their_parts_alone():
+    """ContinuousWorldBatch.join (seeds trained together): one physics call for every part's worlds, each part's
+    next episodes drawn from its own generator, so each world goes to the bit as in its part alone; write_back
+    leaves each part's state dict as alone it would be."""
+    parts = [ContinuousWorldBatch("maze", n_envs=3, seed=seed) for seed in (0, 1)]
+    alone = [ContinuousWorldBatch("maze", n_envs=3, seed=seed) for seed in (0, 1)]
+    joined = ContinuousWorldBatch.join(parts)
+    rng, ended = np.random.default_rng(0), 0
+    for _ in range(700):  # past the 400-step limit at 80% activity: every world starts new episodes
+        actions, active = rng.uniform(-1, 1, (6, 2)), rng.random(6) < 0.8
+        together = joined.step(actions, active)
+        for k, env in enumerate(alone):
+            own = env.step(actions[3 * k : 3 * k + 3], active[3 * k : 3 * k + 3])
+            for mine, theirs in zip(together[:4], own[:4], strict=True):
+                np.testing.assert_array_equal(mine[3 * k : 3 * k + 3], theirs)
+        ended += int((together[2] | together[3]).sum())
+    assert ended >= 6
+    joined.write_back()
+    for part, env in zip(parts, alone, strict=True):
+        mine, theirs = part.state_dict(), env.state_dict()
+        assert mine.keys() == theirs.keys()
+        for key in mine:
+            np.testing.assert_array_equal(np.asarray(mine[key]), np.asarray(theirs[key]), err_msg=key)

@@ -21,6 +21,7 @@ The budget is counted in environment steps, so agents whose decisions last diffe
 from __future__ import annotations
 
 import json
+import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields
@@ -357,6 +358,9 @@ class Member:
     decisions: int = 0
     updates: int = 0
     log: list[dict[str, float]] = field(default_factory=list)
+    seconds: float = 0.0
+    """This run's share of the time spent training it in this process: each iteration's time split evenly among the
+    runs it served (not saved; the run's record sums it across resumes)."""
 
 
 class PPOTrainer:
@@ -656,16 +660,20 @@ class PPOTrainer:
                 self._leave(leaving)
             if not self.active:
                 return
+            started = time.perf_counter()
             members = [self.members[i] for i in self.active]
             rates = [
                 cfg.learning_rate * (1.0 - m.env_steps / cfg.total_steps if cfg.anneal_lr else 1.0) for m in members
             ]
             self.optimizer.lr[:] = rates
             rollouts = self.collect_rollouts()
+            found = self.update(rollouts)
+            share = (time.perf_counter() - started) / len(members)
             for index, member, rollout, stats, learning_rate in zip(
-                list(self.active), members, rollouts, self.update(rollouts), rates, strict=True
+                list(self.active), members, rollouts, found, rates, strict=True
             ):
                 member.updates += 1
+                member.seconds += share
                 row = {
                     "update": member.updates,
                     "env_steps": member.env_steps,

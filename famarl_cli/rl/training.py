@@ -8,7 +8,6 @@ the same seed, a run stopped and resumed ends with the same weights and log as o
 from __future__ import annotations
 
 import os
-import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -254,13 +253,14 @@ def train_together(
     """Train several runs of one agent and config, their seeds apart, as one batch (:meth:`PPOTrainer.together`):
     run k saves into ``folders[k]`` every ``checkpoint_every`` of its updates and when it reaches its budget, exactly
     as :meth:`Run.train` alone would; ``on_update(k, row)`` sees its log rows and ``before_save(k)`` may raise to
-    stop it without writing. A run's ``wall_s`` is the batch's time (its runs share every call)."""
+    stop it without writing. A run's ``wall_s`` counts its share of the batch's time (each iteration's time split
+    evenly among the runs it served), so that the runs' walls add up to the batch's."""
     if len(runs) > 1:
         joint = PPOTrainer.together([run.trainer for run in runs])
         for k, run in enumerate(runs):
             run.trainer, run.member = joint, k
     trainer = runs[0].trainer
-    started = [time.perf_counter() - run.wall_s for run in runs]
+    before = [run.wall_s for run in runs]
 
     def save(k: int) -> None:
         if before_save is not None:
@@ -268,7 +268,7 @@ def train_together(
         runs[k].save(folders[k])
 
     def after_update(k: int, row: dict) -> None:
-        runs[k].wall_s = time.perf_counter() - started[k]
+        runs[k].wall_s = before[k] + trainer.members[k].seconds
         if row["update"] % checkpoint_every == 0 and not trainer.member_done(k):
             save(k)
         if on_update is not None:
