@@ -30,8 +30,9 @@ from famarl_cli.method.favae import FavaeOptions, FitChoices
 from famarl_cli.method.prior import PriorFitChoices
 from famarl_cli.method.segment_params import SegmenterOptions, SegmentParams
 from famarl_cli.stages import method as stages
+from famarl_cli.stages.defaults import REPLICATE_FAVAE
 
-FAVAE, TRAVERSAL, PRIOR = "favae.pt", "traverse.h5", "favae.prior.pt"
+FAVAE, TRAVERSAL, PRIOR = REPLICATE_FAVAE, "traverse.h5", "favae.prior.pt"
 
 
 @dataclass(frozen=True)
