@@ -173,7 +173,10 @@ def test_favae_fit_with_its_own_pre_run_then_traverse(segments_file, tmp_path):
     calibration = json.loads(out.with_suffix(".calibration.json").read_text())
     metrics = json.loads(out.with_suffix(".metrics.json").read_text())
     assert metrics["c_last"] == calibration["c_last"] and len(metrics["c_last"]) == 3
-    assert {"reconstruction_mse", "length_accuracy", "mig"} <= set(metrics)
+    assert {"reconstruction_mse", "length_accuracy", "length_within_one", "mig", "floor_share_per_ladder"} <= set(metrics)
+    assert max(metrics["information_per_ladder"]) <= metrics["information_bound"] + 1e-6
+    assert "within one step" in result.stdout and "log N" in result.stdout
+    assert metrics["mig_note"] if metrics["mig"] is None else "basic bootstrap" in metrics["mig_interval_method"]
     log = out.with_suffix(".log.csv").read_text().splitlines()
     assert log[0].startswith("phase,epoch,loss") and len(log) == 1 + 3 + 3
     assert {line.split(",")[0] for line in log[1:]} == {"calibrate", "fit"}
@@ -442,6 +445,14 @@ def test_favae_design_options_are_bounded_and_recorded(segments_file, tmp_path):
     )  # fmt: skip
     one_line_error(refused, 1, "C_last there measures kl, but this fit constrains information")
     assert not (tmp_path / "x.pt").exists()
+    # the paper's procedure by name, and an option given beside it wins
+    for extra, progressive in (((), 0.0), (("--progressive", 0.3), 0.3)):
+        paper = tmp_path / f"paper{progressive}.pt"
+        args = ("favae", "fit", "--segments", segments_file, "--epochs", 2, "--preset", "paper", "--out", paper)
+        assert famarl(*args, *extra).exit_code == 0
+        training = load_favae(paper)[1]["training"]
+        assert (training["measure"], training["progressive"]) == ("kl", progressive)
+    assert famarl("favae", "fit", "--segments", segments_file, "--preset", "ours").exit_code == 2
 
 
 FAILING = [

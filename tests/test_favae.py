@@ -8,15 +8,8 @@ from famarl_cli.core.errors import ArtifactError, UsageError
 from famarl_cli.core.macro_actions import pad
 from famarl_cli.envs.continuous_world import DT, Layouts, physics_step, simulate_open_loop
 from famarl_cli.method.favae.checkpoint import load_favae, read_calibration, save_favae, write_calibration
-from famarl_cli.method.favae.loss import (
-    capacity,
-    favae_loss,
-    information_per_dim,
-    kl_per_dim,
-    kl_per_ladder,
-    marginal_per_dim,
-)
-from famarl_cli.method.favae.model import Favae, FavaeConfig, FavaeOutput
+from famarl_cli.method.favae.loss import capacity, data_information, favae_loss, information, kl_per_dim, kl_per_ladder
+from famarl_cli.method.favae.model import LOGVAR_FLOOR, Favae, FavaeConfig, FavaeOutput, posterior_logvar
 from famarl_cli.method.favae.training import TrainingParams, calibrate, evaluate_fit, ladder_weights, train_favae
 from famarl_cli.method.traversal import traverse, variables_of
 
@@ -58,15 +51,16 @@ def test_loss_ignores_padding_and_penalises_kl_away_from_capacity():
     logits = torch.where(x[:, -2:] > 0, 20.0, -20.0)
     perfect = torch.cat([x[:, :-2], logits], dim=1)
     zeros = [torch.zeros(4, 2)] * 3
-    exact = favae_loss(FavaeOutput(perfect, zeros, zeros), x, beta=10.0, capacities=[0.0, 0.0, 0.0])
+    exact = favae_loss(FavaeOutput(perfect, zeros, zeros, zeros), x, beta=10.0, capacities=[0.0, 0.0, 0.0])
     assert exact.action_error.item() == 0.0 and exact.on_off.item() < 1e-6 and exact.total.item() < 1e-5
 
     noisy_padding = perfect.clone()
     noisy_padding[:, :-2] += 5.0 * (1 - x[:, -2:-1])  # change only the padded steps' actions
-    assert favae_loss(FavaeOutput(noisy_padding, zeros, zeros), x, 10.0, [0.0] * 3).action_error.item() == 0.0
+    assert favae_loss(FavaeOutput(noisy_padding, zeros, zeros, zeros), x, 10.0, [0.0] * 3).action_error.item() == 0.0
 
     shifted = [torch.ones(4, 2)] * 3  # KL of each ladder = 0.5 * 2 dims = 1
-    terms = favae_loss(FavaeOutput(perfect, shifted, zeros), x, beta=10.0, capacities=[1.0, 0.0, 3.0], measure="kl")
+    output = FavaeOutput(perfect, shifted, zeros, shifted)
+    terms = favae_loss(output, x, beta=10.0, capacities=[1.0, 0.0, 3.0], measure="kl")
     assert [k.item() for k in terms.kl] == pytest.approx([1.0, 1.0, 1.0])
     assert terms.total.item() == pytest.approx(10.0 * (0 + 1 + 2), abs=1e-4)
 
@@ -221,18 +215,38 @@ def test_traversal_variables_and_a_variable_that_does_nothing():
         traverse(model, [(3, 1)], [1.0])
 
 
-def test_kl_is_the_information_plus_the_aggregates_cost_and_a_shift_carries_no_information():
+def test_information_is_zero_for_identical_segments_and_reaches_but_never_passes_log_n():
+    n = 40
+    bound = np.log(n)
     torch.manual_seed(0)
-    mu, logvar = torch.randn(50, 3) * 2 + 1, torch.randn(50, 3) * 0.5 - 1
-    total = kl_per_dim(mu, logvar).mean(dim=0)
-    information, marginal = information_per_dim(mu, logvar), marginal_per_dim(mu, logvar)
-    torch.testing.assert_close(information + marginal, total)
-    assert (information > 0).all() and (marginal >= 0).all()
-    # every segment's posterior shifted alike, or narrowed alike: KL, and no information
-    shifted = torch.full((50, 3), 3.0)
-    assert kl_per_dim(shifted, torch.zeros(50, 3)).mean().item() == pytest.approx(4.5)
-    assert information_per_dim(shifted, torch.zeros(50, 3)).abs().max().item() < 1e-6
-    assert information_per_dim(torch.zeros(50, 3), torch.full((50, 3), -6.0)).abs().max().item() < 1e-6
+    # every segment's posterior the same (shifted, or narrowed alike): KL, and no information
+    for mu, logvar in [(torch.full((n, 2), 3.0), torch.zeros(n, 2)), (torch.zeros(n, 2), torch.full((n, 2), -6.0))]:
+        per_dim, per_ladder = data_information(mu, logvar, [2])
+        assert per_dim.abs().max().item() < 1e-5 and abs(per_ladder.item()) < 1e-5
+    assert kl_per_dim(torch.full((n, 2), 3.0), torch.zeros(n, 2)).mean().item() == pytest.approx(4.5)
+    # N posteriors far apart and as precise as a float allows: the latent names the segment, log N and no more
+    spread = torch.arange(n, dtype=torch.float32)[:, None].repeat(1, 2) * 5.0
+    for logvar in (LOGVAR_FLOOR, -30.0):
+        precise = torch.full((n, 2), logvar)
+        per_dim, per_ladder = data_information(spread, precise, [1, 1])
+        assert per_dim.max().item() <= bound + 1e-5 and per_ladder.max().item() <= bound + 1e-5
+        assert per_dim.min().item() > bound - 1e-3
+        z = spread + torch.randn(n, 2) * (0.5 * precise).exp()
+        half = torch.randperm(n)[: n // 2]  # a batch of half the segments still sees all N
+        batch = information(z[half][None], spread[half][None], precise[half][None], torch.tensor([float(n)]))
+        assert bound - 1e-3 < batch.item() <= bound + 1e-5
+    # two groups of segments: the latent says which group, log 2, however precise (the old Gaussian bound: 8.8)
+    groups = torch.tensor([[-3.0], [3.0]]).repeat(n // 2, 1)
+    _, per_ladder = data_information(groups, torch.full((n, 1), -15.0), [1])
+    assert per_ladder.item() == pytest.approx(np.log(2), abs=1e-3)
+
+
+def test_the_std_floor_is_smooth_and_nothing_passes_it():
+    raw = torch.linspace(-40.0, 5.0, 200, requires_grad=True)
+    floored = posterior_logvar(raw)
+    (gradient,) = torch.autograd.grad(floored.sum(), raw)
+    assert (floored >= LOGVAR_FLOOR).all() and (gradient > 0).all()  # a gradient back up everywhere
+    torch.testing.assert_close(floored[raw > LOGVAR_FLOOR + 8], raw[raw > LOGVAR_FLOOR + 8], atol=1e-3, rtol=0)
 
 
 def test_a_shift_meets_a_kl_capacity_but_not_an_information_capacity():
@@ -241,13 +255,14 @@ def test_a_shift_meets_a_kl_capacity_but_not_an_information_capacity():
     perfect = torch.cat([x[:, :-2], torch.where(x[:, -2:] > 0, 20.0, -20.0)], dim=1)
     zeros = [torch.zeros(4, 2)] * 3
     shifted = [torch.full((4, 2), 3.0)] * 3  # KL 9 nats per ladder, all of it shift
-    output = FavaeOutput(perfect, shifted, zeros)
+    output = FavaeOutput(perfect, shifted, zeros, shifted)
     assert favae_loss(output, x, 1.0, [9.0] * 3, "kl").total.item() < 1e-4
     information = favae_loss(output, x, 1.0, [9.0] * 3, "information")
     assert information.total.item() == pytest.approx(3 * (9.0 + 9.0), abs=1e-3)  # |0 - C| + the shift's cost
     spread = [torch.tensor([[3.0, 0.0], [-3.0, 0.0], [3.0, 0.0], [-3.0, 0.0]])] * 3
-    informative = favae_loss(FavaeOutput(perfect, spread, zeros), x, 1.0, [0.0] * 3, "information")
-    assert [i.item() for i in informative.information] == pytest.approx([0.5 * np.log(10.0)] * 3, abs=1e-5)
+    informative = favae_loss(FavaeOutput(perfect, spread, zeros, spread), x, 1.0, [0.0] * 3, "information")
+    # decoded at the means: the latent tells segments 0 and 2 from 1 and 3, and no more
+    assert [i.item() for i in informative.information] == pytest.approx([np.log(2.0)] * 3, abs=1e-5)
 
 
 def test_progressive_weights_bring_in_the_deepest_ladder_first_and_every_ladder_by_the_end():
@@ -293,4 +308,4 @@ def test_fit_scores_tell_information_from_a_shift():
 
 def test_kl_per_ladder_of_the_prior_is_zero():
     zeros = [torch.zeros(3, 2)] * 2
-    assert [k.item() for k in kl_per_ladder(FavaeOutput(torch.zeros(1), zeros, zeros))] == [0.0, 0.0]
+    assert [k.item() for k in kl_per_ladder(FavaeOutput(torch.zeros(1), zeros, zeros, zeros))] == [0.0, 0.0]

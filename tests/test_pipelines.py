@@ -7,6 +7,7 @@ import json
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 from cli_helpers import dvc, dvc_json
@@ -199,6 +200,12 @@ def test_every_pipeline_writes_its_report(project):
             assert (replicate / name).is_file()
         provenance = json.loads((replicate / "favae.calibration.json").read_text())["provenance"]
         assert provenance["seed"] == seed and provenance["platform"]["threads"] == 1
+        # no latent, no ladder carries more information than the segments can hold
+        metrics = json.loads((replicate / "favae.metrics.json").read_text())
+        bound = np.log(metrics["segments"])
+        assert metrics["information_bound"] == pytest.approx(bound)
+        assert max(metrics["information_per_dim"] + metrics["information_per_ladder"]) <= bound + 1e-6
+        assert 0 <= metrics["length_accuracy"] <= metrics["length_within_one"] <= 1
 
 
 def test_learning_curves_are_dvc_plots_and_headline_numbers_are_metrics(project):

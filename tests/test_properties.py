@@ -1,5 +1,5 @@
 """Property-based tests (hypothesis) of the pure parts: the peak rule, padding and the cut, GAE, open-loop
-reward sums and the demos file round trip."""
+reward sums, the demos file round trip and the bound on the information estimates."""
 
 import numpy as np
 from hypothesis import HealthCheck, given, settings
@@ -140,3 +140,31 @@ def test_demos_file_round_trip(tmp_path, drawn):
         for key in ("observations", "actions", "rewards", "terminations", "truncations", "segment_starts", "factors"):
             np.testing.assert_array_equal(getattr(read, key), getattr(original, key))
         assert read.seed == original.seed
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    n=st.integers(1, 24),
+    dims=st.integers(1, 3),
+    spread=st.floats(0, 50),
+    logvar=st.floats(-40, 5),
+    seed=st.integers(0, 2**16),
+)
+def test_no_information_estimate_passes_log_n(n, dims, spread, logvar, seed):
+    """However far apart and however precise the posteriors, neither estimate says more than log N."""
+    import torch
+
+    from famarl_cli.method.favae.loss import data_information, information
+    from famarl_cli.method.favae.model import posterior_logvar
+
+    generator = torch.Generator().manual_seed(seed)
+    mu = torch.randn(n, dims, generator=generator) * spread
+    lv = posterior_logvar(torch.full((n, dims), logvar) + torch.randn(n, dims, generator=generator))
+    bound = float(np.log(n)) + 1e-5
+    per_dim, per_ladder = data_information(mu, lv, [dims], samples=4)
+    assert per_dim.max().item() <= bound and per_ladder.item() <= bound
+    z = mu + torch.randn(n, dims, generator=generator) * (0.5 * lv).exp()
+    batch = torch.randperm(n, generator=generator)[: max(1, n // 2)]
+    rows = torch.ones(1, len(batch))
+    estimate = information(z[batch][None], mu[batch][None], lv[batch][None], torch.tensor([float(n)]), rows)
+    assert estimate.item() <= bound

@@ -43,7 +43,7 @@ def favae_calibrate(options: CalibrateOptions) -> None:
     with progress_bar() as progress:
         task = progress.add_task("calibrate", total=options.epochs)
         c_last, _ = stages.calibrate(options, _epoch_reporter(progress, task, "C_last pre-run"))
-    out, measure = options.destination, options.capacity_measure
+    out, measure = options.destination, options.measure
     Console().print(f"C_last per ladder ({measure}): {', '.join(f'{c:.3f}' for c in c_last)}  -> {out}")
 
 
@@ -65,18 +65,25 @@ def favae_fit(options: FitOptions) -> None:
         fitted = stages.fit(options, lambda phase, row: reporters[phase](row))
     o, scores = options, fitted.scores
     table = Table(title=f"FAVAE on {o.segments} (beta {o.beta:g})", show_header=False)
-    table.add_row(f"C_last per ladder ({o.capacity_measure})", ", ".join(f"{c:.3f}" for c in fitted.c_last))
+    table.add_row(f"C_last per ladder ({o.measure})", ", ".join(f"{c:.3f}" for c in fitted.c_last))
     if o.capacity != "measured":
         table.add_row(f"capacities ({o.capacity})", ", ".join(f"{c:.3f}" for c in scores["capacities"]))
     table.add_row("KL per ladder", ", ".join(f"{k:.3f}" for k in scores["kl_per_ladder"]))
     table.add_row(
         "information per ladder",
         ", ".join(f"{k:.3f}" for k in scores["information_per_ladder"])
-        + f" nats (active latents {', '.join(map(str, scores['active_per_ladder']))})",
+        + f" nats of at most log N = {scores['information_bound']:.3f}"
+        + f" (active latents {', '.join(map(str, scores['active_per_ladder']))})",
+    )
+    table.add_row(
+        "std floor holds",
+        ", ".join(f"{share:.0%}" for share in scores["floor_share_per_ladder"]) + " of each ladder's variances",
     )
     table.add_row("reconstruction MSE", f"{scores['reconstruction_mse']:.5f} per real action value")
     table.add_row(
-        "length", f"{scores['length_accuracy']:.1%} exact, mean error {scores['length_mean_abs_error']:.2f} steps"
+        "length",
+        f"{scores['length_accuracy']:.1%} exact, {scores['length_within_one']:.1%} within one step, "
+        f"mean error {scores['length_mean_abs_error']:.2f} steps",
     )
     if scores["mig"] is None:
         table.add_row("MIG", scores["mig_note"])
@@ -84,7 +91,8 @@ def favae_fit(options: FitOptions) -> None:
         low, high = scores["mig_interval"]
         table.add_row(
             "MIG",
-            f"{scores['mig']:.3f} [{low:.3f}, {high:.3f}] (95% bootstrap over segments; {scores['mig_bins']} bins)",
+            f"{scores['mig']:.3f} [{low:.3f}, {high:.3f}] (95% {scores['mig_interval_method']}; "
+            f"{scores['mig_bins']} bins)",
         )
     table.add_row("written", ", ".join(map(str, fitted.written)))
     Console().print(table)

@@ -48,7 +48,9 @@ def macros(options: MacrosOptions) -> None:
     table = Table(title=f"macro actions of {source}, seed {seed}", show_header=False)
     table.add_row("KL per ladder", ", ".join(f"{k:.3f}" for k in metrics["kl_per_ladder"]))
     table.add_row("information per ladder", ", ".join(f"{k:.3f}" for k in metrics["information_per_ladder"]))
-    table.add_row("length accuracy", f"{metrics['length_accuracy']:.1%}")
+    table.add_row(
+        "length accuracy", f"{metrics['length_accuracy']:.1%} exact, {metrics['length_within_one']:.1%} within one step"
+    )
     table.add_row("MIG", metrics["mig_note"] if metrics["mig"] is None else f"{metrics['mig']:.3f}")
     table.add_row("written", str(out))
     Console().print(table)

@@ -26,9 +26,9 @@ from famarl_cli.core.errors import FamarlError, UsageError, foreign
 from famarl_cli.envs import DEFAULT_WORLD, WORLDS
 
 EMPTY_LADDER_NATS = 0.1
-"""A ladder whose variables together carry less information than this about the training segments (the part of
-their posteriors' KL that varies with the segments, :func:`famarl_cli.method.favae.loss.information_per_dim`) is empty:
-an active latent carries several nats. A ladder can have a large KL and be empty: a posterior shifted alike for
+"""A ladder whose variables together carry less information than this about the training segments
+(:func:`famarl_cli.method.favae.loss.data_information`, at most log N) is empty: an active latent carries several
+nats. A ladder can have a large KL and be empty: a posterior shifted alike for
 every segment costs KL and says nothing."""
 
 

@@ -213,5 +213,5 @@ def run_jobs(configs: list[dict], contexts: list) -> list[dict]:
         [context.folder for context in contexts],
         lambda k, phase, done, _: contexts[k].progress(before[k][phase] + done, totals[k]),
     )
-    kept = ("mig", "mig_note", "length_accuracy", "kl_per_ladder", "information_per_ladder")
+    kept = ("mig", "mig_note", "length_accuracy", "length_within_one", "kl_per_ladder", "information_per_ladder")
     return [{key: m[key] for key in kept if key in m} for m in metrics]

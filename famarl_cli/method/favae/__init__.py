@@ -49,6 +49,16 @@ class Measure(StrEnum):
     KL = "kl"
 
 
+class Preset(StrEnum):
+    """A FAVAE procedure by name (``famarl favae calibrate`` / ``fit`` / ``macros --preset``): ``famarl``, this
+    project's (capacities on the information each ladder carries, ladders added deepest first over a fifth of the
+    epochs, in the pre-run too), or ``paper``, the FaMARL paper's (capacities on the KL, every ladder from the start,
+    the pre-run's C_last its KL); docs/favae.md."""
+
+    FAMARL = "famarl"
+    PAPER = "paper"
+
+
 # The design's defaults, torch-free so that the CLI's options, the model's config and the training's parameters
 # read the same values (docs/favae.md has the measurements that chose them).
 DECODER = Decoder.LADDER
@@ -57,6 +67,8 @@ PROGRESSIVE = 0.2
 """Share of the epochs over which ladders are added one by one, deepest first (0: all from the start). 0.2 gives
 the deepest ladder a tenth of the epochs alone: enough for it to take the whole-sequence factor (the direction of
 down-and-up and pushed-down-only macros, most of 2D Reaching), and not so much that it takes the detail too."""
+PRESETS = {Preset.FAMARL: (MEASURE, PROGRESSIVE), Preset.PAPER: (Measure.KL, 0.0)}
+"""Each preset's capacity measure and progressive share."""
 MAX_PROGRESSIVE = 0.8
 """The largest share: with two ladders the second then finishes fading in at the last epoch."""
 CALIBRATION_BETA = 0.1
@@ -84,22 +96,37 @@ class FavaeOptions:
         "depth, so the deepest shapes the whole sequence) or shared (all through one MLP stack and the same "
         "convolutions, the design before the ladder decoder); docs/favae.md.",
     )
-    capacity_measure: Measure = option(
-        MEASURE,
-        "What each ladder's capacity C constrains: information (the part of its KL that varies with the segments; "
-        "the rest, a shift or narrowing shared by all, is penalised on its own) or kl (the paper's: the whole KL, "
-        "which a constant shift of the posterior can meet while carrying nothing).",
+    preset: Preset = option(
+        Preset.FAMARL,
+        "The FAVAE procedure: famarl (capacities on information, progressive ladders 0.2) or paper (the FaMARL "
+        "paper's: capacities on KL, all ladders from the start); --capacity-measure and --progressive override it.",
     )
-    progressive: float = option(
-        PROGRESSIVE,
+    capacity_measure: Measure | None = option(
+        None,
+        "What each ladder's capacity C constrains: information (what it carries about the segments, at most log N; "
+        "the rest of its KL, a shift or narrowing shared by all, is penalised on its own) or kl (the paper's: the "
+        "whole KL, which a constant shift of the posterior can meet while carrying nothing). Default: the preset's.",
+    )
+    progressive: float | None = option(
+        None,
         "Share of the epochs over which the ladders are added one at a time, deepest first, each faded in "
-        "(pro-VLAE); 0 trains all from the start.",
+        "(pro-VLAE); 0 trains all from the start. Default: the preset's (famarl 0.2, paper 0).",
         min=0.0,
         max=MAX_PROGRESSIVE,
     )
     calibration_beta: float = option(
         CALIBRATION_BETA, "The C_last pre-run's beta (the paper's 0.1), where the pre-run runs.", min=0.0, max=1e4
     )
+
+    @property
+    def measure(self) -> Measure:
+        """What the capacities constrain: the option, else the preset's."""
+        return self.capacity_measure or PRESETS[self.preset][0]
+
+    @property
+    def progressive_share(self) -> float:
+        """The progressive share: the option, else the preset's."""
+        return PRESETS[self.preset][1] if self.progressive is None else self.progressive
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ import torch
 from torch.nn import functional
 
 from famarl_cli.method.favae import Decoder, Head
-from famarl_cli.method.favae.model import Favae, FavaeConfig
+from famarl_cli.method.favae.model import Favae, FavaeConfig, posterior_logvar
 
 
 @dataclass(frozen=True)
@@ -282,7 +282,7 @@ class FavaeEnsemble:
                 features = h.reshape(k, b, t * c)
             mu, logvar = self._mlp(f"heads.{depth}", features).chunk(2, dim=2)
             mus.append(mu)
-            logvars.append(logvar.clamp(-10.0, 10.0))
+            logvars.append(posterior_logvar(logvar))
         return mus, logvars
 
     def decode(self, parts: list[torch.Tensor]) -> torch.Tensor:
@@ -308,16 +308,17 @@ class FavaeEnsemble:
 
     def forward(
         self, x: torch.Tensor, noise: torch.Tensor | None, weights: torch.Tensor | None = None
-    ) -> tuple[torch.Tensor, list[torch.Tensor], list[torch.Tensor]]:
-        """(K, B, L, D + 2) inputs -> reconstructions (K, B, L, D + 2) and per ladder the posteriors' means and
-        log-variances. ``noise`` (K, B, latent_size) samples z = mu + noise * sigma (None: decode the means);
-        ``weights`` (K, ladders) scale each ladder's latent (progressive training)."""
+    ) -> tuple[torch.Tensor, list[torch.Tensor], list[torch.Tensor], list[torch.Tensor]]:
+        """(K, B, L, D + 2) inputs -> reconstructions (K, B, L, D + 2) and per ladder the posteriors' means,
+        log-variances and the latents decoded. ``noise`` (K, B, latent_size) samples z = mu + noise * sigma (None:
+        decode the means); ``weights`` (K, ladders) scale each ladder's latent (progressive training)."""
         mus, logvars = self.encode(x)
         if noise is None:
-            parts = list(mus)
+            samples = list(mus)
         else:
             eps = torch.split(noise, list(self.config.latent_dims), dim=2)
-            parts = [mu + e * (0.5 * lv).exp() for mu, lv, e in zip(mus, logvars, eps, strict=True)]
+            samples = [mu + e * (0.5 * lv).exp() for mu, lv, e in zip(mus, logvars, eps, strict=True)]
+        parts = samples
         if weights is not None:
-            parts = [part * weights[:, ladder, None, None] for ladder, part in enumerate(parts)]
-        return self.decode(parts), mus, logvars
+            parts = [part * weights[:, ladder, None, None] for ladder, part in enumerate(samples)]
+        return self.decode(parts), mus, logvars, samples

@@ -9,25 +9,33 @@ Summing over steps (rather than averaging) keeps reconstruction on the scale of 
 what it means in beta-VAE papers.
 
 X_l is what the capacity C_l constrains (:class:`~famarl_cli.method.favae.Measure`). The paper's is KL_l, the KL
-divergence of ladder l's Gaussian posterior from N(0, I), summed over its dims, averaged over the batch. That KL is
-the sum of two parts (:func:`information_per_dim`, :func:`marginal_per_dim`):
+divergence of ladder l's Gaussian posterior from N(0, I), summed over its dims, averaged over the segments. Averaged
+over the data, that KL is the sum of two parts:
 
-    mean KL = I + M,  I = 1/2 [log(Var(mu) + E[sigma^2]) - E[log sigma^2]],
-                      M = KL( N(mean mu, Var(mu) + E[sigma^2]) || N(0, 1) )     (per dimension, over the batch)
+    E_x KL(q(z|x) || p(z)) = I(x; z) + KL(q(z) || p(z)),   q(z) = (1/N) sum_n q(z | x_n)  (the aggregate posterior)
 
-I is an upper bound on the mutual information between the segments and the latent (the Gaussian of the same
-variance has the largest entropy), and it is 0 when the posterior does not depend on the input; M is what the
-aggregate posterior's mean and spread cost against the prior. A posterior shifted by the same amount for every
-segment, or narrowed alike for all, raises M, not I. Under ``measure="kl"`` such a shift meets a capacity and
-carries nothing (on our demos the fit met ladder 3's capacity with a shift of about 3.4, docs/favae.md); under
-``measure="information"`` the capacity constrains I, and M is penalised with beta on its own, so only information
-about the segments can meet a capacity and the aggregate is held at the prior the RL policy samples from.
+I(x; z), the mutual information between the N segments and the latent, is what the latent says about which segment
+it encodes; it cannot exceed log N, whatever the posterior's precision. The second part is what the aggregate
+posterior's position and spread cost against the prior. A posterior shifted alike for every segment, or narrowed
+alike for all, raises that part, not I. Under ``measure="kl"`` such a shift meets a capacity and carries nothing
+(on our demos the fit met ladder 3's capacity with a shift of about 3.4, docs/favae.md); under
+``measure="information"`` the capacity constrains I, and the rest of the KL is penalised with beta on its own, so only
+information about the segments can meet a capacity and the aggregate is held at the prior the RL policy samples from.
+
+I is estimated from samples z_i ~ q(z | x_i) as the mean of log q(z_i | x_i) - log q(z_i), each term at most log N
+(q(z_i) >= q(z_i | x_i) / N): in training over the batch, with the mixture's other N - 1 components estimated by the
+batch's other B - 1 (the minibatch-stratified estimate of Chen et al. 2018, "Isolating Sources of Disentanglement
+in VAEs"), in a fit's scores exactly over all N segments (:func:`data_information`). (An earlier estimate, the
+Gaussian bound 1/2 [log(Var(mu) + E[sigma^2]) - E[log sigma^2]], grew without limit as sigma shrank: a posterior met
+its capacity by becoming precise rather than informative, reporting 6-7 nats about 111 segments.)
 
 C_l rises linearly over the epochs from 0 to C_last,l (:func:`capacity`).
 """
 
 from __future__ import annotations
 
+import itertools
+import math
 from dataclasses import dataclass
 
 import torch
@@ -48,7 +56,7 @@ class LossTerms:
     kl: list[torch.Tensor]
     """Per ladder, the mean KL from the prior."""
     information: list[torch.Tensor]
-    """Per ladder, the part of the KL that varies with the input (I above)."""
+    """Per ladder, the information its latent carries about the segments (I above, at most log N)."""
 
 
 def kl_per_dim(mu: torch.Tensor, logvar: torch.Tensor) -> torch.Tensor:
@@ -63,22 +71,76 @@ def _batch_mean(values: torch.Tensor, rows: torch.Tensor | None) -> torch.Tensor
     return (values * rows[..., None]).sum(dim=-2) / rows.sum(dim=-1, keepdim=True).clamp(min=1)
 
 
-def _spread(mu: torch.Tensor, logvar: torch.Tensor, rows: torch.Tensor | None) -> torch.Tensor:
-    """(..., dims) the aggregate posterior's variance over the batch: Var(mu) + E[sigma^2]."""
-    centred = mu - _batch_mean(mu, rows)[..., None, :]
-    return _batch_mean(centred.pow(2), rows) + _batch_mean(logvar.exp(), rows)
+_LOG_2PI = math.log(2 * math.pi)
 
 
-def information_per_dim(mu: torch.Tensor, logvar: torch.Tensor, rows: torch.Tensor | None = None) -> torch.Tensor:
-    """(..., dims) I, the Gaussian bound on the information each latent carries about the batch's inputs (nats);
-    ``rows`` (..., B) marks the batch's real rows where it is padded."""
-    return 0.5 * (_spread(mu, logvar, rows).log() - _batch_mean(logvar, rows))
+def log_density(z: torch.Tensor, mu: torch.Tensor, logvar: torch.Tensor) -> torch.Tensor:
+    """(..., B, B', dims): log q(z_i | x_j) of each sample i (``z`` (..., B, dims)) under each posterior j (``mu``,
+    ``logvar`` (..., B', dims)), per dimension."""
+    centred = z[..., :, None, :] - mu[..., None, :, :]
+    return -0.5 * (_LOG_2PI + logvar[..., None, :, :] + centred.pow(2) * (-logvar[..., None, :, :]).exp())
 
 
-def marginal_per_dim(mu: torch.Tensor, logvar: torch.Tensor, rows: torch.Tensor | None = None) -> torch.Tensor:
-    """(..., dims) M, the KL of the batch's moment-matched aggregate posterior from N(0, 1): mean KL = I + M."""
-    spread = _spread(mu, logvar, rows)
-    return 0.5 * (_batch_mean(mu, rows).pow(2) + spread - 1 - spread.log())
+def _mixture_weights(rows: torch.Tensor, population: torch.Tensor) -> torch.Tensor:
+    """(..., B, B) log w_ij of the stratified estimate of the aggregate posterior at sample i: its own posterior
+    weighs 1/N, each of the batch's B - 1 others (N - 1) / (N (B - 1)), standing for the N - 1 segments not its own;
+    padding rows j (``rows`` 0) weigh 0, a row's own posterior always 1/N (so every row's estimate is finite)."""
+    count = rows.sum(dim=-1)
+    n = population.to(rows.dtype).expand_as(count)
+    other = torch.where(count > 1, (n - 1) / (n * (count - 1).clamp(min=1)), torch.zeros_like(n)).log()
+    eye = torch.eye(rows.shape[-1], dtype=torch.bool)
+    weights = torch.where(eye, -n.log()[..., None, None], other[..., None, None])
+    return weights.masked_fill(~eye & (rows[..., None, :] == 0), -torch.inf)
+
+
+def information(
+    z: torch.Tensor,
+    mu: torch.Tensor,
+    logvar: torch.Tensor,
+    population: torch.Tensor | float,
+    rows: torch.Tensor | None = None,
+) -> torch.Tensor:
+    """(...,) the information (nats) a latent of ``dims`` carries about the N = ``population`` segments a batch is
+    drawn from, estimated from the batch's samples ``z`` (..., B, dims) of its posteriors (``mu``, ``logvar``): the
+    mean over its (real) rows of log q(z_i | x_i) - log q(z_i), each at most log N (module docstring)."""
+    real = torch.ones(z.shape[:-1]) if rows is None else rows
+    pairs = log_density(z, mu, logvar).sum(dim=-1)  # (..., B, B): the latent's dims jointly
+    own = pairs.diagonal(dim1=-2, dim2=-1)
+    weights = _mixture_weights(real, torch.as_tensor(population, dtype=z.dtype))
+    terms = own - torch.logsumexp(pairs + weights, dim=-1)
+    return _batch_mean(terms[..., None], rows)[..., 0]
+
+
+DATA_SAMPLES = 64
+"""Samples per segment behind :func:`data_information`."""
+
+
+@torch.no_grad()
+def data_information(
+    mu: torch.Tensor, logvar: torch.Tensor, groups: list[int], samples: int = DATA_SAMPLES, seed: int = 0
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The information each latent dimension, and each group of ``groups`` consecutive dimensions (a ladder) jointly,
+    carries about the N segments whose posteriors are ``mu``, ``logvar`` (N, dims): the mean over segments i and
+    ``samples`` draws z ~ q(z | x_i) of log q(z | x_i) - log (1/N) sum_n q(z | x_n), the aggregate posterior exact
+    over the data set. Every term is at most log N, so every estimate is; the draws come from a generator of
+    ``seed``, so the same posteriors give the same numbers. Returns (dims,) and (len(groups),)."""
+    n, dims = mu.shape
+    generator = torch.Generator().manual_seed(seed)
+    per_dim, per_group = torch.zeros(dims, dtype=torch.float64), torch.zeros(len(groups), dtype=torch.float64)
+    bounds = [0, *itertools.accumulate(groups)]
+    chunk = max(1, 2**22 // max(n * dims, 1))  # rows per step, so that one step holds ~4M densities
+    mixture = math.log(n)
+    for _ in range(samples):
+        z = mu + torch.randn(mu.shape, generator=generator) * (0.5 * logvar).exp()
+        for first in range(0, n, chunk):
+            rows = torch.arange(first, min(first + chunk, n))
+            pairs = log_density(z[rows], mu, logvar)  # (chunk, N, dims)
+            own = pairs[torch.arange(len(rows)), rows]  # (chunk, dims)
+            per_dim += (own - (torch.logsumexp(pairs, dim=1) - mixture)).sum(dim=0).double()
+            for g, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):
+                joint = pairs[..., a:b].sum(dim=-1)
+                per_group[g] += (own[:, a:b].sum(dim=-1) - (torch.logsumexp(joint, dim=1) - mixture)).sum().double()
+    return (per_dim / (n * samples)).float(), (per_group / (n * samples)).float()
 
 
 def kl_per_ladder(output: FavaeOutput) -> list[torch.Tensor]:
@@ -90,16 +152,19 @@ def replicate_loss(
     x: torch.Tensor,
     mus: list[torch.Tensor],
     logvars: list[torch.Tensor],
+    samples: list[torch.Tensor],
     beta: torch.Tensor,
     capacities: torch.Tensor,
+    population: torch.Tensor,
     measure: str = Measure.INFORMATION,
     rows: torch.Tensor | None = None,
     steps: torch.Tensor | None = None,
 ) -> LossTerms:
-    """The loss of K replicates at once, channels last: ``reconstruction`` and ``x`` are (K, B, L, D + 2), ``mus``
-    and ``logvars`` per ladder (K, B, z), ``beta`` (K,), ``capacities`` (K, ladders) the C_l of each; ``rows``
-    (K, B) marks each replicate's real rows of a padded batch and ``steps`` (K, L) its own steps of a padded L
-    (None: all real). ``measure`` says what the capacities constrain (module docstring)."""
+    """The loss of K replicates at once, channels last: ``reconstruction`` and ``x`` are (K, B, L, D + 2), ``mus``,
+    ``logvars`` and the latents ``samples`` drawn from them per ladder (K, B, z), ``beta`` (K,), ``capacities``
+    (K, ladders) the C_l of each, ``population`` (K,) the number of segments each replicate's batches are drawn
+    from; ``rows`` (K, B) marks each replicate's real rows of a padded batch and ``steps`` (K, L) its own steps of a
+    padded L (None: all real). ``measure`` says what the capacities constrain (module docstring)."""
     count = x.new_tensor(x.shape[1]).expand(x.shape[0]) if rows is None else rows.sum(dim=1).clamp(min=1)
     on = x[..., -2]  # zero on padded rows and steps, as on each macro's own padding
     action_error = ((reconstruction[..., :-2] - x[..., :-2]).pow(2) * on[..., None]).sum(dim=(1, 2, 3)) / count
@@ -113,30 +178,32 @@ def replicate_loss(
         cross_entropy = cross_entropy * rows[..., None]
     on_off = cross_entropy.sum(dim=(1, 2)) / count
     kl = [_batch_mean(kl_per_dim(mu, lv), rows).sum(dim=-1) for mu, lv in zip(mus, logvars, strict=True)]
-    information = [information_per_dim(mu, lv, rows).sum(dim=-1) for mu, lv in zip(mus, logvars, strict=True)]
+    carried = [information(z, mu, lv, population, rows) for z, mu, lv in zip(samples, mus, logvars, strict=True)]
     if measure == Measure.KL:
         penalty = sum((k - capacities[:, i]).abs() for i, k in enumerate(kl))
     else:
         # |I - C| + M: the rest of the KL, M = KL - I, is paid in full and never counts towards a capacity
         penalty = sum(
-            (inf - capacities[:, i]).abs() + (k - inf) for i, (k, inf) in enumerate(zip(kl, information, strict=True))
+            (inf - capacities[:, i]).abs() + (k - inf) for i, (k, inf) in enumerate(zip(kl, carried, strict=True))
         )
     reconstruction_term = action_error + on_off
-    return LossTerms(reconstruction_term + beta * penalty, reconstruction_term, action_error, on_off, kl, information)
+    return LossTerms(reconstruction_term + beta * penalty, reconstruction_term, action_error, on_off, kl, carried)
 
 
 def favae_loss(
     output: FavaeOutput, x: torch.Tensor, beta: float, capacities: list[float], measure: str = Measure.INFORMATION
 ) -> LossTerms:
     """One model's loss (:func:`replicate_loss` with K = 1), as scalars: ``x`` is the (B, D + 2, L) input the
-    output reconstructs; ``capacities`` holds C_l for each ladder."""
+    output reconstructs, the whole population its information is about; ``capacities`` holds C_l for each ladder."""
     terms = replicate_loss(
         output.reconstruction.transpose(1, 2)[None],
         x.transpose(1, 2)[None],
         [mu[None] for mu in output.mus],
         [lv[None] for lv in output.logvars],
+        [z[None] for z in output.samples],
         x.new_tensor([beta]),
         x.new_tensor([capacities]),
+        x.new_tensor([x.shape[0]]),
         measure,
     )
     return LossTerms(

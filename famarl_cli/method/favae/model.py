@@ -36,11 +36,13 @@ training (:mod:`famarl_cli.method.favae.training`) fades shallower ladders in wi
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 import torch
 from torch import nn
+from torch.nn import functional
 
 from famarl_cli.core.macro_actions import cut_lengths
 from famarl_cli.method.favae import DECODER, Decoder, Head
@@ -104,6 +106,35 @@ class FavaeOutput:
     """(B, D + 2, L): actions, then the on and off logits."""
     mus: list[torch.Tensor] = field(default_factory=list)
     logvars: list[torch.Tensor] = field(default_factory=list)
+    samples: list[torch.Tensor] = field(default_factory=list)
+    """Per ladder, the latents decoded: drawn from the posterior, or its means."""
+
+
+MIN_STD = 0.1
+"""The posterior's smallest standard deviation, a tenth of the prior's: a smooth floor (:func:`posterior_logvar`), not
+a clamp. Latents closer than this are not macro actions the RL policy can tell apart (it searches the latent space
+with a Gaussian of its own), and the information estimate's pairwise densities stay smooth: with a floor of 0.01
+their gradients grew with 1 / sigma^2, and one of ten default-pipeline fits blew up late in training
+(reconstruction MSE 0.28 against 0.01-0.04; docs/favae.md)."""
+LOGVAR_FLOOR = 2 * math.log(MIN_STD)
+LOGVAR_CEILING = 10.0
+"""Log-variances above this (a std of 148 against the prior's 1) are cut: they never occur in a fit; the cut
+keeps exp() finite."""
+FLOOR_MARGIN = math.log(2.0)
+"""A posterior variance within this (log) of the floor's, i.e. less than twice it, counts as held by the floor."""
+
+
+def posterior_logvar(raw: torch.Tensor) -> torch.Tensor:
+    """The encoder's raw log-variance output, floored smoothly at :data:`LOGVAR_FLOOR`: floor + softplus(raw - floor)
+    is raw well above the floor and approaches the floor below it with a gradient that never dies. (A hard clamp at
+    -10 let a posterior meet its capacity by growing precise: in 9 of 10 fits 38-50% of ladder 3's log-variances sat
+    on the clamp, where no gradient brings them back.)"""
+    return (LOGVAR_FLOOR + functional.softplus(raw - LOGVAR_FLOOR)).clamp(max=LOGVAR_CEILING)
+
+
+def floor_share(logvar: torch.Tensor) -> float:
+    """The share of the posteriors' variances (any shape) that the floor holds (within :data:`FLOOR_MARGIN`)."""
+    return float((logvar < LOGVAR_FLOOR + FLOOR_MARGIN).float().mean())
 
 
 def to_input(padded: np.ndarray) -> torch.Tensor:
@@ -160,7 +191,7 @@ class Favae(nn.Module):
             features = h.mean(dim=2) if self.config.head == Head.POOL else h.flatten(1)
             mu, logvar = head(features).chunk(2, dim=1)
             mus.append(mu)
-            logvars.append(logvar.clamp(-10.0, 10.0))
+            logvars.append(posterior_logvar(logvar))
         return mus, logvars
 
     def decode(self, z: torch.Tensor, weights: list[float] | None = None) -> torch.Tensor:
@@ -192,7 +223,7 @@ class Favae(nn.Module):
             zs = [mu + torch.randn_like(mu) * (0.5 * lv).exp() for mu, lv in zip(mus, logvars, strict=True)]
         else:
             zs = mus
-        return FavaeOutput(self.decode(torch.cat(zs, dim=1), weights), mus, logvars)
+        return FavaeOutput(self.decode(torch.cat(zs, dim=1), weights), mus, logvars, zs)
 
     @torch.no_grad()
     def decode_macro_actions(self, z: np.ndarray | torch.Tensor) -> tuple[np.ndarray, np.ndarray]:

@@ -17,9 +17,17 @@ import torch
 from famarl_cli.core.declare import default_of
 from famarl_cli.core.errors import UsageError
 from famarl_cli.core.macro_actions import cut_lengths
-from famarl_cli.method.favae import CALIBRATION_BETA, MAX_PROGRESSIVE, Capacity, FavaeOptions, Measure
-from famarl_cli.method.favae.loss import capacity, information_per_dim, kl_per_dim, marginal_per_dim
-from famarl_cli.method.favae.model import Favae, FavaeConfig, to_input
+from famarl_cli.method.favae import (
+    CALIBRATION_BETA,
+    MAX_PROGRESSIVE,
+    MEASURE,
+    PROGRESSIVE,
+    Capacity,
+    FavaeOptions,
+    Measure,
+)
+from famarl_cli.method.favae.loss import capacity, data_information, kl_per_dim
+from famarl_cli.method.favae.model import Favae, FavaeConfig, floor_share, to_input
 from famarl_cli.method.metrics import mig_interval
 
 ACTIVE_VARIANCE = 0.01
@@ -53,10 +61,10 @@ class TrainingParams:
     batch_size: int = 64
     learning_rate: float = 1e-3
     seed: int = default_of(FavaeOptions, "seed")
-    measure: str = default_of(FavaeOptions, "capacity_measure").value
+    measure: str = MEASURE.value
     """What the capacities constrain: the information each ladder carries, or its KL
     (:mod:`~famarl_cli.method.favae.loss`)."""
-    progressive: float = default_of(FavaeOptions, "progressive")
+    progressive: float = PROGRESSIVE
     """Share of the epochs over which the ladders are added one by one, deepest first (0: all from the start)."""
 
     @staticmethod
@@ -65,8 +73,8 @@ class TrainingParams:
         return TrainingParams(
             epochs=options.epochs,
             seed=options.seed,
-            measure=str(options.capacity_measure),
-            progressive=options.progressive,
+            measure=str(options.measure),
+            progressive=options.progressive_share,
         )
 
     def __post_init__(self) -> None:
@@ -130,8 +138,12 @@ def _batches(sizes: list[int], batch_size: int, shuffles: list[torch.Generator])
     """One epoch's batches of every replicate, in lockstep: per step, (K, B) segment indices (``max(sizes)``, the
     data's all-zero row, on padding), the (K, B) mask of their real rows and the (K,) replicates that have a batch
     at that step, B being the largest batch at that step. Each replicate shuffles its own segments with its own
-    generator, exactly as it would alone."""
-    splits = [torch.randperm(n, generator=g).split(batch_size) for n, g in zip(sizes, shuffles, strict=True)]
+    generator, exactly as it would alone, and splits them into as few batches of at most ``batch_size`` as it can,
+    of equal sizes give or take one (111 segments: 56 and 55, not 64 and 47), so that the information a batch's
+    estimate can see is alike in every batch."""
+    splits = [
+        torch.randperm(n, generator=g).tensor_split(-(-n // batch_size)) for n, g in zip(sizes, shuffles, strict=True)
+    ]
     replicates = len(sizes)
     for step in range(max(len(s) for s in splits)):
         width = max(len(split[step]) for split in splits if step < len(split))
@@ -184,6 +196,7 @@ def train_replicates(
     gradient = torch.empty_like(ensemble.flat)
     ladders, latent = ensemble.config.ladders, ensemble.config.latent_size
     beta = torch.tensor([r.beta for r in replicates])
+    population = torch.tensor(sizes, dtype=torch.float32)
     columns = _log_columns(ladders)
     sums = torch.zeros(params.epochs, len(replicates), len(columns))
     logs: list[list[dict]] = [[] for _ in replicates]
@@ -204,14 +217,16 @@ def train_replicates(
             batch = data[everyone, index]
             # a replicate without a batch at this step is scored on padding (a finite loss) and weighed 0
             padded_rows = None if all(c == width for c in counts) else rows.masked_fill(~active[:, None], 1)
-            reconstruction, mus, logvars = ensemble.forward(batch, noise, weights.expand(len(replicates), -1))
+            reconstruction, mus, logvars, samples = ensemble.forward(batch, noise, weights.expand(len(replicates), -1))
             terms = replicate_loss(
                 reconstruction,
                 batch,
                 mus,
                 logvars,
+                samples,
                 beta,
                 capacities,
+                population,
                 params.measure,
                 padded_rows,
                 ensemble.step_mask,
@@ -287,49 +302,62 @@ def calibrate(
     return result
 
 
+FLOOR_BINDS = 0.5
+"""A fit whose floor holds more than this share of a ladder's posterior variances is said to lean on it."""
+
+
 @torch.no_grad()
 def evaluate_fit(model: Favae, padded: np.ndarray, lengths: np.ndarray, factors: np.ndarray) -> dict:
     """Scores of a fitted FAVAE on its segments, decoding posterior means (no sampling).
 
     - reconstruction: mean squared error per real action step and dimension;
-    - length: how often the decoded macro action is cut at the true length, and the mean absolute error;
-    - per latent dimension and per ladder: the KL from the prior, the information about the segments (the part of
-      the KL that varies with them, :func:`~famarl_cli.method.favae.loss.information_per_dim`), the rest of the KL (the
-      aggregate's shift and spread against the prior) and whether the latent is active (its posterior mean's
-      variance over the segments above :data:`ACTIVE_VARIANCE`);
-    - MIG of the posterior means against the experts' per-segment factors, with bootstrap intervals over the
+    - length: how often the decoded macro action is cut at the true length, how often within one step of it, and
+      the mean absolute error;
+    - per latent dimension and per ladder: the KL from the prior, the information about the N segments (exact over
+      them, at most log N, :func:`~famarl_cli.method.favae.loss.data_information`; a ladder's is its latent's
+      jointly), the rest of the KL (the aggregate's shift and spread against the prior), whether the latent is
+      active (its posterior mean's variance over the segments above :data:`ACTIVE_VARIANCE`) and the share of
+      posterior variances the std floor holds (:func:`~famarl_cli.method.favae.model.floor_share`);
+    - MIG of the posterior means against the experts' per-segment factors, with basic bootstrap intervals over the
       segments (:func:`famarl_cli.method.metrics.mig_interval`).
     """
     output = model(to_input(padded), sample=False)
     decoded = output.reconstruction.numpy().transpose(0, 2, 1)
     on = padded[..., -2]
     squared = ((decoded[..., :-2] - padded[..., :-2]) ** 2).sum(axis=2)
-    decoded_lengths = cut_lengths(decoded[..., -2:])
+    errors = np.abs(cut_lengths(decoded[..., -2:]) - lengths)
     mu = torch.cat(output.mus, dim=1)
     logvar = torch.cat(output.logvars, dim=1)
+    dims = list(model.config.latent_dims)
     kl_dims = kl_per_dim(mu, logvar).mean(dim=0).numpy()
-    information = information_per_dim(mu, logvar).numpy()
-    marginal = marginal_per_dim(mu, logvar).numpy()
+    information_dims, information_ladders = data_information(mu, logvar, dims)
     variance = mu.var(dim=0, unbiased=False).numpy()
-    splits = np.cumsum(model.config.latent_dims)[:-1]
+    splits = np.cumsum(dims)[:-1]
 
     def per_ladder(values: np.ndarray) -> list[float]:
         return [float(v.sum()) for v in np.split(values, splits)]
 
+    kl_ladders = per_ladder(kl_dims)
+    floor = [floor_share(lv) for lv in output.logvars]
     score = mig_interval(mu.numpy(), factors)
     return {
         "reconstruction_mse": float((squared * on).sum() / (on.sum() * (padded.shape[2] - 2))),
-        "length_accuracy": float(np.mean(decoded_lengths == lengths)),
-        "length_mean_abs_error": float(np.mean(np.abs(decoded_lengths - lengths))),
+        "length_accuracy": float(np.mean(errors == 0)),
+        "length_within_one": float(np.mean(errors <= 1)),
+        "length_mean_abs_error": float(np.mean(errors)),
         "kl_per_dim": [float(k) for k in kl_dims],
-        "kl_per_ladder": per_ladder(kl_dims),
-        "information_per_dim": [float(i) for i in information],
-        "information_per_ladder": per_ladder(information),
-        "shift_per_ladder": per_ladder(marginal),
+        "kl_per_ladder": kl_ladders,
+        "information_per_dim": information_dims.tolist(),
+        "information_per_ladder": information_ladders.tolist(),
+        "information_bound": float(np.log(len(padded))),
+        "shift_per_ladder": [k - i for k, i in zip(kl_ladders, information_ladders.tolist(), strict=True)],
         "mean_variance_per_dim": [float(v) for v in variance],
         "active_per_ladder": [int(a) for a in per_ladder((variance > ACTIVE_VARIANCE).astype(float))],
+        "floor_share_per_ladder": floor,
+        "floor_binds": bool(max(floor) > FLOOR_BINDS),
         "mig": score["mig"],
         "mig_interval": score["interval"],
+        "mig_interval_method": score["interval_method"],
         "mig_per_factor": score["per_factor"],
         "mig_per_factor_interval": score["per_factor_interval"],
         "mig_bins": score["bins"],
