@@ -241,6 +241,13 @@ def test_information_is_zero_for_identical_segments_and_reaches_but_never_passes
     assert per_ladder.item() == pytest.approx(np.log(2), abs=1e-3)
 
 
+def test_many_segments_take_fewer_samples_each_and_the_same_estimate():
+    generator = torch.Generator().manual_seed(1)  # not the estimate's own seed, whose draws would echo the means
+    mu, logvar = torch.randn(600, 2, generator=generator) * 2, torch.full((600, 2), -3.0)  # 2 samples each by default
+    fewer, many = data_information(mu, logvar, [2])[1].item(), data_information(mu, logvar, [2], samples=64)[1].item()
+    assert fewer == pytest.approx(many, abs=0.05) and many <= np.log(600)
+
+
 def test_the_std_floor_is_smooth_and_nothing_passes_it():
     raw = torch.linspace(-40.0, 5.0, 200, requires_grad=True)
     floored = posterior_logvar(raw)

@@ -112,19 +112,25 @@ def information(
 
 
 DATA_SAMPLES = 64
-"""Samples per segment behind :func:`data_information`."""
+"""The most samples per segment behind :func:`data_information`."""
+DATA_PAIRS = 2**20
+"""Its budget of (sample, posterior) pairs: with more segments, fewer samples each (at least one), so a data set of
+20,000 sequences costs 1 sample each, not 64 (each sample is a pass over all N^2 pairs)."""
 
 
 @torch.no_grad()
 def data_information(
-    mu: torch.Tensor, logvar: torch.Tensor, groups: list[int], samples: int = DATA_SAMPLES, seed: int = 0
+    mu: torch.Tensor, logvar: torch.Tensor, groups: list[int], samples: int | None = None, seed: int = 0
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """The information each latent dimension, and each group of ``groups`` consecutive dimensions (a ladder) jointly,
     carries about the N segments whose posteriors are ``mu``, ``logvar`` (N, dims): the mean over segments i and
     ``samples`` draws z ~ q(z | x_i) of log q(z | x_i) - log (1/N) sum_n q(z | x_n), the aggregate posterior exact
     over the data set. Every term is at most log N, so every estimate is; the draws come from a generator of
-    ``seed``, so the same posteriors give the same numbers. Returns (dims,) and (len(groups),)."""
+    ``seed``, so the same posteriors give the same numbers. ``samples`` defaults to :data:`DATA_SAMPLES`, fewer where
+    N^2 of them would pass :data:`DATA_PAIRS` (64 up to N = 128). Returns (dims,) and (len(groups),)."""
     n, dims = mu.shape
+    if samples is None:
+        samples = max(1, min(DATA_SAMPLES, DATA_PAIRS // n**2))
     generator = torch.Generator().manual_seed(seed)
     per_dim, per_group = torch.zeros(dims, dtype=torch.float64), torch.zeros(len(groups), dtype=torch.float64)
     bounds = [0, *itertools.accumulate(groups)]
