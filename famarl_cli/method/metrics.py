@@ -116,7 +116,7 @@ def factor_scores(codes: np.ndarray, factors: np.ndarray, picks: np.ndarray, bin
     for k in range(factors.shape[1]):
         labels = discrete[k][picks] if k in discrete else discretise(factors[picks][..., k : k + 1], bins)[..., 0]
         marginal = np.bincount((offsets + labels).ravel(), minlength=resamples * bins).reshape(resamples, bins) / n
-        entropy = -np.sum(np.where(marginal > 0, marginal * np.log(np.where(marginal > 0, marginal, 1)), 0), axis=1)
+        entropy = -np.sum(marginal * np.log(np.where(marginal > 0, marginal, 1)), axis=1)  # 0 log 0 = 0
         cells = ((slots + code_labels) * bins + labels[..., None]).ravel()
         joint = np.bincount(cells, minlength=resamples * width * bins**2).reshape(resamples, width, bins, bins) / n
         outer = joint.sum(axis=3, keepdims=True) * joint.sum(axis=2, keepdims=True)

@@ -25,9 +25,10 @@ information about the segments can meet a capacity and the aggregate is held at 
 I is estimated from samples z_i ~ q(z | x_i) as the mean of log q(z_i | x_i) - log q(z_i), each term at most log N
 (q(z_i) >= q(z_i | x_i) / N): in training over the batch, with the mixture's other N - 1 components estimated by the
 batch's other B - 1, each weighted by (N - 1) / (N (B - 1)) (an importance-weighted mixture in the manner of the
-minibatch estimates of Chen et al. 2018, "Isolating Sources of Disentanglement in VAEs"), in a fit's scores exactly over all N segments (:func:`data_information`). (An earlier estimate, the
-Gaussian bound 1/2 [log(Var(mu) + E[sigma^2]) - E[log sigma^2]], grew without limit as sigma shrank: a posterior met
-its capacity by becoming precise rather than informative, reporting 6-7 nats about 111 segments.)
+minibatch estimates of Chen et al. 2018, "Isolating Sources of Disentanglement in VAEs"), in a fit's scores
+exactly over all N segments (:func:`data_information`). (An earlier estimate, the Gaussian bound
+1/2 [log(Var(mu) + E[sigma^2]) - E[log sigma^2]], grew without limit as sigma shrank: a posterior met its capacity
+by becoming precise rather than informative, reporting 6-7 nats about 111 segments.)
 
 C_l rises linearly over the epochs from 0 to C_last,l (:func:`capacity`).
 """

@@ -78,14 +78,15 @@ def favae_table(folder: Path) -> str | None:
     # scores FAVAEs fitted before they were measured lack: such a row is left out
     if all("length_within_one" in m for m in metrics):
         rows["length within one step"] = [m["length_within_one"] for m in metrics]
+    bounded = all("information_bound" in m for m in metrics)  # information measured as at most log N
     for ladder in range(len(metrics[0]["kl_per_ladder"])):
         rows[f"KL of ladder {ladder + 1} (nats)"] = [m["kl_per_ladder"][ladder] for m in metrics]
-        if all("information_bound" in m for m in metrics):
+        if bounded:
             rows[f"information of ladder {ladder + 1} (nats, at most log N)"] = [
                 m["information_per_ladder"][ladder] for m in metrics
             ]
             rows[f"std floor's share of ladder {ladder + 1}"] = [m["floor_share_per_ladder"][ladder] for m in metrics]
-    if all("information_bound" in m for m in metrics):
+    if bounded:
         rows["log N (nats)"] = [m["information_bound"] for m in metrics]
     if segments:
         rows["segments"] = [s["segments"] for s in segments]
