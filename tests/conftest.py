@@ -10,6 +10,15 @@ from famarl_cli.stages.demos import record_demos
 torch.set_num_threads(1)
 
 
+FIRST = "test_pipelines.py"
+"""The longest module (its pipelines run end to end, whole in one worker): started first, so that the other
+workers share everything else meanwhile instead of waiting for it at the end."""
+
+
+def pytest_collection_modifyitems(items):
+    items.sort(key=lambda item: item.path.name != FIRST)  # stable: the order within each part stays
+
+
 @pytest.fixture(scope="session")
 def tiny_demos():
     """A few pushed-down-only episodes, shared by tests that only read them."""

@@ -4,25 +4,26 @@ from __future__ import annotations
 
 import json
 import os
-import time
 from pathlib import Path
+
+from waiting import wait_for
 
 
 def echo(config: dict, folder: Path, context) -> dict:
-    """Returns its config and whether it met another job: it signs in at ``rendezvous``, waits up to ``wait``
-    seconds for a second job to sign in too, and signs out as it leaves (two jobs can only meet when they run at
-    the same time). Having met, it stays a little, so that the other sees it too."""
+    """Returns its config and whether it met another job: it signs in at ``rendezvous`` and waits up to ``wait``
+    seconds for a second job to sign in too; having met, it says so and stays until the other has said so too (or
+    ``wait`` has passed again), then signs out (two jobs can only meet when they run at the same time)."""
     met = False
     if "rendezvous" in config:
-        place = Path(config["rendezvous"])
-        place.mkdir(exist_ok=True)
-        (place / str(config["n"])).write_text("")
-        deadline = time.time() + config["wait"]
-        while not (met := len(list(place.iterdir())) >= 2) and time.time() < deadline:
-            time.sleep(0.05)
+        arrived, seen = Path(config["rendezvous"]) / "arrived", Path(config["rendezvous"]) / "seen"
+        for place in (arrived, seen):
+            place.mkdir(parents=True, exist_ok=True)
+        (arrived / str(config["n"])).write_text("")
+        met = wait_for(lambda: len(list(arrived.iterdir())) >= 2, config["wait"])
         if met:
-            time.sleep(2)
-        (place / str(config["n"])).unlink()
+            (seen / str(config["n"])).write_text("")
+            wait_for(lambda: len(list(seen.iterdir())) >= 2, config["wait"])
+        (arrived / str(config["n"])).unlink()
     (folder / "out.json").write_text(json.dumps(config))
     return {**config, "pid": os.getpid(), "met": met}
 

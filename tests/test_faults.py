@@ -8,7 +8,6 @@ import shutil
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import h5py
@@ -16,11 +15,15 @@ import numpy as np
 import pytest
 import torch
 from cli_helpers import digest, famarl, one_line_error, usage_error
+from waiting import wait_for
 
 from famarl_cli.artifacts import read_demos
 from famarl_cli.artifacts.base import TEMP_MARKER
 from famarl_cli.method.favae.checkpoint import save_favae
 from famarl_cli.method.favae.model import Favae, FavaeConfig
+
+# one xdist worker (pytest -n, --dist loadgroup): one set of valid files, trained once, for the module
+pytestmark = pytest.mark.xdist_group("faults")
 
 TINY_TRAINING = ("--steps", 1500, "--n-envs", 4, "--n-steps", 8, "--epochs", 1, "--minibatches", 2)
 
@@ -315,9 +318,7 @@ def test_kill_9_during_training_then_resume_ends_exactly_like_an_uninterrupted_r
     straight, killed = tmp_path / "straight", tmp_path / "killed"
     assert famarl("train", *options, "--out", straight).exit_code == 0
     process = famarl_process("train", *options, "--out", killed)
-    deadline = time.monotonic() + 120
-    while not (killed / "run.json").exists() and time.monotonic() < deadline and process.poll() is None:
-        time.sleep(0.05)
+    wait_for(lambda: (killed / "run.json").exists() or process.poll() is not None, 120)
     assert kill_after(process, 0.3), "training ended before it could be killed"
     status = json.loads((killed / "run.json").read_text())
     assert not status["complete"]

@@ -207,7 +207,7 @@ def test_batches_split_each_setting_over_the_workers_and_leave_other_jobs_alone(
 @pytest.mark.slow
 def test_famarl_sweep_macros_batches_replicates_that_match_famarl_macros_alone(demos_file, tmp_path):
     """Through the CLI: two replicates fitted in one batch, and seed 1 alone with famarl macros: the same segments,
-    the same macro lengths, weights equal up to float rounding; the batch's outputs feed famarl train."""
+    the same macro lengths, weights equal up to float rounding; the outputs of both feed famarl train."""
     options = ["--demos", demos_file, "--segment-epochs", 3, "--epochs", 4, "--length", 48]
     swept = tmp_path / "sweep"
     result = famarl("sweep", "macros", "--seeds", "0-1", "--out", swept, "--jobs", 1, "--", *options)
@@ -226,9 +226,9 @@ def test_famarl_sweep_macros_batches_replicates_that_match_famarl_macros_alone(d
     b, _ = load_favae(alone / "favae.pt")
     for x, y in zip(a.state_dict().values(), b.state_dict().values(), strict=True):
         torch.testing.assert_close(x, y, rtol=1e-4, atol=1e-5)
-    run = tmp_path / "run"
-    result = famarl("train", "--favae", swept / "seed0" / "favae.pt", "--steps", 300, "--out", run)
-    assert result.exit_code == 0, result.output
+    for favae in (swept / "seed0" / "favae.pt", alone / "favae.pt"):
+        result = famarl("train", "--favae", favae, "--steps", 300, "--out", tmp_path / "run" / favae.parent.name)
+        assert result.exit_code == 0, result.output
 
 
 def test_a_sweep_batch_below_one_is_a_usage_error_and_writes_nothing(tmp_path):

@@ -10,13 +10,14 @@ import signal
 import struct
 import subprocess
 import sys
-import time
 import zipfile
 from pathlib import Path
 
 import numpy as np
 import pytest
+import user_envs
 from cli_helpers import famarl, one_line_error
+from waiting import wait_for
 
 from famarl_cli.artifacts import Demos, Episode, write_demos
 from famarl_cli.artifacts.minari_datasets import export_minari
@@ -368,10 +369,15 @@ def test_a_long_episode_reports_its_steps(tmp_path):
 ENDLESS = ("--env", "user_envs:Endless-v0", "--env-kwargs", '{"max_episode_steps": 1000000000000}')
 
 
-def _interrupted(*args) -> str:
-    """Run ``famarl ARGS`` into an endless episode, press Ctrl-C, and return its stderr once it has exited 130."""
+def _interrupted(heartbeat: Path, *args) -> str:
+    """Run ``famarl ARGS`` into an endless episode, press Ctrl-C once the env has written ``heartbeat`` (deep into
+    the episode), and return the command's stderr once it has exited 130."""
     tests = Path(__file__).parent
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tests), os.environ.get("PYTHONPATH", "")])}
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(tests), os.environ.get("PYTHONPATH", "")]),
+        user_envs.HEARTBEAT: str(heartbeat),
+    }
     command = [sys.executable, "-m", "famarl_cli", *map(str, args)]
     # A suite started in the background (cmd &) inherits SIGINT ignored, and so would the command: give it the
     # default, as a terminal's foreground process has.
@@ -383,7 +389,7 @@ def _interrupted(*args) -> str:
         text=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
-    time.sleep(8)  # imports, then deep into the episode
+    assert wait_for(lambda: heartbeat.exists() or process.poll() is not None, 120), "no step 1000 in 120 s"
     assert process.poll() is None, process.communicate()
     process.send_signal(signal.SIGINT)
     _, stderr = process.communicate(timeout=30)
@@ -393,18 +399,36 @@ def _interrupted(*args) -> str:
 
 
 @pytest.mark.slow
-def test_ctrl_c_in_an_endless_episode_is_one_line_and_keeps_the_old_output(tmp_path):
+def test_ctrl_c_in_an_endless_episode_is_one_line_and_keeps_the_old_output(tmp_path, tmp_path_factory):
     out = tmp_path / "demos.h5"
     out.write_bytes(OLD)
-    _interrupted("demos", *ENDLESS, "--expert", "user_experts:full_push", "--out", out)
+    _interrupted(
+        tmp_path_factory.mktemp("heartbeat") / "beat",
+        "demos",
+        *ENDLESS,
+        "--expert",
+        "user_experts:full_push",
+        "--out",
+        out,
+    )
     assert out.read_bytes() == OLD and sorted(p.name for p in tmp_path.iterdir()) == ["demos.h5"]
 
 
 @pytest.mark.slow
-def test_ctrl_c_stops_an_evaluation_whose_episode_never_ends(tmp_path):
+def test_ctrl_c_stops_an_evaluation_whose_episode_never_ends(tmp_path, tmp_path_factory):
     """Evaluation runs in the serial executor's thread, which Ctrl-C does not reach: it must not be waited for."""
     run = tmp_path / "run"
     trained = famarl("train", *ENDLESS, "--agent", "ppo", "--steps", 64, "--n-envs", 1, "--n-steps", 64, "--out", run)
     assert trained.exit_code == 0, trained.output
-    _interrupted("evaluate", "--run", run, "--episodes", 1, "--no-film", "--out", tmp_path / "eval")
+    _interrupted(
+        tmp_path_factory.mktemp("heartbeat") / "beat",
+        "evaluate",
+        "--run",
+        run,
+        "--episodes",
+        1,
+        "--no-film",
+        "--out",
+        tmp_path / "eval",
+    )
     assert not (tmp_path / "eval" / "run" / "eval.json").exists()

@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 import torch
 from cli_helpers import famarl, one_line_error
+from waiting import wait_for
 
 from famarl_cli.artifacts.lock import claim_folder
 from famarl_cli.cli.sweep import plan
@@ -23,6 +24,9 @@ from famarl_cli.sweep import plan as plans
 from famarl_cli.sweep.driver import run_sweep
 from famarl_cli.sweep.executors import LocalExecutor, SerialExecutor, make_executor
 from famarl_cli.sweep.plan import JOB_FILE, Action, Axis, Job, default_name, expand, parse_values, reconcile
+
+# one xdist worker (pytest -n, --dist loadgroup): one Ray cluster and one set of straight runs for the module
+pytestmark = pytest.mark.xdist_group("sweep")
 
 TESTS = Path(__file__).resolve().parent
 TINY_PPO = ["--agent", "ppo", "--n-envs", "2", "--n-steps", "64", "--minibatches", "2", "--epochs", "2"]
@@ -293,9 +297,7 @@ def test_a_killed_node_loses_at_most_a_checkpoint_interval_and_the_results_match
         sweep = threading.Thread(target=lambda: outcome.update(state=run_sweep(out, jobs, executor)))
         sweep.start()
         run = out / "seed0"
-        deadline = time.time() + 300
-        while time.time() < deadline and not ((run / "run.json").exists() and (run / ".famarl.lock").exists()):
-            time.sleep(0.02)
+        assert wait_for(lambda: (run / "run.json").exists() and (run / ".famarl.lock").exists(), 300)
         checkpointed = json.loads((run / "run.json").read_text())["env_steps"]
         reached = json.loads((run / ".progress").read_text())["done"]
         victim = _node_running(nodes, int((run / ".famarl.lock").read_text()))
@@ -318,9 +320,7 @@ def test_kill_9_of_a_sweep_then_again_ends_exactly_like_an_uninterrupted_one(tmp
     command = [sys.executable, "-m", "famarl_cli", "sweep", "train", "--seeds", "0-1", "--jobs", "2", "--out", str(out),
                "--", *TINY_PPO, "--steps", "1280", "--checkpoint-every", "2"]  # fmt: skip
     process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-    deadline = time.time() + 120
-    while not all((out / f"seed{s}" / "checkpoint.pt").exists() for s in (0, 1)) and time.time() < deadline:
-        time.sleep(0.05)
+    assert wait_for(lambda: all((out / f"seed{s}" / "checkpoint.pt").exists() for s in (0, 1)), 120)
     os.killpg(process.pid, signal.SIGKILL)
     process.wait()
     assert not all(json.loads((out / f"seed{s}" / JOB_FILE).read_text())["complete"] for s in (0, 1))

@@ -8,14 +8,15 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 import yaml
 from cli_helpers import dvc, dvc_environment
+from waiting import wait_for
 
-pytestmark = pytest.mark.slow  # DVC repro of real pipelines
+# slow: DVC repro of real pipelines; one xdist worker: its project is run once and then changed by its tests in order
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("sweep_dvc")]
 
 STAGE = {
     "stages": {
@@ -81,9 +82,7 @@ def test_a_stage_killed_mid_sweep_resumes_on_the_next_repro(project):
         start_new_session=True,
     )
     runs = [project / "runs" / f"seed{s}" for s in (1, 2)]
-    deadline = time.time() + 180
-    while time.time() < deadline and not any(_checkpointed(run) for run in runs):
-        time.sleep(0.05)
+    assert wait_for(lambda: any(_checkpointed(run) for run in runs), 180)
     os.killpg(process.pid, signal.SIGKILL)
     process.wait()
     assert not all(_complete(project).values())

@@ -1,7 +1,15 @@
 """Envs as a user writes them, some broken, registered when gymnasium imports this module (``user_envs:Id``)."""
 
+import os
+from pathlib import Path
+
 import gymnasium as gym
 import numpy as np
+
+HEARTBEAT = "FAMARL_TEST_HEARTBEAT"
+"""Where an env writes, at its ``HEARTBEAT_STEP``-th step, that it is deep into an episode: a test waits for that
+file, not a fixed time, before it interrupts the command stepping it."""
+HEARTBEAT_STEP = 1000
 
 
 class Plain(gym.Env):
@@ -29,6 +37,8 @@ class Plain(gym.Env):
         if self.fail == "step":
             raise ValueError("physics exploded")
         self.t += 1
+        if self.t == HEARTBEAT_STEP and HEARTBEAT in os.environ:
+            Path(os.environ[HEARTBEAT]).write_text(str(os.getpid()))
         self.x = self.x + np.asarray(action, np.float32) * (1e200 if self.fail == "overflow" else 1.0)
         return self.x.copy(), -1.0, self.ends is not None and self.t >= self.ends, False, self._info()
 

@@ -87,7 +87,9 @@ def difference_interval(
     se = np.sqrt(va + vb)
     if se == 0:
         return Interval(estimate, estimate, estimate, level)
-    df = (va + vb) ** 2 / (va**2 / (len(a) - 1) + vb**2 / (len(b) - 1))
+    # Welch-Satterthwaite over each arm's share of the variance: the same df, without squares that underflow
+    wa, wb = va / (va + vb), vb / (va + vb)
+    df = 1 / (wa**2 / (len(a) - 1) + wb**2 / (len(b) - 1))
     half = stats.t.ppf(0.5 + level / 2, df) * se
     return Interval(estimate, estimate - half, estimate + half, level).within(bounds)
 
