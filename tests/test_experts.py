@@ -5,9 +5,6 @@ from famarl_cli.experts.continuous_world import FACTOR_NAMES, PUSH
 from famarl_cli.experts.scripts import Environment, Script
 from famarl_cli.stages.demos import record_demos
 
-# one xdist worker (pytest -n, --dist loadgroup): each script's demos, recorded once, for the module
-pytestmark = pytest.mark.xdist_group("experts")
-
 
 @pytest.fixture(
     scope="module", params=[s for s in Script if s.environment == Environment.CONTINUOUS_WORLD], ids=lambda s: s.value

@@ -22,9 +22,6 @@ from famarl_cli.artifacts.base import TEMP_MARKER
 from famarl_cli.method.favae.checkpoint import save_favae
 from famarl_cli.method.favae.model import Favae, FavaeConfig
 
-# one xdist worker (pytest -n, --dist loadgroup): one set of valid files, trained once, for the module
-pytestmark = pytest.mark.xdist_group("faults")
-
 TINY_TRAINING = ("--steps", 1500, "--n-envs", 4, "--n-steps", 8, "--epochs", 1, "--minibatches", 2)
 
 

@@ -23,9 +23,6 @@ from famarl_cli.cli import app
 from famarl_cli.cli.sweep import plan
 from famarl_cli.report.experiments import experiments
 
-# one xdist worker (pytest -n, --dist loadgroup): its tiny project is run once and then changed by its tests in order
-pytestmark = pytest.mark.xdist_group("pipelines")
-
 ROOT = Path(__file__).resolve().parents[1]
 
 TINY_TRAIN = {"steps": 1500}

@@ -24,9 +24,6 @@ from famarl_cli.rl.prior_guide import PriorGuide
 from famarl_cli.rl.training import Run, RunSpec
 from famarl_cli.rl.vector import make_batch
 
-# one xdist worker (pytest -n, --dist loadgroup): one prior, fitted once, for the module
-pytestmark = pytest.mark.xdist_group("prior")
-
 BASE = "famarl/ContinuousWorld-Base-v0"
 BRANCHES = np.array([[True, True, False, False, False], [True, True, True, True, True]])
 """The hybrid's residual branches: primitive (2 outputs), macro (the 2 primitive ones and a 3-D latent)."""

@@ -25,9 +25,6 @@ from famarl_cli.sweep.driver import run_sweep
 from famarl_cli.sweep.executors import LocalExecutor, SerialExecutor, make_executor
 from famarl_cli.sweep.plan import JOB_FILE, Action, Axis, Job, default_name, expand, parse_values, reconcile
 
-# one xdist worker (pytest -n, --dist loadgroup): one Ray cluster and one set of straight runs for the module
-pytestmark = pytest.mark.xdist_group("sweep")
-
 TESTS = Path(__file__).resolve().parent
 TINY_PPO = ["--agent", "ppo", "--n-envs", "2", "--n-steps", "64", "--minibatches", "2", "--epochs", "2"]
 """128 env steps per update."""

@@ -15,8 +15,7 @@ import yaml
 from cli_helpers import dvc, dvc_environment
 from waiting import wait_for
 
-# slow: DVC repro of real pipelines; one xdist worker: its project is run once and then changed by its tests in order
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("sweep_dvc")]
+pytestmark = pytest.mark.slow  # DVC repro of real pipelines
 
 STAGE = {
     "stages": {
