@@ -187,14 +187,17 @@ def test_every_stage_parses_reads_only_its_deps_and_a_parameter_reaches_only_wha
     monkeypatch.chdir(root)  # stages are named relative to it
     repo = Repo(root)
     stages = list(repo.index.stages)
-    made = [str(Path(o.fs_path).relative_to(root)) for s in stages for o in s.outs]
+
+    def relative(outputs) -> list[str]:
+        return [str(Path(output.fs_path).relative_to(root)) for output in outputs]
+
+    made = [out for stage in stages for out in relative(stage.outs)]
     assert len(stages) >= len(EXPERIMENTS) * 2
     faults = []
     for stage in stages:
         where = stage.addressing
         assert Path(stage.wdir) == root, f"{where} runs outside the project root"
-        deps = [str(Path(d.fs_path).relative_to(root)) for d in stage.deps if not hasattr(d, "params")]
-        outs = [str(Path(o.fs_path).relative_to(root)) for o in stage.outs]
+        deps, outs = relative(d for d in stage.deps if not hasattr(d, "params")), relative(stage.outs)
         args = shlex.split(stage.cmd)
         names, values = _command(args)
         read = [arg for before, arg in itertools.pairwise(args) if arg.startswith("data/") and before != "--out"]
@@ -203,8 +206,7 @@ def test_every_stage_parses_reads_only_its_deps_and_a_parameter_reaches_only_wha
                 values["command"], values["options"] or [], values["seeds"], values["over"] or [], values["name"]
             )
             assert jobs, where
-            read = [str(Path(path)) for job in jobs for path in job.inputs]
-            read = [path for path in read if path.startswith("data/")]
+            read = [path for job in jobs for path in map(str, job.inputs) if path.startswith("data/")]
         faults += [f"{where} reads {path}, not a dep" for path in read if not any(_under(path, d) for d in deps + outs)]
         faults += [
             f"{where}: no stage makes its dep {dep}"
