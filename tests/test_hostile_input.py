@@ -369,10 +369,11 @@ def test_a_long_episode_reports_its_steps(tmp_path):
 ENDLESS = ("--env", "user_envs:Endless-v0", "--env-kwargs", '{"max_episode_steps": 1000000000000}')
 
 
-def _interrupted(heartbeat: Path, *args) -> str:
-    """Run ``famarl ARGS`` into an endless episode, press Ctrl-C once the env has written ``heartbeat`` (deep into
-    the episode), and return the command's stderr once it has exited 130."""
+def _interrupted(tmp_path_factory, *args) -> str:
+    """Run ``famarl ARGS`` into an endless episode, press Ctrl-C once the env has written its heartbeat (deep into
+    the episode; in a folder of its own, beside the command's), and return its stderr once it has exited 130."""
     tests = Path(__file__).parent
+    heartbeat = tmp_path_factory.mktemp("heartbeat") / "beat"
     env = {
         **os.environ,
         "PYTHONPATH": os.pathsep.join([str(tests), os.environ.get("PYTHONPATH", "")]),
@@ -402,15 +403,7 @@ def _interrupted(heartbeat: Path, *args) -> str:
 def test_ctrl_c_in_an_endless_episode_is_one_line_and_keeps_the_old_output(tmp_path, tmp_path_factory):
     out = tmp_path / "demos.h5"
     out.write_bytes(OLD)
-    _interrupted(
-        tmp_path_factory.mktemp("heartbeat") / "beat",
-        "demos",
-        *ENDLESS,
-        "--expert",
-        "user_experts:full_push",
-        "--out",
-        out,
-    )
+    _interrupted(tmp_path_factory, "demos", *ENDLESS, "--expert", "user_experts:full_push", "--out", out)
     assert out.read_bytes() == OLD and sorted(p.name for p in tmp_path.iterdir()) == ["demos.h5"]
 
 
@@ -420,15 +413,5 @@ def test_ctrl_c_stops_an_evaluation_whose_episode_never_ends(tmp_path, tmp_path_
     run = tmp_path / "run"
     trained = famarl("train", *ENDLESS, "--agent", "ppo", "--steps", 64, "--n-envs", 1, "--n-steps", 64, "--out", run)
     assert trained.exit_code == 0, trained.output
-    _interrupted(
-        tmp_path_factory.mktemp("heartbeat") / "beat",
-        "evaluate",
-        "--run",
-        run,
-        "--episodes",
-        1,
-        "--no-film",
-        "--out",
-        tmp_path / "eval",
-    )
+    _interrupted(tmp_path_factory, "evaluate", "--run", run, "--episodes", 1, "--no-film", "--out", tmp_path / "eval")
     assert not (tmp_path / "eval" / "run" / "eval.json").exists()
