@@ -29,6 +29,14 @@ def report(
     out: Annotated[
         Path, typer.Option(help="Folder for report.md, summary.json and the figures.", file_okay=False)
     ] = Path("data/report"),
+    summary: Annotated[
+        Path | None,
+        typer.Option(
+            help="Where to write summary.json (verdicts, intervals, headline numbers): a pipeline's committed DVC "
+            "metric.  [default: OUT/summary.json]",
+            dir_okay=False,
+        ),
+    ] = None,
 ) -> None:
     """Gather the evaluations, training logs, FAVAE metrics and traversals of whatever runs exist into report.md:
     a table per experiment of the paper, our numbers beside the paper's claims, and a three-way verdict per claim
@@ -42,7 +50,7 @@ def report(
     unknown = [name for name in names if name not in known]
     if unknown:
         raise UsageError(f"unknown experiment {', '.join(unknown)} (known: {', '.join(known)})")
-    sections = write_report(names, data, out, __version__)
+    sections = write_report(names, data, out, __version__, summary)
     table = Table(title=f"{out / 'report.md'}")
     for column in ("experiment", "claims", "reproduce", "do not", "inconclusive"):
         table.add_column(column)

@@ -87,3 +87,40 @@ def platform_facts() -> dict:
             mkldnn=bool(torch.backends.mkldnn.enabled),
         )
     return facts
+
+
+def machine() -> str:
+    """The machine in words, for tables that say where their numbers come from: the CPU's model, its widest
+    vector instructions (which decide torch's floats) and its cores, e.g. "AMD EPYC 7B13, AVX2, 2 cores"."""
+    model, flags = "unknown CPU", set()
+    try:
+        for line in open("/proc/cpuinfo", encoding="utf-8"):
+            key, _, value = line.partition(":")
+            if key.strip() == "model name" and model == "unknown CPU":
+                model = " ".join(value.split())
+            elif key.strip() == "flags" and not flags:
+                flags = set(value.split())
+    except OSError:  # not Linux: the model is what platform knows
+        import platform
+
+        model = platform.processor() or platform.machine() or model
+    isa = "AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags else None
+    return ", ".join(part for part in (model, isa, f"{os.cpu_count()} cores") if part)
+
+
+def source_revision(folder: str = ".") -> str | None:
+    """The git commit the code in ``folder`` is at (short hash), with "+changes" when famarl's code or the
+    pipelines' definitions differ from it there; None outside a git checkout."""
+    import subprocess
+
+    def git(*args: str) -> str:
+        return subprocess.run(
+            ["git", *args], cwd=folder, capture_output=True, text=True, check=True, timeout=30
+        ).stdout.strip()
+
+    try:
+        head = git("rev-parse", "--short=7", "HEAD")
+        changed = git("status", "--porcelain", "--untracked-files=no", "--", "famarl_cli", "*dvc.yaml", "*params.yaml")
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return f"{head}+changes" if changed else head

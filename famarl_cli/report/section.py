@@ -73,5 +73,24 @@ class Section:
             "claims_not_reproduced": self.count(Verdict.DOES_NOT),
             "claims_inconclusive": self.count(Verdict.INCONCLUSIVE),
             "verdicts": {c.paper: self.word(c.verdict) for c in self.claims},
+            "judged": [
+                {
+                    "claim": c.paper,
+                    "verdict": self.word(c.verdict),
+                    "rule": c.judgement.rule,
+                    "estimates": [
+                        {
+                            "name": e.name,
+                            "n": len(e.values),
+                            "estimate": round(e.interval.estimate, 4),
+                            "low": round(e.interval.low, 4),
+                            "high": round(e.interval.high, 4),
+                            "level": e.interval.level,
+                        }
+                        for e in c.judgement.estimates
+                    ],
+                }
+                for c in self.claims
+            ],
             **({"headline": headline(self.groups)} if self.groups else {}),
         }

@@ -2,22 +2,28 @@
 
 from __future__ import annotations
 
+from datetime import UTC, datetime
 from pathlib import Path
 
 from famarl_cli.artifacts import atomic_path
 from famarl_cli.artifacts.base import write_json
 from famarl_cli.core.errors import ArtifactError
+from famarl_cli.core.reproducibility import machine, source_revision
 from famarl_cli.report.experiments import experiments
 from famarl_cli.report.plots import plot_intervals
 from famarl_cli.report.results import write_curves
 from famarl_cli.report.section import Section
 
 
-def write_report(names: list[str], data: Path, out: Path, version: str) -> dict[str, Section]:
-    """Build the named experiments' sections from ``data`` into ``out``: report.md, the figures, summary.json
-    (each claim's verdict and the headline numbers, for ``dvc metrics show`` and ``dvc exp show``) and, for
-    experiments with runs, ``<name>-curves.csv`` (their learning curves, for ``dvc plots show``). Experiments
-    without data are listed with the command that makes them; it is an error when none of them has data."""
+def write_report(
+    names: list[str], data: Path, out: Path, version: str, summary: Path | None = None
+) -> dict[str, Section]:
+    """Build the named experiments' sections from ``data`` into ``out``: report.md, the figures, the summary
+    (``summary``, else ``out/summary.json``: each claim's verdict, estimates, intervals and rule, the headline
+    numbers, and where and when they were made, for ``dvc metrics show``, ``dvc exp show`` and ``famarl report
+    docs``) and, for experiments with runs, ``<name>-curves.csv`` (their learning curves, for ``dvc plots show``).
+    Experiments without data are listed with the command that makes them; it is an error when none of them has
+    data."""
     known = experiments()
     # No mkdir: each file makes its folder as it is written (atomic_path), so a report of nothing leaves nothing.
     sections = {name: known[name].build(data, out) for name in names}
@@ -45,5 +51,11 @@ def write_report(names: list[str], data: Path, out: Path, version: str) -> dict[
         )
     with atomic_path(out / "report.md") as temp:
         temp.write_text("\n".join(parts))
-    write_json(out / "summary.json", {name: section.summary() for name, section in built.items()})
+    made = {
+        "date": datetime.now(UTC).strftime("%Y-%m-%d"),
+        "revision": source_revision(),
+        "machine": machine(),
+        "famarl": version,
+    }
+    write_json(summary or out / "summary.json", {name: {**s.summary(), "made": made} for name, s in built.items()})
     return built
