@@ -26,10 +26,10 @@ from common import RESULTS, write_result
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def run_stage(name: str, folder: Path, env: dict) -> dict:
+def run_stage(name: str, folder: Path, env: dict, force: bool = False) -> dict:
     start = time.perf_counter()
     with tempfile.TemporaryFile() as log:
-        command = [sys.executable, "-m", "dvc", "repro", "--single-item", name]
+        command = [sys.executable, "-m", "dvc", "repro", "--single-item", name, *(["--force"] if force else [])]
         process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, cwd=folder, env=env)
         _, status, usage = os.wait4(process.pid, 0)
         if os.waitstatus_to_exitcode(status):

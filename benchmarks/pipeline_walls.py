@@ -1,0 +1,70 @@
+"""Wall time of each stage of the named pipelines, run in place (this checkout's data/ and dvc.lock), one stage at
+a time in DVC's order, and the pipeline's total: the walls docs/pipelines.md and the README show.
+
+    python benchmarks/pipeline_walls.py [default] [scripts ...] [--force]
+
+Records each pipeline's stages, total, date, machine and revision in benchmarks/pipeline_walls.json (committed:
+``famarl report docs`` reads it), replacing that pipeline's previous entry. A stage DVC finds up to date takes
+seconds; --force runs every stage again. Run one CPU-heavy job at a time, or the walls mean nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from datetime import UTC, datetime
+from pathlib import Path
+
+from pipeline_stages import run_stage
+
+from famarl_cli.core.reproducibility import machine, source_revision
+
+ROOT = Path(__file__).resolve().parents[1]
+WALLS = Path(__file__).parent / "pipeline_walls.json"
+
+
+def definition(name: str) -> str:
+    return "dvc.yaml" if name == "default" else f"pipelines/{name}/dvc.yaml"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("pipelines", nargs="+", help="default, or a folder name under pipelines/")
+    parser.add_argument("--force", action="store_true", help="Run every stage, up to date or not.")
+    args = parser.parse_args()
+    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
+    env |= {"DVC_NO_ANALYTICS": "1", "MPLBACKEND": "Agg"}
+    for name in args.pipelines:
+        listing = subprocess.run(
+            [sys.executable, "-m", "dvc", "stage", "list", "--name-only", definition(name)],
+            cwd=ROOT,
+            env=env,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        revision = source_revision(str(ROOT))
+        rows = []
+        for stage in listing.stdout.split():
+            rows.append(run_stage(stage, ROOT, env, force=args.force))
+            print(f"{name:<14} {stage:<40} {rows[-1]['seconds']:>8.1f} s", flush=True)
+        walls = json.loads(WALLS.read_text()) if WALLS.is_file() else {}
+        walls[name] = {
+            "stages": {row["stage"]: round(row["seconds"], 1) for row in rows},
+            "total_s": round(sum(row["seconds"] for row in rows), 1),
+            "date": datetime.now(UTC).strftime("%Y-%m-%d"),
+            "machine": machine(),
+            "revision": revision,
+            "force": args.force,
+        }
+        temp = WALLS.with_suffix(f".{os.getpid()}.tmp")
+        temp.write_text(json.dumps(dict(sorted(walls.items())), indent=2) + "\n")
+        temp.replace(WALLS)
+        print(f"{name:<14} {'total':<40} {walls[name]['total_s']:>8.1f} s", flush=True)
+
+
+if __name__ == "__main__":
+    main()
