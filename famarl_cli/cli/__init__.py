@@ -166,6 +166,7 @@ def main() -> None:
 # The commands register themselves on ``app`` when their modules are imported.
 from famarl_cli.cli import (  # noqa: E402, F401
     demos,
+    docs,
     evaluate,
     favae,
     inspect,

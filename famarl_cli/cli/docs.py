@@ -1,0 +1,35 @@
+"""``famarl docs``: the README's and docs/' result tables, made from the committed metrics."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from famarl_cli.cli import app, reports_errors
+
+
+@app.command()
+@reports_errors
+def docs(
+    root: Annotated[Path, typer.Option(help="The project's root (its dvc.yaml).", file_okay=False)] = Path("."),
+    check: Annotated[
+        bool, typer.Option("--check", help="Write nothing; exit 1 when a table differs from the metrics.")
+    ] = False,
+) -> None:
+    """Write the result tables of README.md and docs/pipelines.md (verdicts, every claim's interval and rule, the
+    headline, pipeline walls) from each pipeline's committed summary.json and benchmarks/pipeline_walls.json,
+    between their marker comments; a pipeline whose code, params or command changed since its dvc.lock is marked
+    stale. Takes a few seconds (it asks DVC which stages are stale)."""
+    from famarl_cli.core.errors import ArtifactError
+    from famarl_cli.report.docs import FILES, write_docs
+
+    if not (root / "dvc.yaml").is_file():
+        raise ArtifactError(f"{root}: no dvc.yaml here; run famarl docs in the project's root, or pass --root")
+    changed = write_docs(root, check=check)
+    if check and changed:
+        raise ArtifactError(
+            f"generated tables differ from the committed metrics in {', '.join(changed)}: run famarl docs"
+        )
+    typer.echo(f"{', '.join(changed) or 'nothing'} {'would change' if check else 'written'} ({', '.join(FILES)})")

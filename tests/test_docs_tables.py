@@ -1,0 +1,134 @@
+"""The result tables of the README and docs/ are made from the committed metrics, never typed: regenerated here,
+they must equal the files; a pipeline whose code changed since its lock is marked stale, not shown as current."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from cli_helpers import famarl, one_line_error
+
+from famarl_cli.core.errors import ArtifactError
+from famarl_cli.report import docs
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _summary(verdict: str = "reproduces") -> dict:
+    return {
+        "maze": {
+            "verdict": verdict,
+            "claims": 1,
+            "claims_reproduced": int(verdict == "reproduces"),
+            "claims_not_reproduced": int(verdict == "does not reproduce"),
+            "claims_inconclusive": int(verdict == "inconclusive"),
+            "verdicts": {"FaMARL completes the Maze": verdict},
+            "judged": [
+                {
+                    "claim": "FaMARL completes the Maze",
+                    "verdict": verdict,
+                    "rule": "mean >= 0.8",
+                    "estimates": [
+                        {"name": "famarl", "n": 3, "estimate": 0.9, "low": 0.85, "high": 0.95, "level": 0.95}
+                    ],
+                }
+            ],
+            "headline": {
+                "famarl": {
+                    "n": 3,
+                    "success": 0.9,
+                    "success_low": 0.85,
+                    "success_high": 0.95,
+                    "auc": 0.7,
+                    "return": -300.0,
+                }
+            },  # fmt: skip
+            "made": {"date": "2026-12-04", "revision": "abc1234", "machine": "CPU, AVX2, 2 cores", "famarl": "0.1.0"},
+        }
+    }
+
+
+@pytest.fixture
+def project(tmp_path: Path, monkeypatch) -> Path:
+    """A DVC project with one stage that declares its code, run once, its summary committed beside it."""
+    from dvc.repo import Repo
+
+    (tmp_path / "code").mkdir()
+    (tmp_path / "code" / "method.py").write_text("X = 1\n")
+    (tmp_path / "params.yaml").write_text("steps: 10\n")
+    (tmp_path / "dvc.yaml").write_text(
+        "stages:\n  report:\n    cmd: mkdir -p data && echo ok > data/out.txt\n    deps: [code]\n"
+        "    params: [steps]\n    outs: [data/out.txt]\n"
+    )
+    Repo.init(str(tmp_path), no_scm=True)
+    monkeypatch.chdir(tmp_path)  # DVC reproduces relative to the working folder
+    with Repo(str(tmp_path)) as repo:
+        repo.reproduce()
+    (tmp_path / "summary.json").write_text(json.dumps(_summary()))
+    (tmp_path / "docs").mkdir()
+    marked = "".join(f"{docs.BEGIN.format(name=n)}\nold\n{docs.END.format(name=n)}\n" for n in ("verdicts", "claims"))
+    (tmp_path / "README.md").write_text(f"# x\n\n{marked}\ntext after\n")
+    (tmp_path / "docs" / "pipelines.md").write_text(
+        f"{docs.BEGIN.format(name='walls')}\n{docs.END.format(name='walls')}\n"
+        f"{docs.BEGIN.format(name='headline')}\n{docs.END.format(name='headline')}\n"
+    )
+    return tmp_path
+
+
+def test_the_committed_docs_are_what_the_committed_metrics_give():
+    changed = docs.write_docs(ROOT, check=True)
+    assert changed == [], f"run `famarl docs`: {changed} differ from the committed metrics"
+
+
+def test_tables_carry_each_claim_with_its_interval_n_rule_and_where_it_was_made(project):
+    assert docs.write_docs(project) == ["README.md", "docs/pipelines.md"]
+    readme = (project / "README.md").read_text()
+    assert "| `dvc.yaml` | maze | 1 | 1 | 0 | 0 | 2026-12-04, `abc1234`, CPU, AVX2, 2 cores | current |" in readme
+    assert "| FaMARL completes the Maze | famarl: n=3: 0.90 [0.85, 0.95] | mean >= 0.8 | reproduces |" in readme
+    assert readme.startswith("# x\n") and readme.endswith("\ntext after\n") and "old" not in readme
+    pipelines = (project / "docs/pipelines.md").read_text()
+    assert "| famarl | 3 | 0.90 [0.85, 0.95] | 0.70 | -300.0 |" in pipelines
+    assert "| `dvc.yaml` | not measured | | |" in pipelines
+    assert docs.write_docs(project) == [] and docs.write_docs(project, check=True) == []  # a second run: nothing
+
+
+def test_changed_code_or_params_mark_the_pipeline_stale_and_missing_data_does_not(project):
+    shutil.rmtree(project / "data")  # a fresh clone: the outputs are not there
+    assert docs.pipelines(project)[0].stale == ()
+    (project / "code" / "method.py").write_text("X = 2\n")
+    assert docs.pipelines(project)[0].stale == ("report",)
+    docs.write_docs(project)
+    readme = (project / "README.md").read_text()
+    assert "**stale**: code, params or command changed since (report)" in readme
+    assert "| reproduces (stale) |" in readme and "In stale pipelines: 1 claims" in readme
+    (project / "code" / "method.py").write_text("X = 1\n")
+    (project / "params.yaml").write_text("steps: 11\n")
+    assert docs.pipelines(project)[0].stale == ("report",)
+
+
+def test_a_pipeline_without_committed_metrics_says_how_to_make_them(project):
+    (project / "summary.json").unlink()
+    tables = docs.tables(project)
+    assert "**not run** with this layout: `dvc repro dvc.yaml`" in tables["verdicts"]
+    assert "No committed metrics of the default pipeline yet" in tables["headline"]
+
+
+def test_an_unknown_table_name_is_an_error_and_nothing_is_written(project):
+    readme = project / "README.md"
+    readme.write_text(
+        readme.read_text() + f"{docs.BEGIN.format(name='nonsense')}\n{docs.END.format(name='nonsense')}\n"
+    )
+    before = readme.read_text()
+    with pytest.raises(ArtifactError, match="unknown generated table 'nonsense'"):
+        docs.write_docs(project)
+    assert readme.read_text() == before
+
+
+def test_famarl_docs_check_fails_with_one_line_when_tables_are_out_of_date(project):
+    result = famarl("docs", "--root", project, "--check")
+    one_line_error(result, 1, "generated tables differ from the committed metrics in README.md, docs/pipelines.md")
+    assert "old" in (project / "README.md").read_text()  # --check writes nothing
+    assert famarl("docs", "--root", project).exit_code == 0
+    assert famarl("docs", "--root", project, "--check").exit_code == 0
