@@ -14,6 +14,7 @@ from famarl_cli.core.errors import ArtifactError
 from famarl_cli.report import docs
 
 ROOT = Path(__file__).resolve().parents[1]
+pytestmark = pytest.mark.filterwarnings("ignore:_NoneStep.value:DeprecationWarning")  # DVC's own, of pygtrie
 
 
 def _summary(verdict: str = "reproduces") -> dict:
@@ -105,6 +106,11 @@ def test_changed_code_or_params_mark_the_pipeline_stale_and_missing_data_does_no
     assert "| reproduces (stale) |" in readme and "In stale pipelines: 1 claims" in readme
     (project / "code" / "method.py").write_text("X = 1\n")
     (project / "params.yaml").write_text("steps: 11\n")
+    assert docs.pipelines(project)[0].stale == ("report",)
+    (project / "params.yaml").write_text("steps: 10\n")
+    assert docs.pipelines(project)[0].stale == ()
+    dvc_yaml = project / "dvc.yaml"
+    dvc_yaml.write_text(dvc_yaml.read_text().replace("echo ok", "echo ok2"))
     assert docs.pipelines(project)[0].stale == ("report",)
 
 

@@ -35,7 +35,8 @@ def _epoch_reporter(progress: Progress, task, phase: str):
 @command(favae_app, CalibrateOptions, "calibrate")
 def favae_calibrate(options: CalibrateOptions) -> None:
     """The C_last pre-run: fit with a small beta and C = 0; each ladder's final information (or KL, with
-    --capacity-measure kl) becomes its C_last."""
+    --capacity-measure kl) becomes its C_last. With the defaults, about half a minute on one core of a 2-core
+    AMD EPYC VM (1500 epochs of 2 batches, about 12 ms a step: docs/performance.md)."""
     from famarl_cli.stages import method as stages
 
     torch_on_one_thread()
@@ -49,7 +50,9 @@ def favae_calibrate(options: CalibrateOptions) -> None:
 
 @command(favae_app, FitOptions, "fit")
 def favae_fit(options: FitOptions) -> None:
-    """Fit FAVAE on segments (after the C_last pre-run unless --calibration is given) and score it."""
+    """Fit FAVAE on segments (after the C_last pre-run unless --calibration is given) and score it. With the
+    defaults, about a minute on one core of a 2-core AMD EPYC VM (pre-run and fit, 1500 epochs each; half of it
+    with --calibration: docs/performance.md)."""
     from famarl_cli.stages import method as stages
 
     torch_on_one_thread()

@@ -41,11 +41,15 @@ class Pipeline:
 
 
 def definitions(root: Path) -> list[tuple[str, str, Path]]:
-    """(name, dvc.yaml, summary path) of the default pipeline and of every one under pipelines/, by name."""
+    """(name, dvc.yaml, summary path) of the default pipeline and of every one under pipelines/, in the report's
+    order (the paper's), pipelines no experiment names last."""
+    from famarl_cli.report.experiments import experiments
+
+    order = {e.pipeline: e.order for e in experiments().values()}
     found = [("default", "dvc.yaml", root / "summary.json")]
-    for path in sorted((root / "pipelines").glob("*/dvc.yaml")):
+    for path in (root / "pipelines").glob("*/dvc.yaml"):
         found.append((path.parent.name, f"pipelines/{path.parent.name}/dvc.yaml", path.parent / "summary.json"))
-    return found
+    return sorted(found, key=lambda item: (order.get(item[1], float("inf")), item[0]))
 
 
 def _is_data(path: str) -> bool:
@@ -55,24 +59,21 @@ def _is_data(path: str) -> bool:
 
 def stale_stages(root: Path, definition: str) -> tuple[str, ...]:
     """The stages of ``definition``, and those upstream of it, whose command, code or parameters differ from their
-    dvc.lock. Data deps are left aside: a fresh clone has none, and a local run's data says nothing of the code."""
-    from dvc.lock import LockError
+    dvc.lock. Data deps are left aside: a fresh clone has none, and a local run's data says nothing of the code.
+    Asked of each stage's deps directly (DVC's own ``status`` would wait for a running ``dvc repro``)."""
+    import networkx as nx
     from dvc.repo import Repo
 
-    try:
-        with Repo(str(root)) as repo:
-            status = repo.status(targets=[str(root / definition)], with_deps=True)
-    except LockError as exc:
-        message = " ".join(str(exc).split())
-        raise ArtifactError(f"{root}: a DVC command is running there ({message}); try again when it ends") from None
-    stale = []
-    for stage, changes in status.items():
-        for change in changes:
-            if change == "changed command" or (
-                isinstance(change, dict) and any(not _is_data(path) for path in change.get("changed deps", {}))
-            ):
-                stale.append(stage)
-                break
+    with Repo(str(root)) as repo:
+        graph = repo.index.graph
+        mine = [stage for stage in graph if Path(stage.path) == (root / definition).resolve()]
+        wanted = set(mine).union(*(nx.descendants(graph, stage) for stage in mine))
+        stale = [
+            stage.addressing
+            for stage in wanted
+            if getattr(stage, "cmd_changed", False)
+            or any(not _is_data(str(dep.def_path)) and dep.status() for dep in stage.deps)
+        ]
     return tuple(sorted(stale))
 
 
@@ -185,8 +186,8 @@ def headline_table(found: list[Pipeline]) -> str:
             f"| {agent} | {h['n']} | {h['success']:.2f} [{h['success_low']:.2f}, {h['success_high']:.2f}] | "
             f"{h['auc']:.2f} | {h['return']:.1f} |"
         )
-    lines += ["", "| claim | verdict |", "|---|---|"]
-    lines += [f"| {claim} | {verdict} |" for claim, verdict in section["verdicts"].items()]
+    lines += ["", "| claim | estimate [95% CI] | verdict |", "|---|---|---|"]
+    lines += [f"| {c['claim']} | {_estimates(c)} | {c['verdict']} |" for c in section.get("judged", [])]
     return "\n".join(lines) + "\n"
 
 
