@@ -34,6 +34,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("pipelines", nargs="+", help="default, or a folder name under pipelines/")
     parser.add_argument("--force", action="store_true", help="Run every stage, up to date or not.")
+    parser.add_argument("--note", default=None, help="What else ran on the machine meanwhile, for the table.")
     args = parser.parse_args()
     env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
     env |= {"DVC_NO_ANALYTICS": "1", "MPLBACKEND": "Agg"}
@@ -59,6 +60,7 @@ def main() -> None:
             "machine": machine(),
             "revision": revision,
             "force": args.force,
+            **({"note": args.note} if args.note else {}),
         }
         temp = WALLS.with_suffix(f".{os.getpid()}.tmp")
         temp.write_text(json.dumps(dict(sorted(walls.items())), indent=2) + "\n")

@@ -206,9 +206,10 @@ def walls_table(root: Path, found: list[Pipeline]) -> str:
             continue
         total += wall["total_s"]
         stages = ", ".join(f"{name.rpartition(':')[2]} {seconds:.0f}" for name, seconds in wall["stages"].items())
+        note = f"; {wall['note']}" if wall.get("note") else ""
         lines.append(
             f"| {pipeline.link} | {wall['total_s'] / 60:.1f} min | {stages} | {wall['date']}, "
-            f"`{wall['revision']}`, {wall['machine']} |"
+            f"`{wall['revision']}`, {wall['machine']}{note} |"
         )
     measured = sum(p.name in walls for p in found)
     lines += ["", f"Measured: {measured} of {len(found)} pipelines, {total / 60:.0f} minutes together."]
