@@ -57,34 +57,36 @@ def _is_data(path: str) -> bool:
     return bool(parts) and parts[0] == "data"
 
 
-def stale_stages(root: Path, definition: str) -> tuple[str, ...]:
-    """The stages of ``definition``, and those upstream of it, whose command, code or parameters differ from their
-    dvc.lock. Data deps are left aside: a fresh clone has none, and a local run's data says nothing of the code.
-    Asked of each stage's deps directly (DVC's own ``status`` would wait for a running ``dvc repro``)."""
+def stale_stages(root: Path, definition: str, graph) -> tuple[str, ...]:
+    """The stages of ``definition``, and those upstream of it in DVC's stage ``graph``, whose command, code or
+    parameters differ from their dvc.lock. Data deps are left aside: a fresh clone has none, and a local run's data
+    says nothing of the code. Asked of each stage's deps directly (DVC's own ``status`` would wait for a running
+    ``dvc repro``)."""
     import networkx as nx
-    from dvc.repo import Repo
 
-    with Repo(str(root)) as repo:
-        graph = repo.index.graph
-        mine = [stage for stage in graph if Path(stage.path) == (root / definition).resolve()]
-        wanted = set(mine).union(*(nx.descendants(graph, stage) for stage in mine))
-        stale = [
-            stage.addressing
-            for stage in wanted
-            if getattr(stage, "cmd_changed", False)
-            or any(not _is_data(str(dep.def_path)) and dep.status() for dep in stage.deps)
-        ]
+    mine = [stage for stage in graph if Path(stage.path) == (root / definition).resolve()]
+    wanted = set(mine).union(*(nx.descendants(graph, stage) for stage in mine))
+    stale = [
+        stage.addressing
+        for stage in wanted
+        if getattr(stage, "cmd_changed", False)
+        or any(not _is_data(str(dep.def_path)) and dep.status() for dep in stage.deps)
+    ]
     return tuple(sorted(stale))
 
 
 def pipelines(root: Path) -> list[Pipeline]:
+    from dvc.repo import Repo
+
     found = []
-    for name, definition, summary in definitions(root):
-        try:
-            loaded = json.loads(summary.read_text()) if summary.is_file() else None
-        except ValueError as exc:
-            raise ArtifactError(f"{summary}: not a summary.json famarl report writes ({exc})") from None
-        found.append(Pipeline(name, definition, loaded, stale_stages(root, definition)))
+    with Repo(str(root)) as repo:
+        graph = repo.index.graph
+        for name, definition, summary in definitions(root):
+            try:
+                loaded = json.loads(summary.read_text()) if summary.is_file() else None
+            except ValueError as exc:
+                raise ArtifactError(f"{summary}: not a summary.json famarl report writes ({exc})") from None
+            found.append(Pipeline(name, definition, loaded, stale_stages(root, definition, graph)))
     return found
 
 
