@@ -4,7 +4,7 @@ a time in DVC's order, and the pipeline's total: the walls docs/pipelines.md and
     python benchmarks/pipeline_walls.py [default] [scripts ...] [--force]
 
 Records each pipeline's stages, total, date, machine and revision in benchmarks/pipeline_walls.json (committed:
-``famarl report docs`` reads it), replacing that pipeline's previous entry. A stage DVC finds up to date takes
+``famarl docs`` reads it), replacing that pipeline's previous entry. A stage DVC finds up to date takes
 seconds; --force runs every stage again. Run one CPU-heavy job at a time, or the walls mean nothing.
 """
 

@@ -466,6 +466,8 @@ FAILING = [
     (("evaluate",), 1, "error: no run given, and data/maze/runs (dvc repro) does not exist; make one, or give --run"),
     (("macros", "--demos", "missing.h5"), 1, "error: missing.h5: no such file"),
     (("report", "--experiment", "maze"), 1, "error: data: nothing to report for maze"),
+    (("report", "--experiment", "maze", "--summary", "summary.json"), 1, "error: data: nothing to report for maze"),
+    (("docs",), 1, "error: .: no dvc.yaml here"),
     (("export-minari", "missing.h5", "--dataset-id", "a-v0"), 1, "error: missing.h5: no such file"),
 ]
 

@@ -138,3 +138,37 @@ def test_famarl_docs_check_fails_with_one_line_when_tables_are_out_of_date(proje
     assert "old" in (project / "README.md").read_text()  # --check writes nothing
     assert famarl("docs", "--root", project).exit_code == 0
     assert famarl("docs", "--root", project, "--check").exit_code == 0
+
+
+@pytest.mark.parametrize(
+    "summary, needle",
+    [
+        ("{not json", "summary.json missing or unreadable"),
+        ("[1, 2]", "not a summary famarl report writes"),
+        ('{"maze": {"claims": 1}}', "experiment 'maze' lacks claims_reproduced, claims_not_reproduced"),
+        ('{"maze": 3}', "experiment 'maze' lacks claims,"),
+    ],
+)
+def test_a_summary_that_is_not_a_report_s_is_one_error_line_and_nothing_is_written(project, summary, needle):
+    (project / "summary.json").write_text(summary)
+    before = {name: (project / name).read_text() for name in docs.FILES}
+    one_line_error(famarl("docs", "--root", project), 1, needle)
+    assert {name: (project / name).read_text() for name in docs.FILES} == before
+
+
+def test_unreadable_walls_or_a_missing_project_are_one_error_line(project, tmp_path_factory):
+    (project / "benchmarks").mkdir()
+    (project / docs.WALLS).write_text("")
+    one_line_error(famarl("docs", "--root", project), 1, "pipeline walls missing or unreadable")
+    one_line_error(famarl("docs", "--root", tmp_path_factory.mktemp("empty")), 1, "no dvc.yaml here")
+
+
+def test_an_error_in_the_second_file_leaves_the_first_as_it_was(project):
+    pipelines = project / "docs/pipelines.md"
+    pipelines.write_text(
+        pipelines.read_text() + f"{docs.BEGIN.format(name='nonsense')}\n{docs.END.format(name='nonsense')}\n"
+    )
+    before = (project / "README.md").read_text()
+    with pytest.raises(ArtifactError, match="docs/pipelines.md: unknown generated table 'nonsense'"):
+        docs.write_docs(project)
+    assert (project / "README.md").read_text() == before
