@@ -20,7 +20,7 @@ def write_report(
 ) -> dict[str, Section]:
     """Build the named experiments' sections from ``data`` into ``out``: report.md, the figures, the summary
     (``summary``, else ``out/summary.json``: each claim's verdict, estimates, intervals and rule, the headline
-    numbers, and where and when they were made, for ``dvc metrics show``, ``dvc exp show`` and ``famarl report
+    numbers, and where and when they were made, for ``dvc metrics show``, ``dvc exp show`` and ``famarl
     docs``) and, for experiments with runs, ``<name>-curves.csv`` (their learning curves, for ``dvc plots show``).
     Experiments without data are listed with the command that makes them; it is an error when none of them has
     data."""
