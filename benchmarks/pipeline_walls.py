@@ -20,14 +20,12 @@ from pathlib import Path
 
 from pipeline_stages import run_stage
 
+from famarl_cli.artifacts import atomic_path
 from famarl_cli.core.reproducibility import machine, source_revision
+from famarl_cli.report.docs import definitions
 
 ROOT = Path(__file__).resolve().parents[1]
 WALLS = Path(__file__).parent / "pipeline_walls.json"
-
-
-def definition(name: str) -> str:
-    return "dvc.yaml" if name == "default" else f"pipelines/{name}/dvc.yaml"
 
 
 def main() -> None:
@@ -36,11 +34,14 @@ def main() -> None:
     parser.add_argument("--force", action="store_true", help="Run every stage, up to date or not.")
     parser.add_argument("--note", default=None, help="What else ran on the machine meanwhile, for the table.")
     args = parser.parse_args()
+    known = {name: definition for name, definition, _ in definitions(ROOT)}
+    if unknown := [name for name in args.pipelines if name not in known]:
+        parser.error(f"unknown pipeline {', '.join(unknown)} (known: {', '.join(known)})")
     env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
     env |= {"DVC_NO_ANALYTICS": "1", "MPLBACKEND": "Agg"}
     for name in args.pipelines:
         listing = subprocess.run(
-            [sys.executable, "-m", "dvc", "stage", "list", "--name-only", definition(name)],
+            [sys.executable, "-m", "dvc", "stage", "list", "--name-only", known[name]],
             cwd=ROOT,
             env=env,
             capture_output=True,
@@ -62,9 +63,9 @@ def main() -> None:
             "force": args.force,
             **({"note": args.note} if args.note else {}),
         }
-        temp = WALLS.with_suffix(f".{os.getpid()}.tmp")
-        temp.write_text(json.dumps(dict(sorted(walls.items())), indent=2) + "\n")
-        temp.replace(WALLS)
+        # Not write_json: it would sort each pipeline's stages, which keep DVC's order.
+        with atomic_path(WALLS) as temp:
+            temp.write_text(json.dumps(dict(sorted(walls.items())), indent=2) + "\n")
         print(f"{name:<14} {'total':<40} {walls[name]['total_s']:>8.1f} s", flush=True)
 
 
