@@ -25,9 +25,9 @@ class MacrosOptions(MacrosConfig):
 def macros(options: MacrosOptions) -> None:
     """Everything the method learns before RL, for one seed, into one folder: segments, C_last, FAVAE, traversal.
 
-    The folder's files are those of famarl segment, favae calibrate, favae fit, traverse and (with --prior) prior
-    fit. An interrupted folder continues at the step it was in. famarl sweep macros runs this for many seeds
-    (independent replicates).
+    The folder's files are those of famarl segment, favae calibrate, favae fit and traverse (the prior is famarl
+    prior fit's, on the folder's segments and FAVAE). An interrupted folder continues at the step it was in. famarl
+    sweep macros runs this for many seeds (independent replicates).
 
     Time with the defaults (100 demos): about 70 s on one core of a 2-core AMD EPYC VM; 10 replicates with famarl
     sweep macros, about 3 minutes on 2 cores (docs/performance.md, docs/pipelines.md).

@@ -10,7 +10,9 @@ its own replicate's FAVAE (docs/verdicts.md says why). The folder holds::
       favae.calibration.json                                                      famarl favae calibrate
       favae.pt, favae.log.csv, favae.metrics.json                                 famarl favae fit
       traverse.h5, traverse.png, traverse.json                                    famarl traverse
-      favae.prior.pt, favae.prior.log.csv, favae.prior.metrics.json               famarl prior fit (--prior)
+
+The state-conditioned prior is a step of its own (``famarl prior fit``, ``famarl sweep prior``): it reads the demos
+and this folder's segments and FAVAE.
 
 Given segments (and a calibration) instead of demos, the first steps are skipped and those files are read in
 place. Each step's last file marks it done, so an interrupted folder continues at the step it was in.
@@ -27,12 +29,11 @@ from famarl_cli.artifacts.segments import REPLICATE_FILE as SEGMENTS
 from famarl_cli.core.declare import from_json, option, pick, same_as, with_paths
 from famarl_cli.core.errors import UsageError
 from famarl_cli.method.favae import FavaeOptions, FitChoices
-from famarl_cli.method.prior import PriorFitChoices
 from famarl_cli.method.segment_params import SegmenterOptions, SegmentParams
 from famarl_cli.stages import method as stages
 from famarl_cli.stages.defaults import REPLICATE_FAVAE
 
-FAVAE, TRAVERSAL, PRIOR = REPLICATE_FAVAE, "traverse.h5", "favae.prior.pt"
+FAVAE, TRAVERSAL = REPLICATE_FAVAE, "traverse.h5"
 
 
 @dataclass(frozen=True)
@@ -47,11 +48,7 @@ class MacrosConfig(stages.TraversalPlace, FitChoices, FavaeOptions, SegmentParam
         None, "C_last from famarl favae calibrate on --segments; without it the pre-run runs."
     )
     segment_epochs: int = same_as(SegmenterOptions, "epochs", help="Training epochs of the segmenter.")
-    prior: bool = option(
-        False, "Also fit the state-conditioned prior and the closed-loop decoder (famarl prior fit; needs --demos)."
-    )
-    prior_epochs: int = same_as(PriorFitChoices, "epochs", help="Full-batch Adam steps of the prior and decoder.")
-    seed: int = option(0, "Seed of the segmenter, the pre-run, the fit and the prior.")
+    seed: int = option(0, "Seed of the segmenter, the pre-run and the fit.")
 
     def __post_init__(self) -> None:
         with_paths(self)
@@ -61,8 +58,6 @@ class MacrosConfig(stages.TraversalPlace, FitChoices, FavaeOptions, SegmentParam
             raise UsageError("--episodes goes with --demos: it takes the first episodes of the demos")
         if self.calibration is not None and self.segments is None:
             raise UsageError("--calibration goes with --segments: it is C_last measured on those segments")
-        if self.prior and self.demos is None:
-            raise UsageError("--prior needs --demos: the prior learns from the demos' states")
 
     @property
     def inputs(self) -> list[Path]:
@@ -90,13 +85,10 @@ def learn_macros_many(
 ) -> list[dict]:
     """Make (or finish) several replicates, one per folder, whose configs differ only in their seed (and inputs):
     their segmenters train at once (:func:`~famarl_cli.stages.method.segment_many`), then their pre-runs and FAVAE
-    fits run as one batched model (:func:`~famarl_cli.stages.method.fit_many`), and each is traversed (and given its
-    prior) on its own. Each folder ends with the files :func:`learn_macros` writes; the FAVAE of seed S is the one
+    fits run as one batched model (:func:`~famarl_cli.stages.method.fit_many`), and each is traversed on its own. Each
+    folder ends with the files :func:`learn_macros` writes; the FAVAE of seed S is the one
     ``famarl macros --seed S`` fits, up to float rounding (docs/favae.md, "Replicates in one batched model").
     ``on_progress(k, phase, done, total)`` follows replicate k."""
-
-    def progress(k: int, phase: str, total: int):
-        return None if on_progress is None else (lambda done: on_progress(k, phase, done, total))
 
     segments = [segments_path(folder, config) for config, folder in zip(configs, folders, strict=True)]
     pending = [
@@ -140,13 +132,13 @@ def learn_macros_many(
             ],
             follow("fit", pending),
         )
-    for k, (config, folder) in enumerate(zip(configs, folders, strict=True)):
-        finish(config, folder, segments[k], progress(k, "prior", config.prior_epochs))
+    for config, folder in zip(configs, folders, strict=True):
+        traverse(config, folder)
     return [json.loads(f.with_suffix(".metrics.json").read_text()) for f in favaes]
 
 
-def finish(config: MacrosConfig, folder: Path, segments: Path, report: Callable[[int], None] | None) -> None:
-    """The replicate's steps after its FAVAE: the traversal and, with ``config.prior``, the prior."""
+def traverse(config: MacrosConfig, folder: Path) -> None:
+    """The replicate's step after its FAVAE: the traversal."""
     favae = folder / FAVAE
     if not (folder / TRAVERSAL).with_suffix(".json").is_file():
         env_id, env_kwargs, world = traversal_env(config)
@@ -160,20 +152,6 @@ def finish(config: MacrosConfig, folder: Path, segments: Path, report: Callable[
                 env_kwargs=env_kwargs,
                 world=world,
             )
-        )
-    if config.prior and not (folder / PRIOR).with_suffix(".metrics.json").is_file():
-        from famarl_cli.stages.prior import PriorFitOptions, fit_prior
-
-        fit_prior(
-            PriorFitOptions(
-                demos=config.demos,
-                segments=segments,
-                favae=favae,
-                out=folder / PRIOR,
-                epochs=config.prior_epochs,
-                seed=config.seed,
-            ),
-            None if report is None else (lambda epoch, _: report(epoch + 1)),
         )
 
 
@@ -191,7 +169,7 @@ def traversal_env(config: MacrosConfig) -> tuple[str | None, dict, str | None]:
     return (None, {}, world) if world is not None else (demos.env_id, demos.env_kwargs, None)
 
 
-PHASES = ("segment", "calibrate", "fit", "prior")
+PHASES = ("segment", "calibrate", "fit")
 
 
 def run_jobs(configs: list[dict], contexts: list) -> list[dict]:
@@ -204,7 +182,6 @@ def run_jobs(configs: list[dict], contexts: list) -> list[dict]:
             "segment": macros.segment_epochs if macros.segments is None else 0,
             "calibrate": macros.epochs if macros.calibration is None else 0,
             "fit": macros.epochs,
-            "prior": macros.prior_epochs if macros.prior else 0,
         }
         before.append({phase: sum(phases[p] for p in PHASES[: PHASES.index(phase)]) for phase in PHASES})
         totals.append(sum(phases.values()))

@@ -15,7 +15,7 @@ import numpy as np
 
 from famarl_cli.artifacts import prepare_output, provenance, read_demos, write_csv, write_json
 from famarl_cli.core.declare import option, to_json, with_paths
-from famarl_cli.method.prior import PriorFitChoices
+from famarl_cli.method.prior.choices import PriorFitChoices
 from famarl_cli.stages import defaults
 from famarl_cli.stages.method import SEGMENTS_HELP
 

@@ -5,6 +5,17 @@ The prior minimises the cross-entropy E_q[-log p(z | s)] of each segment's FAVAE
 episodes, is set beside the one of N(0, I), the prior a FaMARL policy starts from: lower means the prior says more
 about which latent the expert used where.
 
+Both networks stop early: a share of the *training* episodes (:data:`VALIDATION`) is set aside, each network is
+fitted on the rest, and the weights of the epoch where its loss on the set-aside episodes was lowest are kept. A
+hundred-odd segments are few for two 64-unit layers: fitted to the end, the prior's std shrank around the training
+states' latents, and on PointMaze's held-out episodes its cross-entropy was 5-70 times N(0, I)'s (docs/skills.md).
+Then the prior's spread is calibrated on the same set-aside episodes (temperature scaling, Guo et al. 2017, per
+latent): its log std is shifted by the constant that minimises their cross-entropy, 1/2 log of the mean of
+(sigma_q^2 + (mu_q - mu_p)^2) / sigma_p^2, folded into the bias of its last layer (the network is unchanged). Early
+stopping alone left one PointMaze replicate of four at 4 times N(0, I)'s held-out cross-entropy: a prior is
+judged where it has not seen the states, and what it does not know must show in its std. The held-out episodes of
+the score take no part in either choice.
+
 The decoder minimises the squared error of the expert's actions, each segment's latent drawn from q anew every
 step (so that latents near a posterior mean decode alike) and decoded by the FAVAE into the open-loop actions it
 corrects. Its score, on held-out episodes with the posterior means, is set beside the FAVAE's own open-loop
@@ -19,11 +30,14 @@ from collections.abc import Callable
 import numpy as np
 import torch
 
-from famarl_cli.method.prior import PriorFitChoices
+from famarl_cli.method.prior.choices import PriorFitChoices
 from famarl_cli.method.prior.data import SkillPairs, held_out_episodes
 from famarl_cli.method.prior.model import ClosedLoopDecoder, GaussianPrior, PriorConfig
 
 LOG_2PI_HALF = 0.5 * math.log(2 * math.pi)
+VALIDATION = 0.25
+"""Share of the training episodes set aside to choose each network's stopping epoch (at least one episode, none
+when the training episodes are fewer than two: then the last epoch's weights are kept)."""
 
 
 def cross_entropy(
@@ -63,19 +77,33 @@ def fit_prior(
         pairs.obs_size, pairs.latent_size, pairs.action_size, length, choices.hidden, choices.correction
     )
     prior, decoder = GaussianPrior(config), ClosedLoopDecoder(config)
+    with torch.no_grad():  # the prior starts as N(0, I), which the set-aside episodes may prefer to any epoch
+        prior.net[-1].weight.zero_()
+        prior.net[-1].bias.zero_()
     held = held_out_episodes(pairs.episode, choices.holdout, choices.seed)
-    train = ~held
-    step_train = train[pairs.step_segment]
-    _normaliser(prior, pairs.start_obs[train])
-    _normaliser(decoder, pairs.step_obs[step_train])
+    aside = np.zeros_like(held)
+    aside[~held] = held_out_episodes(pairs.episode[~held], VALIDATION, choices.seed + 1)
+    fit, steps_fit, steps_aside = ~held & ~aside, (~held & ~aside)[pairs.step_segment], aside[pairs.step_segment]
+    _normaliser(prior, pairs.start_obs[fit])
+    _normaliser(decoder, pairs.step_obs[steps_fit])
 
     t = {name: torch.as_tensor(getattr(pairs, name)) for name in ("start_obs", "z_mean", "z_logvar")}
     steps = {name: torch.as_tensor(getattr(pairs, name)) for name in ("step_obs", "step_progress", "step_actions")}
     segment = torch.as_tensor(pairs.step_segment)
-    rows, step_rows = torch.as_tensor(train), torch.as_tensor(step_train)
+    rows, step_rows = torch.as_tensor(fit), torch.as_tensor(steps_fit)
+    check, step_check = torch.as_tensor(aside), torch.as_tensor(steps_aside)
+    # the set-aside steps are decoded from their posterior means, as the score decodes its held-out ones
+    check_open_loop = open_loop_actions(favae, t["z_mean"], pairs, length)[step_check]
     q_std = (0.5 * t["z_logvar"]).exp()
     prior_optimizer = torch.optim.Adam(prior.parameters(), lr=choices.lr)
     decoder_optimizer = torch.optim.Adam(decoder.parameters(), lr=choices.lr)
+    best = {"prior": _Best(prior), "decoder": _Best(decoder)}
+    if aside.any():
+        with torch.no_grad():
+            mean, log_std = prior(t["start_obs"][check])
+            best["prior"].offer(
+                -1, cross_entropy(t["z_mean"][check], t["z_logvar"][check], mean, log_std).mean().item()
+            )
     log = []
     for epoch in range(choices.epochs):
         mean, log_std = prior(t["start_obs"][rows])
@@ -94,11 +122,63 @@ def fit_prior(
         decoder_loss.backward()
         decoder_optimizer.step()
         row = {"epoch": epoch, "prior_cross_entropy": prior_loss.item(), "decoder_mse": decoder_loss.item()}
+        if aside.any():
+            with torch.no_grad():
+                mean, log_std = prior(t["start_obs"][check])
+                row["prior_cross_entropy_aside"] = (
+                    cross_entropy(t["z_mean"][check], t["z_logvar"][check], mean, log_std).mean().item()
+                )
+                predicted = decoder(
+                    steps["step_obs"][step_check],
+                    t["z_mean"][segment[step_check]],
+                    steps["step_progress"][step_check],
+                    check_open_loop,
+                )
+                row["decoder_mse_aside"] = (predicted - steps["step_actions"][step_check]).square().mean().item()
+            best["prior"].offer(epoch, row["prior_cross_entropy_aside"])
+            best["decoder"].offer(epoch, row["decoder_mse_aside"])
         log.append(row)
         if on_epoch is not None:
             on_epoch(epoch, row)
+    stopped = {f"{name}_epoch": keeper.restore(choices.epochs - 1) for name, keeper in best.items()}
+    if aside.any():
+        stopped["prior_log_std_shift"] = _calibrate_spread(
+            prior, t["start_obs"][check], t["z_mean"][check], t["z_logvar"][check]
+        )
     prior.eval(), decoder.eval()
-    return prior, decoder, score(prior, decoder, pairs, held, favae), log
+    scores = score(prior, decoder, pairs, held, favae)
+    scores.update(stopped, aside_segments=int(aside.sum()))
+    return prior, decoder, scores, log
+
+
+@torch.no_grad()
+def _calibrate_spread(prior: GaussianPrior, obs: torch.Tensor, q_mean: torch.Tensor, q_logvar: torch.Tensor) -> list:
+    """Shift the prior's log std per latent by the cross-entropy-minimising constant on these segments (module
+    docstring); returns the shifts."""
+    mean, log_std = prior(obs)
+    ratio = (q_logvar.exp() + (q_mean - mean).square()) * (-2 * log_std).exp()
+    shift = 0.5 * ratio.mean(dim=0).log()
+    prior.net[-1].bias[prior.config.latent_size :] += shift
+    return shift.tolist()
+
+
+class _Best:
+    """The weights of a network at the epoch of its lowest loss on the set-aside episodes so far."""
+
+    def __init__(self, network: torch.nn.Module) -> None:
+        self.network, self.epoch, self.loss, self.state = network, None, math.inf, None
+
+    def offer(self, epoch: int, loss: float) -> None:
+        if loss < self.loss:
+            self.epoch, self.loss = epoch, loss
+            self.state = {key: value.clone() for key, value in self.network.state_dict().items()}
+
+    def restore(self, last: int) -> int:
+        """Load the kept weights (none kept: the last epoch's stay); returns the epoch they are from."""
+        if self.state is None:
+            return last
+        self.network.load_state_dict(self.state)
+        return self.epoch
 
 
 @torch.no_grad()
