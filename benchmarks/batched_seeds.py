@@ -1,11 +1,12 @@
 """Seeds trained together in one process (one batched network, PureJaxRL's idea) against the same seeds each alone.
 
     python benchmarks/batched_seeds.py [--steps 100000] [--seeds 0-4] [--agents ppo figar famarl] [--favae PT]
+        [--out benchmarks/results/batched_seeds.json]
 
 For each agent, the seeds are trained one after another alone (``Run.train``) and then as one batch
 (``train_together``), on one core, with `famarl train`'s defaults on the Maze; the figure is env steps per second
 of all seeds over the time they took. FaMARL needs a FAVAE (``--favae``, else it is left out). Results in
-benchmarks/results/batched_seeds.json.
+benchmarks/results/batched_seeds.json (or ``--out``).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import torch
-from common import RESULTS, write_result
+from common import RESULTS, command_line, record, step_count, write_result
 
 from famarl_cli.rl import Agent
 from famarl_cli.stages.train import TrainOptions, run_spec
@@ -31,6 +32,24 @@ def runs(agent: Agent, seeds: list[int], steps: int, favae: Path | None):
     return [Run.start(replace(spec, seed=seed)) for seed in seeds]
 
 
+NAMES = {"ppo": "PPO", "figar": "FiGAR", "famarl": "FaMARL"}
+
+
+def records(steps: int, seeds: list[int], rows: list[dict], command: str) -> dict[str, dict]:
+    """measured.json's entry: each agent's speed-up of its seeds trained together over each seed alone."""
+    speedups = ", ".join(
+        f"{NAMES.get(row['agent'], row['agent'])} {row['alone_s'] / row['together_s']:.2f}x" for row in rows
+    )
+    return {
+        "batched_seeds": {
+            "what": f"{len(seeds)} seeds x {step_count(steps)} env steps on one core (`famarl train` defaults, Maze), "
+            "trained together in one process against each alone",
+            "command": command,
+            "measured": speedups or "no agent ran",
+        }
+    }
+
+
 def main() -> None:
     from famarl_cli.rl.training import train_together
 
@@ -39,6 +58,7 @@ def main() -> None:
     parser.add_argument("--seeds", default="0-4")
     parser.add_argument("--agents", nargs="+", default=["ppo", "figar", "famarl"])
     parser.add_argument("--favae", type=Path)
+    parser.add_argument("--out", type=Path, default=RESULTS / "batched_seeds.json")
     args = parser.parse_args()
     torch.set_num_threads(1)
     seeds = [int(s) for s in parse_values(args.seeds)]
@@ -65,7 +85,9 @@ def main() -> None:
             f"{name:<8} {len(seeds):>5} {alone_s:>10.1f} {together_s:>13.1f} {alone_s / together_s:>8.2f}x "
             f"{steps / together_s:>12,.0f}"
         )
-    write_result(RESULTS / "batched_seeds.json", {"steps": args.steps, "seeds": seeds, "rows": rows})
+    write_result(args.out, {"steps": args.steps, "seeds": seeds, "rows": rows})
+    for name, entry in records(args.steps, seeds, rows, command_line(__file__, parser, args)).items():
+        record(name, **entry)
 
 
 if __name__ == "__main__":

@@ -1,18 +1,27 @@
-"""What every benchmark shares: torch on one thread, the peak RSS, and a JSON result with the machine beside it."""
+"""What every benchmark shares: torch on one thread, the peak RSS, a JSON result with the machine beside it, and
+the figure each run records in benchmarks/measured.json."""
 
 from __future__ import annotations
 
+import argparse
 import json
+import math
 import os
 import platform
 import resource
+import shlex
 import time
 from collections.abc import Callable
+from datetime import UTC, datetime
 from pathlib import Path
 
 import famarl_cli
+from famarl_cli.artifacts import atomic_path
+from famarl_cli.core import reproducibility
 
+ROOT = Path(__file__).resolve().parents[1]
 RESULTS = Path(__file__).parent / "results"
+MEASURED = Path(__file__).parent / "measured.json"
 
 
 def peak_rss_mib() -> float:
@@ -49,8 +58,80 @@ def rate(call: Callable[[], object], items_per_call: int, seconds: float) -> flo
 def write_result(path: Path, payload: dict) -> None:
     """Writes ``payload`` with the package version, machine and peak RSS, atomically."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    record = {"famarl_version": famarl_cli.__version__, "machine": machine(), "peak_rss_mib": round(peak_rss_mib(), 1)}
+    header = {"famarl_version": famarl_cli.__version__, "machine": machine(), "peak_rss_mib": round(peak_rss_mib(), 1)}
     partial = path.with_name(path.name + ".partial")
-    partial.write_text(json.dumps({**record, **payload}, indent=1) + "\n")
+    partial.write_text(json.dumps({**header, **payload}, indent=1) + "\n")
     partial.replace(path)
     print(f"written {path}")
+
+
+def record(name: str, what: str, command: str, measured: str, target: str = "") -> None:
+    """Merge this run's figure into benchmarks/measured.json as entry ``name`` (replacing its previous one): what
+    was measured, the command, the figure and its target, with the date, machine and revision of the run.
+
+    The file is committed and ``famarl docs`` generates docs/performance.md's table from it, so that every figure
+    there is one a run wrote. FAMARL_MEASURED names another file (tests, smoke runs).
+    """
+    path = Path(os.environ.get("FAMARL_MEASURED") or MEASURED)
+    entries = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
+    entries[name] = {
+        "what": what,
+        "command": command,
+        "measured": measured,
+        "target": target,
+        "date": datetime.now(UTC).strftime("%Y-%m-%d"),
+        "machine": reproducibility.machine(),
+        "revision": reproducibility.source_revision(str(ROOT)),
+    }
+    with atomic_path(path) as temp:
+        temp.write_text(
+            json.dumps(dict(sorted(entries.items())), indent=2, ensure_ascii=False) + "\n", encoding="utf-8"
+        )
+    print(f"recorded {name} in {path}")
+
+
+def command_line(
+    script: str,
+    parser: argparse.ArgumentParser,
+    args: argparse.Namespace,
+    shown: tuple[str, ...] = (),
+    hidden: tuple[str, ...] = ("out",),
+    prefix: str = "",
+) -> str:
+    """The command of this run for measured.json: ``python benchmarks/SCRIPT`` (``script``: its path, ``__file__``)
+    and each option whose value is not its default (those in ``shown`` always, those in ``hidden``, where results
+    go, never), in the parser's order."""
+    parts = ["python", f"benchmarks/{Path(script).name}"]
+    for key, value in vars(args).items():
+        if key in hidden or (key not in shown and value == parser.get_default(key)) or value is None or value is False:
+            continue
+        flag = "--" + key.replace("_", "-")
+        if value is True:
+            parts.append(flag)
+        elif isinstance(value, list | tuple):
+            parts += [flag, *map(str, value)]
+        else:
+            parts += [flag, str(value)]
+    return prefix + shlex.join(parts)
+
+
+def rounded(value: float, digits: int = 3) -> str:
+    """A rate as the docs write it: ``digits`` significant figures, thousands grouped (13,746.2 -> "13,700")."""
+    if not math.isfinite(value):
+        return "-"
+    return f"{float(f'{value:.{digits}g}'):,.0f}" if abs(value) >= 10 ** (digits - 1) else f"{value:.{digits}g}"
+
+
+def step_count(count: float) -> str:
+    """A number of env steps as the docs write it: 200000 -> "200k", 2_000_000 -> "2M", 4096 -> "4,096"."""
+    if not math.isfinite(count):
+        return "-"
+    count = round(count)
+    if count and count % 1_000_000 == 0:
+        return f"{count // 1_000_000}M"
+    return f"{count // 1000}k" if count and count % 1000 == 0 else f"{count:,}"
+
+
+def verdict(met: bool) -> str:
+    """What a measured text ends with where its target is a threshold."""
+    return " — met" if met else " — **not met**"

@@ -14,10 +14,12 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-from common import RESULTS, peak_rss_mib, rate, write_result
+from common import RESULTS, command_line, peak_rss_mib, rate, record, rounded, verdict, write_result
 
 from famarl_cli.envs import ENV_IDS
 from famarl_cli.envs.batched import ContinuousWorldBatch
+
+ROBOT_HANDS = ("robot-hand-base", "robot-hand-reaching", "robot-hand-ball-placing")
 
 
 def single_env(task: str, seconds: float, unwrapped: bool) -> float:
@@ -47,6 +49,30 @@ def batched_env(task: str, n_envs: int, seconds: float) -> float:
     return rate(lambda: batch.step(actions[next(counter) % 8]), n_envs, seconds)
 
 
+def records(rows: list[tuple[str, str, int, float]], command: str) -> dict[str, dict]:
+    """measured.json's entries from the rows: the Maze's batched worlds, and its single env with RobotHand's."""
+    rates = {(task, kind, n_envs): per_s for task, kind, n_envs, per_s in rows}
+    batched = [rates["maze", "batched", n] for n in (1, 64, 1024)]
+    hands = [rates[task, "single (gym.make)", 1] for task in ROBOT_HANDS]
+    return {
+        "env_throughput_batched": {
+            "what": "ContinuousWorld Maze, batched, 1 / 64 / 1024 worlds",
+            "command": command,
+            "measured": f"{rounded(batched[0])} / {rounded(batched[1])} / **{rounded(batched[2])}** env steps/s"
+            + verdict(batched[2] >= 1_000_000),
+            "target": ">= 1,000,000 at 1024",
+        },
+        "env_throughput_single": {
+            "what": "ContinuousWorld Maze, single env (`gym.make`); RobotHand Base / Reaching / BallPlacing, single "
+            "env (pymunk)",
+            "command": command,
+            "measured": f"{rounded(rates['maze', 'single (gym.make)', 1])} env steps/s; RobotHand "
+            + " / ".join(rounded(per_s) for per_s in hands)
+            + " env steps/s",
+        },
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=2.0)
@@ -59,7 +85,7 @@ def main() -> None:
         rows.append((task, "single (unwrapped)", 1, single_env(task, args.seconds, unwrapped=True)))
         for n_envs in (1, 64, 1024):
             rows.append((task, "batched", n_envs, batched_env(task, n_envs, args.seconds)))
-    for task in ("robot-hand-base", "robot-hand-reaching", "robot-hand-ball-placing"):
+    for task in ROBOT_HANDS:
         rows.append((task, "single (gym.make)", 1, single_env(task, args.seconds, unwrapped=False)))
 
     print(f"{'task':<24} {'env':<20} {'worlds':>7} {'env steps/s':>14}")
@@ -73,6 +99,8 @@ def main() -> None:
             "rows": [{"task": t, "env": k, "worlds": n, "env_steps_per_s": round(r)} for t, k, n, r in rows],
         },
     )
+    for name, entry in records(rows, command_line(__file__, parser, args)).items():
+        record(name, **entry)
 
 
 if __name__ == "__main__":

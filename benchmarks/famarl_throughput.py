@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from common import RESULTS, peak_rss_mib, rate, timed, write_result
+from common import RESULTS, command_line, peak_rss_mib, rate, record, rounded, timed, verdict, write_result
 
 from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.rl import DECISIONS_PER_ROLLOUT, Agent
@@ -72,6 +72,29 @@ def training(agent: Agent, favae, favae_path: Path, steps: int) -> dict:
     }
 
 
+def records(decode_rows: list[dict], train_rows: list[dict], command: str) -> dict[str, dict]:
+    """measured.json's entries: training with the decoder in the loop against PPO and FiGAR, and decoding."""
+    trained = {row["agent"]: row for row in train_rows}
+    decoded = {row["batch"]: row["decisions_per_s"] for row in decode_rows}
+    ratio = trained["famarl"]["env_steps_per_s"] / trained["ppo"]["env_steps_per_s"]
+    return {
+        "famarl_throughput_training": {
+            "what": "FaMARL training with the FAVAE decoder in the loop (`famarl train` defaults)",
+            "command": command,
+            "measured": f"{rounded(trained['famarl']['env_steps_per_s'])} env steps/s, "
+            f"{rounded(trained['famarl']['decisions_per_s'])} decisions/s; PPO "
+            f"{rounded(trained['ppo']['env_steps_per_s'])}, FiGAR {rounded(trained['figar']['env_steps_per_s'])}: "
+            f"FaMARL **{ratio:.1f}x** PPO's" + verdict(ratio >= 0.5),
+            "target": ">= 0.5x PPO's",
+        },
+        "famarl_throughput_decoding": {
+            "what": "FAVAE decoding, batched",
+            "command": command,
+            "measured": f"{rounded(decoded[16])} decisions/s at 16 latents per call, {rounded(decoded[64])} at 64",
+        },
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--favae", type=Path, default=Path("data/favae/pushed-down-only.pt"))
@@ -100,6 +123,8 @@ def main() -> None:
     print(f"famarl / ppo env steps per second: {ratio:.2f}x   peak RSS {peak_rss_mib():.0f} MiB")
     result = {"favae": str(args.favae), "steps": args.steps, "ratio": ratio}
     write_result(args.out, {**result, "decoding": decode_rows, "training": train_rows})
+    for name, entry in records(decode_rows, train_rows, command_line(__file__, parser, args)).items():
+        record(name, **entry)
 
 
 if __name__ == "__main__":

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from common import RESULTS, write_result
+from common import RESULTS, command_line, record, verdict, write_result
 from torch.utils.flop_counter import FlopCounterMode
 
 from famarl_cli.artifacts.segments import read_segments
@@ -66,6 +66,23 @@ def mm_rate(size: int = 2048, repeats: int = 10) -> float:
     return 2 * size**3 * repeats / (time.perf_counter() - start)
 
 
+def records(rows: list[dict], command: str) -> dict[str, dict]:
+    """measured.json's entry: the step time per replicate at each K, and the range of the core's rate reached."""
+    shares = [row["share_of_core"] for row in rows]
+    return {
+        "favae_replicates": {
+            "what": "a FAVAE optimiser step per replicate, K = "
+            + " / ".join(str(row["replicates"]) for row in rows)
+            + " replicates in one process",
+            "command": command,
+            "measured": " / ".join(f"{row['ms_per_replicate_step']:.1f}" for row in rows)
+            + f" ms; {100 * min(shares):.0f}-{100 * max(shares):.0f}% of the core's `torch.mm` rate"
+            + verdict(max(shares) >= 0.5),
+            "target": ">= 50%",
+        }
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--replicates", default="1,2,5,10")
@@ -108,6 +125,8 @@ def main() -> None:
         args.out,
         {"core_gflop_per_s": core / 1e9, "epochs": args.epochs, "macros": str(args.macros), "rows": rows},
     )
+    for name, entry in records(rows, command_line(__file__, parser, args, shown=("macros",))).items():
+        record(name, **entry)
 
 
 if __name__ == "__main__":

@@ -19,7 +19,9 @@ import time
 from pathlib import Path
 
 import yaml
-from common import RESULTS, write_result
+from common import RESULTS, command_line, record, verdict, write_result
+
+from famarl_cli.sweep.plan import parse_values
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -28,6 +30,20 @@ def timed(command: list[str], env: dict) -> float:
     start = time.perf_counter()
     subprocess.run(command, check=True, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return time.perf_counter() - start
+
+
+def records(seeds: str, batch: int | None, one: float, many: float, command: str) -> dict[str, dict]:
+    """measured.json's entry: the sweep's wall and the single replicate's, and their ratio."""
+    batched = "" if batch is None else f", --batch {batch}"
+    return {
+        "macros_replicates": {
+            "what": f"{len(parse_values(seeds))} replicates of the macros against one (`famarl sweep macros --seeds "
+            f"{seeds}{batched}` / `famarl macros --seed 0`, default params)",
+            "command": command,
+            "measured": f"{many:.1f} s / {one:.1f} s: **{many / one:.2f}x**" + verdict(many / one <= 2),
+            "target": "<= 2x (must 3x)",
+        }
+    }
 
 
 def main() -> None:
@@ -66,6 +82,8 @@ def main() -> None:
             "options": options,
         },
     )
+    for name, entry in records(args.seeds, args.batch, one, many, command_line(__file__, parser, args)).items():
+        record(name, **entry)
 
 
 if __name__ == "__main__":

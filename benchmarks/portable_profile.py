@@ -24,7 +24,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from common import RESULTS, write_result
+from common import RESULTS, command_line, record, write_result
 
 AVX2_HOST = {
     "ATEN_CPU_CAPABILITY": "avx2",
@@ -95,6 +95,20 @@ def prepare(folder: Path) -> None:
     )  # fmt: skip
 
 
+def records(results: dict[str, dict], command: str) -> dict[str, dict]:
+    """measured.json's entry: the portable profile's CPU time over the native one, for each piece of work."""
+    names = {"favae": "FAVAE fit", "famarl": "FaMARL", "ppo": "PPO", "figar": "FiGAR"}
+    native, portable = results["native, this host"], results["portable, this host"]
+    costs = ", ".join(f"{name} {portable[f'{w}_cpu_s'] / native[f'{w}_cpu_s']:.2f}x" for w, name in names.items())
+    return {
+        "portable_profile": {
+            "what": "the portable profile's cost",
+            "command": command,
+            "measured": f"{costs} the native CPU time",
+        }
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--epochs", type=int, default=300)
@@ -123,6 +137,8 @@ def main() -> None:
                 results[f"{profile}, emulated AVX2 host"][f"{w}_hash"]]  # fmt: skip
         print(f"  {profile}: identical on both hosts: {', '.join(same) or 'nothing'}")
     write_result(args.out, {"args": {"epochs": args.epochs, "steps": args.steps}, "results": results})
+    for name, entry in records(results, command_line(__file__, parser, args)).items():
+        record(name, **entry)
 
 
 if __name__ == "__main__":

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from common import RESULTS, timed, write_result
+from common import RESULTS, command_line, record, rounded, step_count, timed, verdict, write_result
 from matplotlib.figure import Figure
 
 from famarl_cli.envs import ENV_IDS
@@ -46,10 +46,10 @@ def ours(steps: int, seeds: list[int]) -> list[dict]:
     trainer = trainers[0] if len(trainers) == 1 else PPOTrainer.together(trainers)
     curves = [[] for _ in seeds]
 
-    def record(k: int, row: dict) -> None:
+    def on_update(k: int, row: dict) -> None:
         curves[k].append((row["env_steps"], row["episode_success"], row["episode_return"]))
 
-    _, seconds = timed(lambda: trainer.train(on_member_update=record))
+    _, seconds = timed(lambda: trainer.train(on_member_update=on_update))
     return [
         {"env_steps": member.env_steps, "seconds": seconds / len(seeds), "curve": curve}
         for member, curve in zip(trainer.members, curves, strict=True)
@@ -140,6 +140,50 @@ def plot(results: dict[str, list[dict]], path: Path) -> None:
     fig.savefig(path, dpi=110)
 
 
+def records(steps: int, seeds: list[int], together: bool, ratio: float, summary: dict, command: str) -> dict:
+    """measured.json's entries: with each of our seeds alone, the speed against SB3's and the learning; with
+    ``together``, both in one entry."""
+    ours, sb3 = summary["famarl"], summary["stable-baselines3"]
+
+    def k(value: float) -> str:
+        return f"{value / 1000:.0f}k" if np.isfinite(value) else "not reached"
+
+    speed = (
+        f"ours {rounded(ours['env_steps_per_s'])}, SB3 {rounded(sb3['env_steps_per_s'])} env steps/s: **{ratio:.1f}x**"
+    )
+    first = ours["steps_to_80pct_success"]
+    reached = f"80% success after {k(first)} steps" if np.isfinite(first) else "80% success not reached"
+    runs = f"{len(seeds)} seed{'s' if len(seeds) > 1 else ''}"
+    if together:
+        learned = f"{reached} (SB3 {k(sb3['steps_to_80pct_success'])}), late success {ours['late_success']:.2f} "
+        learned += f"({sb3['late_success']:.2f})"
+        return {
+            "ppo_vs_sb3_together": {
+                "what": f"the same with our {len(seeds)} seeds trained together in one process, {len(seeds)} x "
+                f"{step_count(steps)} steps, one core",
+                "command": command,
+                "measured": f"{speed}; {learned}" + verdict(ratio >= 10),
+                "target": "10x (issue 39)",
+            }
+        }
+    command = f'pip install -e ".[bench]" && {command}'
+    return {
+        "ppo_vs_sb3": {
+            "what": f"PPO on the Maze vs Stable-Baselines3, same hyperparameters, {runs} x {step_count(steps)} steps",
+            "command": command,
+            "measured": speed + verdict(ratio >= 5),
+            "target": ">= 5x",
+        },
+        "ppo_vs_sb3_learning": {
+            "what": "the same, learning",
+            "command": command,
+            "measured": f"{reached} (SB3 {k(sb3['steps_to_80pct_success'])}); late success "
+            f"{ours['late_success']:.2f} (SB3 {sb3['late_success']:.2f})",
+            "target": "no worse",
+        },
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--steps", type=int, default=200_000)
@@ -182,6 +226,9 @@ def main() -> None:
     )
     plot(results, args.out.with_suffix(".png"))
     print(f"written {args.out.with_suffix('.png')}")
+    command = command_line(__file__, parser, args)
+    for name, entry in records(args.steps, args.seeds, args.together, ratio, summary, command).items():
+        record(name, **entry)
 
 
 if __name__ == "__main__":

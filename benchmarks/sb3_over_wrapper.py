@@ -26,7 +26,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import torch
-from common import RESULTS, write_result
+from common import RESULTS, command_line, record, step_count, write_result
 from ppo_vs_sb3 import sb3_ppo
 
 from famarl_cli.core.statistics import mean_interval
@@ -122,6 +122,27 @@ def summary(runs: list[dict]) -> dict:
     return out
 
 
+def records(result: dict, command: str) -> dict[str, dict]:
+    """measured.json's entry: each side's evaluation success with its interval, and its wall per run."""
+
+    def success(name: str) -> str:
+        s = result[name]["success"]
+        return f"{s['mean']:.3f} [{s['low']:.3f}, {s['high']:.3f}]"
+
+    seconds = {name: result[name]["seconds"]["mean"] for name in ("sb3", "famarl")}
+    seeds = len(result["seeds"])
+    return {
+        "sb3_over_wrapper": {
+            "what": "SB3's PPO over `MacroActionWrapper` vs `famarl train --agent famarl`, Maze, "
+            f"{seeds} seed{'s' if seeds > 1 else ''} x {step_count(result['steps'])} env steps",
+            "command": command,
+            "measured": f"success {success('sb3')} vs {success('famarl')}; {seconds['sb3']:.1f} s vs "
+            f"{seconds['famarl']:.1f} s per run",
+            "target": "the same success",
+        }
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", default="0-9")
@@ -148,6 +169,8 @@ def main() -> None:
         s = result[name]["success"]
         print(f"{name}: success {s['mean']:.2f} [{s['low']:.2f}, {s['high']:.2f}] (n={len(seeds)})")
     write_result(args.out, result)
+    for name, entry in records(result, command_line(__file__, parser, args)).items():
+        record(name, **entry)
 
 
 if __name__ == "__main__":

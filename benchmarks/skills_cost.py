@@ -2,7 +2,7 @@
 the env steps per second of FaMARL's rollouts with the open-loop and the closed-loop decoder.
 
     python benchmarks/skills_cost.py [--replicate data/maze/macros/seed0]
-        [--prior data/skills/maze/prior/seed0/prior.pt]
+        [--prior data/skills/maze/prior/seed0/prior.pt] [--out benchmarks/results/skills_cost.json]
 
 1. Minibatch step: ``clipped_objective_gradient`` + gradient clip + Adam on a 2048/8-row minibatch of a FaMARL
    policy (12 observations, the FAVAE's latent), without and with the prior (its KL term, the per-row std):
@@ -10,7 +10,8 @@ the env steps per second of FaMARL's rollouts with the open-loop and the closed-
 2. Rollouts: ``PPOTrainer.collect_rollout`` on the Maze, 16 environments, 16 decisions each, open-loop (the FAVAE)
    against closed-loop (the prior file's decoder, one call per env step): env steps per second.
 
-Run it alone (one CPU-heavy job at a time). Prints a table and writes benchmarks/results/skills_cost.json.
+Run it alone (one CPU-heavy job at a time). Prints a table and writes benchmarks/results/skills_cost.json (or
+``--out``).
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from common import RESULTS, write_result
+from common import RESULTS, command_line, record, rounded, write_result
 
 from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.method.prior.checkpoint import load_skills
@@ -72,6 +73,24 @@ def rollout_rate(favae_path: Path, prior_path: Path, decoder: MacroDecoder, guid
     return (trainer.env_steps - before) / (time.perf_counter() - start)
 
 
+def records(step: dict[str, float], rates: dict[str, float], command: str) -> dict[str, dict]:
+    """measured.json's entry: the minibatch step without and with the prior's KL, and the rollouts' rates."""
+    plain, guided = step["plain"], step["with the prior's KL"]
+    open_loop = rates["open-loop"]
+    rollouts = " / ".join(
+        rounded(per_s) + ("" if name == "open-loop" else f" ({per_s / open_loop:.2f}x)")
+        for name, per_s in rates.items()
+    )
+    return {
+        "skills_cost": {
+            "what": "the prior's and the closed-loop decoder's cost: a PPO minibatch step without / with the prior's "
+            "KL; FaMARL's rollouts on the Maze open-loop / with the prior's guide / closed-loop",
+            "command": command,
+            "measured": f"{1000 * plain:.2f} / {1000 * guided:.2f} ms ({guided / plain:.2f}x); {rollouts} env steps/s",
+        }
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--replicate", type=Path, default=Path("data/maze/macros/seed0"))
@@ -79,6 +98,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=400)
     parser.add_argument("--rollouts", type=int, default=10)
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--out", type=Path, default=RESULTS / "skills_cost.json")
     args = parser.parse_args()
     torch.set_num_threads(1)
     favae = args.replicate / "favae.pt"
@@ -102,7 +122,9 @@ def main() -> None:
     print("FaMARL rollouts on the Maze (env steps / s, median of repeats):")
     for name, per_s in rates.items():
         print(f"  {name:24s} {per_s:,.0f}   ({per_s / rates['open-loop']:.2f} of open-loop)")
-    write_result(RESULTS / "skills_cost.json", {"minibatch_step_s": step, "rollout_env_steps_per_s": rates})
+    write_result(args.out, {"minibatch_step_s": step, "rollout_env_steps_per_s": rates})
+    for name, entry in records(step, rates, command_line(__file__, parser, args)).items():
+        record(name, **entry)
 
 
 if __name__ == "__main__":

@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 
 import psutil
-from common import RESULTS, write_result
+from common import RESULTS, command_line, record, rounded, step_count, verdict, write_result
 
 
 def our_sweep(seeds: int, steps: int, jobs: int, agent: str) -> dict:
@@ -74,6 +74,40 @@ def sb3_processes(seeds: int, steps: int, jobs: int) -> dict:
     return {"seconds": seconds, "env_steps": total, "rate": total / seconds}
 
 
+def records(seeds: int, steps: int, agent: str, ours: dict[int, dict], sb3: dict | None, command: str) -> dict:
+    """measured.json's entries: the most workers' aggregate rate against one worker's and against SB3's on as many
+    processes, and the largest peak RSS of a sweep worker (where more than one worker ran)."""
+    most, least = max(ours), min(ours)
+    name = {"ppo": "PPO", "figar": "FiGAR", "famarl": "FaMARL"}.get(agent, agent)
+    measured = f"{rounded(ours[most]['rate'])} env steps/s"
+    targets = []
+    if most != least:
+        speedup = ours[most]["rate"] / ours[least]["rate"]
+        measured = f"{rounded(ours[most]['rate'])} against {rounded(ours[least]['rate'])} env steps/s: "
+        measured += f"**{speedup:.2f}x**" + verdict(speedup >= 1.8)
+        targets.append(">= 1.8x")
+    if sb3:
+        over = ours[most]["rate"] / sb3["rate"]
+        measured += f"; SB3 on the same {most} cores {rounded(sb3['rate'])} (ours {over:.1f}x)" + verdict(over >= 10)
+        targets.append(">= 10x SB3")
+    entries = {
+        "sweep_throughput": {
+            "what": f"a sweep on {most} local workers against {least} ({seeds} {name} seeds x {step_count(steps)})",
+            "command": command,
+            "measured": measured,
+            "target": "; ".join(targets),
+        }
+    }
+    if peaks := [peak for result in ours.values() for peak in result["worker_peak_rss_mib"]]:
+        entries["sweep_throughput_peak_rss"] = {
+            "what": "peak RSS of a sweep worker",
+            "command": command,
+            "measured": f"{max(peaks):.0f} MiB" + verdict(max(peaks) < 1024),
+            "target": "< 1 GiB",
+        }
+    return entries
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=4)
@@ -98,6 +132,9 @@ def main() -> None:
         print(f"  SB3, {most} processes: {sb3['seconds']:.1f} s, {sb3['rate']:,.0f} env steps/s")
         print(f"  famarl sweep / SB3 at {most} at once: {ours[most]['rate'] / sb3['rate']:.1f}x")
     write_result(args.out, {"args": vars(args) | {"out": str(args.out)}, "ours": ours, "sb3": sb3})
+    command = command_line(__file__, parser, args)
+    for name, entry in records(args.seeds, args.steps, args.agent, ours, sb3, command).items():
+        record(name, **entry)
 
 
 if __name__ == "__main__":

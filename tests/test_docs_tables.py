@@ -75,6 +75,10 @@ def project(tmp_path: Path, monkeypatch) -> Path:
         f"{docs.BEGIN.format(name='walls')}\n{docs.END.format(name='walls')}\n"
         f"{docs.BEGIN.format(name='headline')}\n{docs.END.format(name='headline')}\n"
     )
+    (tmp_path / "docs" / "performance.md").write_text(
+        f"{docs.BEGIN.format(name='performance')}\n{docs.END.format(name='performance')}\n"
+    )
+    (tmp_path / "docs" / "skills.md").write_text("# Skills\n")
     return tmp_path
 
 
@@ -84,7 +88,7 @@ def test_the_committed_docs_are_what_the_committed_metrics_give():
 
 
 def test_tables_carry_each_claim_with_its_interval_n_rule_and_where_it_was_made(project):
-    assert docs.write_docs(project) == ["README.md", "docs/pipelines.md"]
+    assert docs.write_docs(project) == ["README.md", "docs/pipelines.md", "docs/performance.md"]
     readme = (project / "README.md").read_text()
     assert "| `dvc.yaml` | maze | 1 | 1 | 0 | 0 | 2026-12-04, `abc1234`, CPU, AVX2, 2 cores | current |" in readme
     assert "| FaMARL completes the Maze | famarl: n=3: 0.90 [0.85, 0.95] | mean >= 0.8 | reproduces |" in readme
@@ -114,6 +118,30 @@ def test_changed_code_or_params_mark_the_pipeline_stale_and_missing_data_does_no
     assert docs.pipelines(project)[0].stale == ("report",)
 
 
+def test_the_performance_table_is_each_benchmark_s_recorded_result_with_where_it_ran(project):
+    assert "No benchmark has recorded a result yet" in docs.tables(project)["performance"]
+    (project / "benchmarks").mkdir()
+    entry = {
+        "what": "PPO vs SB3",
+        "command": "python benchmarks/ppo_vs_sb3.py",
+        "measured": "ours 13,700 env steps/s: **4.7x**",
+        "target": ">= 5x",
+        "date": "2026-12-04",
+        "machine": "CPU, AVX2, 2 cores",
+        "revision": "abc1234",
+    }
+    (project / docs.MEASURED).write_text(json.dumps({"ppo_vs_sb3": entry}))
+    docs.write_docs(project)
+    row = (
+        "| PPO vs SB3 | `python benchmarks/ppo_vs_sb3.py` | ours 13,700 env steps/s: **4.7x** | >= 5x | 2026-12-04, "
+        "`abc1234`, CPU, AVX2, 2 cores |"
+    )
+    assert row in (project / "docs/performance.md").read_text()
+    (project / docs.MEASURED).write_text(json.dumps({"ppo_vs_sb3": {"what": "x"}}))
+    with pytest.raises(ArtifactError, match="benchmark result 'ppo_vs_sb3' lacks command"):
+        docs.tables(project)
+
+
 def test_a_pipeline_without_committed_metrics_says_how_to_make_them(project):
     (project / "summary.json").unlink()
     tables = docs.tables(project)
@@ -134,7 +162,11 @@ def test_an_unknown_table_name_is_an_error_and_nothing_is_written(project):
 
 def test_famarl_docs_check_fails_with_one_line_when_tables_are_out_of_date(project):
     result = famarl("docs", "--root", project, "--check")
-    one_line_error(result, 1, "generated tables differ from the committed metrics in README.md, docs/pipelines.md")
+    one_line_error(
+        result,
+        1,
+        "generated tables differ from the committed metrics in README.md, docs/pipelines.md, docs/performance.md",
+    )
     assert "old" in (project / "README.md").read_text()  # --check writes nothing
     assert famarl("docs", "--root", project).exit_code == 0
     assert famarl("docs", "--root", project, "--check").exit_code == 0

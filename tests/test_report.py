@@ -198,6 +198,26 @@ def test_traversal_claims_are_over_favae_seeds(tmp_path):
     assert "| (1,1) |" in (tmp_path / "report/report.md").read_text()
 
 
+def test_the_papers_favae_is_judged_beside_ours_on_the_same_claims(tmp_path):
+    """pipelines/traversal's macros-paper stage: its seeds get the same three claims, and the two procedures'
+    scores and ladder-3 traversal effects stand side by side."""
+    for source, strong in (("macros", "(3,1)"), ("macros-paper", "(2,1)")):
+        for seed in range(10):  # a share of 5 of 5 is not enough at the Bonferroni level of 6 claims
+            folder = tmp_path / "data/traversal" / source / f"seed{seed}"
+            folder.mkdir(parents=True)
+            metrics = {"mig": 0.2, "length_accuracy": 0.6, "reconstruction_mse": 0.01, "kl_per_ladder": [0, 1, 3]}
+            (folder / "favae.metrics.json").write_text(json.dumps(metrics))
+            effects = {f"({lad},{i})": 0.01 for lad in (1, 2, 3) for i in (1, 2)} | {strong: 1.5 + 0.1 * seed}
+            (folder / "traverse.json").write_text(json.dumps({"effects_m": effects}))
+    section = write_report(["traversal"], tmp_path / "data", tmp_path / "report", "test")["traversal"]
+    judged = list(verdicts(section).items())
+    assert len(judged) == 6 and all(claim.startswith("with the paper's FAVAE") for claim, _ in judged[3:])
+    # the direction in ladder 3 for ours, in ladder 2 for the paper's
+    assert [verdict for _, verdict in judged][2::3] == [Verdict.REPRODUCES, Verdict.DOES_NOT]
+    text = (tmp_path / "report/report.md").read_text()
+    assert "The FAVAEs side by side" in text and "| larger effect in ladder 3 (m) |" in text
+
+
 def test_an_experiment_plugs_in_without_editing_a_list(tmp_path, monkeypatch):
     monkeypatch.setattr(registry, "_REGISTRY", dict(registry._REGISTRY))
 

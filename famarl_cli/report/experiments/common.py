@@ -59,11 +59,11 @@ def best_claim(paper: str, candidate: Group | None, rivals: list[Group], key: st
     return Claim(paper, measure, judgement)
 
 
-def favae_table(folder: Path) -> str | None:
-    """The FAVAE replicates of a ``famarl sweep macros`` folder: each score's mean and 95% interval over seeds."""
+def _favae_rows(folder: Path) -> dict[str, list[float]]:
+    """Each score of the FAVAE replicates of a ``famarl sweep macros`` folder, per seed (empty: no replicate)."""
     folders = macros_folders(folder)
     if not folders:
-        return None
+        return {}
     metrics = [read_json(f / "favae.metrics.json", "FAVAE metrics") for f in folders]
     segments = [
         read_json(f / "segments.metrics.json", "segmentation metrics")
@@ -80,6 +80,8 @@ def favae_table(folder: Path) -> str | None:
         rows["length within one step"] = [m["length_within_one"] for m in metrics]
     bounded = all("information_bound" in m for m in metrics)  # information measured as at most log N
     for ladder in range(len(metrics[0]["kl_per_ladder"])):
+        if all("c_last" in m for m in metrics):
+            rows[f"C_last of ladder {ladder + 1} (nats)"] = [m["c_last"][ladder] for m in metrics]
         rows[f"KL of ladder {ladder + 1} (nats)"] = [m["kl_per_ladder"][ladder] for m in metrics]
         if bounded:
             rows[f"information of ladder {ladder + 1} (nats, at most log N)"] = [
@@ -91,20 +93,57 @@ def favae_table(folder: Path) -> str | None:
     if segments:
         rows["segments"] = [s["segments"] for s in segments]
         rows["boundary F1 (±2 steps)"] = [s["boundaries_within_2"]["f1"] for s in segments]
+    return rows
+
+
+SHARES = ("MIG", "length accuracy", "length within one step", "boundary F1 (±2 steps)")
+
+
+def _score_interval(name: str, values: list[float]) -> tuple[str, Interval]:
+    """The format of a score's numbers and its mean's 95% interval over seeds."""
+    values = np.asarray(values, dtype=float)
+    fmt = "{:.4f}" if name == "reconstruction MSE" else "{:.3f}" if values.max() < 10 else "{:.0f}"
+    share = name in SHARES or name.startswith("std floor")
+    return fmt, mean_interval(values, bounds=RATE if share else (0.0, np.inf))
+
+
+def favae_table(folder: Path) -> str | None:
+    """The FAVAE replicates of a ``famarl sweep macros`` folder: each score's mean and 95% interval over seeds."""
+    rows = _favae_rows(folder)
+    if not rows:
+        return None
     lines = [
-        f"FAVAE replicates ({folder}), n = {len(folders)}:",
+        f"FAVAE replicates ({folder}), n = {len(next(iter(rows.values())))}:",
         "",
         "| score | mean [95% CI] | per seed |",
         "|---|---|---|",
     ]
-    shares = ("MIG", "length accuracy", "length within one step", "boundary F1 (±2 steps)")
     for name, values in rows.items():
-        values = np.asarray(values, dtype=float)
-        fmt = "{:.4f}" if name == "reconstruction MSE" else "{:.3f}" if values.max() < 10 else "{:.0f}"
-        each = " ".join(fmt.format(v) for v in values)
-        share = name in shares or name.startswith("std floor")
-        interval = mean_interval(values, bounds=RATE if share else (0.0, np.inf))
-        lines.append(f"| {name} | {interval.text(fmt)} | {each} |")
+        fmt, interval = _score_interval(name, values)
+        lines.append(f"| {name} | {interval.text(fmt)} | {' '.join(fmt.format(v) for v in values)} |")
+    return "\n".join(lines)
+
+
+def favae_comparison(folders: dict[str, Path], extra: dict[str, dict[str, list[float]]] | None = None) -> str | None:
+    """FAVAE replicates of several ``famarl sweep macros`` folders side by side (column: a label of ``folders``):
+    each score's mean [95% interval] over seeds (n per column), with ``extra`` rows per label (a traversal's, say)."""
+    if len(folders) < 2:
+        return None
+    columns = {label: {**_favae_rows(folder), **(extra or {}).get(label, {})} for label, folder in folders.items()}
+    names = [name for name in next(iter(columns.values())) if all(name in rows for rows in columns.values())]
+    counts = ", ".join(f"{label} n = {len(rows[names[0]])}" for label, rows in columns.items())
+    lines = [
+        f"The FAVAEs side by side, mean [95% CI] over seeds ({counts}):",
+        "",
+        "| score | " + " | ".join(columns) + " |",
+        "|---|" + "---|" * len(columns),
+    ]
+    for name in names:
+        cells = []
+        for rows in columns.values():
+            fmt, interval = _score_interval(name, rows[name])
+            cells.append(interval.text(fmt))
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 

@@ -24,41 +24,50 @@ DEEPEST_SHARE = 0.5
 """Share of FAVAE fits whose strongest variable is in the deepest ladder, from which that ladder carries it."""
 
 
-@experiment("traversal", "pipelines/traversal/dvc.yaml", order=5)
-def traversal(data: Path, out: Path):
-    from famarl_cli.report.section import Section
+PAPER = "the paper's FAVAE (--preset paper)"
 
-    folders = [f for f in macros_folders(data / "traversal" / "macros") if (f / "traverse.json").is_file()]
-    if not folders:
-        return None
+
+def _effects(folders: list[Path]) -> tuple[list[str], np.ndarray]:
+    """The variables' names and each seed's effect of each, (seeds, variables) in m."""
     effects = [read_json(f / "traverse.json", "traversal effects")["effects_m"] for f in folders]
     names = list(effects[0])
-    matrix = np.array([[float(e[name]) for name in names] for e in effects])  # (seeds, variables)
-    deepest = max(int(name.strip("()").split(",")[0]) for name in names)
+    return names, np.array([[float(e[name]) for name in names] for e in effects])
+
+
+def _ladder(name: str) -> int:
+    return int(name.strip("()").split(",")[0])
+
+
+def _claims(names: list[str], matrix: np.ndarray, level: float, whose: str = "") -> list[Claim]:
+    """The paper's three claims about Fig. 5, judged on one FAVAE procedure's seeds (``whose`` prefixes them)."""
+    deepest = max(_ladder(name) for name in names)
     strongest = matrix.argmax(axis=1)
-    in_deepest = np.array([int(names[i].strip("()").split(",")[0]) == deepest for i in strongest], dtype=float)
-    level = bonferroni_level(3)
+    in_deepest = np.array([_ladder(names[i]) == deepest for i in strongest], dtype=float)
     measure = f"per seed's FAVAE, traversal effects (m) of its {len(names)} variables"
-    claims = [
+    return [
         Claim(
-            "traversing one latent variable changes the direction of the trajectory",
+            whose + "traversing one latent variable changes the direction of the trajectory",
             measure + ": the largest",
             solves("largest effect", matrix.max(axis=1), MOVES, level=level),
         ),
         Claim(
-            "other variables show no change",
+            whose + "other variables show no change",
             measure + ": the smallest",
             fails("smallest effect", matrix.min(axis=1), STILL, level=level),
         ),
         Claim(
-            f"the direction is the 1st variable of the 3rd ladder, (3,1); we test the ladder ({deepest})",
+            whose + f"the direction is the 1st variable of the 3rd ladder, (3,1); we test the ladder ({deepest})",
             f"1 if the seed's strongest variable is in ladder {deepest}, else 0",
             solves(f"share in ladder {deepest}", in_deepest, DEEPEST_SHARE, episodes=1, level=level),
         ),
     ]
+
+
+def _effects_table(names: list[str], matrix: np.ndarray, title: str) -> str:
+    strongest = matrix.argmax(axis=1)
     lines = [
-        f"Effect of each variable (ladder, index) over {len(folders)} FAVAE seeds: mean [95% CI] (m), and in how many\n"
-        "seeds it is the strongest.",
+        f"{title}: effect of each variable (ladder, index) over {len(matrix)} FAVAE seeds: mean [95% CI] (m), and in\n"
+        "how many seeds it is the strongest.",
         "",
         "| variable | effect (m) | strongest in |",
         "|---|---|---|",
@@ -66,7 +75,44 @@ def traversal(data: Path, out: Path):
     for i, name in enumerate(names):
         effect = mean_interval(matrix[:, i], bounds=(0.0, np.inf)).text()
         lines.append(f"| {name} | {effect} | {int((strongest == i).sum())} |")
-    figure = copy_figure(folders[0] / "traverse.png", out / "traversal.png")
-    return Section(
-        "Latent traversal, down-and-up (paper Fig. 5)", claims, ["\n".join(lines)], [figure] if figure else []
-    )
+    return "\n".join(lines)
+
+
+def _deepest_effects(names: list[str], matrix: np.ndarray) -> dict[str, list[float]]:
+    """Rows for the side-by-side table: each seed's effect of each variable of the deepest ladder, and the larger."""
+    deepest = max(_ladder(name) for name in names)
+    columns = [i for i, name in enumerate(names) if _ladder(name) == deepest]
+    rows = {f"traversal effect of {names[i]} (m)": matrix[:, i].tolist() for i in columns}
+    rows[f"larger effect in ladder {deepest} (m)"] = matrix[:, columns].max(axis=1).tolist()
+    return rows
+
+
+@experiment("traversal", "pipelines/traversal/dvc.yaml", order=5)
+def traversal(data: Path, out: Path):
+    """Ours (``macros``) and, where its stage ran, the paper's FAVAE procedure (``macros-paper``) on the same
+    segments: the paper's claims about Fig. 5 judged on each, and the two side by side."""
+    from famarl_cli.report.experiments.common import favae_comparison
+    from famarl_cli.report.section import Section
+
+    sources = {"ours (--preset famarl)": data / "traversal" / "macros", PAPER: data / "traversal" / "macros-paper"}
+    runs = {
+        label: [f for f in macros_folders(folder) if (f / "traverse.json").is_file()]
+        for label, folder in sources.items()
+    }
+    runs = {label: folders for label, folders in runs.items() if folders}
+    if "ours (--preset famarl)" not in runs:
+        return None
+    level = bonferroni_level(3 * len(runs))
+    claims, tables, extra = [], [], {}
+    for label, folders in runs.items():
+        names, matrix = _effects(folders)
+        claims += _claims(names, matrix, level, "" if label != PAPER else "with the paper's FAVAE procedure: ")
+        tables.append(_effects_table(names, matrix, label))
+        extra[label] = _deepest_effects(names, matrix)
+    side_by_side = favae_comparison({label: sources[label] for label in runs}, extra)
+    if side_by_side is not None:
+        tables.append(side_by_side)
+    figures = [copy_figure(runs["ours (--preset famarl)"][0] / "traverse.png", out / "traversal.png")]
+    if PAPER in runs:
+        figures.append(copy_figure(runs[PAPER][0] / "traverse.png", out / "traversal-paper.png"))
+    return Section("Latent traversal, down-and-up (paper Fig. 5)", claims, tables, [f for f in figures if f])
