@@ -202,7 +202,10 @@ def headline_table(found: list[Pipeline], name: str = "default") -> str:
         "| agent | n | success, sampled policy [95% CI] | area under the success curve | return |",
         "|---|---|---|---|---|",
     ]
-    for agent, h in section["headline"].items():
+    agents = list(section["headline"].items())
+    if all(agent.endswith(")") for agent, _ in agents):  # "label (env)": one env's agents together
+        agents.sort(key=lambda item: item[0].rpartition(" (")[2])
+    for agent, h in agents:
         lines.append(
             f"| {agent} | {h['n']} | {Interval(h['success'], h['success_low'], h['success_high']).text()} | "
             f"{h['auc']:.2f} | {h['return']:.1f} |"
