@@ -2,10 +2,11 @@
 
     python benchmarks/pipeline_stages.py [--seeds 0-9] [--jobs N] [--workdir DIR] [--out ...]
 
-Copies the root dvc.yaml and params.yaml into a temporary folder (or ``--workdir``, which is kept, report and all),
-sets ``seeds`` (and FAMARL_JOBS when --jobs is given), and runs the pipeline there one stage at a time in DVC's
-order (`dvc repro --single-item STAGE`). For each stage it records the wall time and the peak RSS of its process
-tree (the largest of DVC, the famarl command and each of its sweep workers, from wait4). Prints a table and writes
+Copies the root dvc.yaml, params.yaml and the package (the stages declare its modules) into a temporary folder (or
+``--workdir``, which is kept, report and all), sets ``seeds`` (and FAMARL_JOBS when --jobs is given), and runs the
+pipeline there one stage at a time in DVC's order (`dvc repro --single-item STAGE`). For each stage it records the
+wall time and the peak RSS of its process tree (the largest of DVC, the famarl command and each of its sweep
+workers, from wait4). Prints a table and writes
 JSON. Nothing in this checkout changes.
 """
 
@@ -83,6 +84,9 @@ def main() -> None:
         folder = args.workdir or Path(temp)
         folder.mkdir(parents=True, exist_ok=args.workdir is None)
         shutil.copy(ROOT / "dvc.yaml", folder)
+        # the stages declare the code they run among their deps: it must be there for DVC to hash
+        shutil.copytree(ROOT / "famarl_cli", folder / "famarl_cli", ignore=shutil.ignore_patterns("__pycache__"))
+        shutil.copy(ROOT / ".dvcignore", folder)
         params = yaml.safe_load((ROOT / "params.yaml").read_text())
         params["seeds"] = args.seeds or params["seeds"]
         (folder / "params.yaml").write_text(yaml.safe_dump(params))
