@@ -28,6 +28,7 @@ from famarl_cli.sweep.plan import parse_values
 
 ROOT = Path(__file__).resolve().parents[1]
 BEFORE_S = 841.0
+BEFORE_DATE = "2026-12-03"
 """The default pipeline's from-scratch wall with its committed seeds (0-9) before the batched replicates (issue 39),
 on the 2-core AMD EPYC VM: what the target's ratio is against."""
 
@@ -51,15 +52,18 @@ def records(seeds: str, committed: bool, rows: list[dict], command: str) -> dict
     stages = ", ".join(f"{row['stage']} {row['seconds']:.0f} s" for row in rows)
     measured = f"**{total:.0f} s**: {stages}"
     if committed:
-        measured += f" (before the batched replicates: {BEFORE_S:.0f} s): **{total / BEFORE_S:.2f}x**"
-        measured += verdict(total / BEFORE_S <= 0.45)
+        # the baseline is of another day: the VM's speed moves between days, so no verdict is drawn from it
+        measured += (
+            f" (before the batched replicates, {BEFORE_DATE}: {BEFORE_S:.0f} s): **{total / BEFORE_S:.2f}x**, a ratio "
+            "across days, not a same-machine one"
+        )
     peak = max(rows, key=lambda row: row["peak_rss_mib"])
     return {
         "pipeline_stages": {
             "what": f"every stage of the default `dvc repro`, {len(parse_values(seeds))} replicates, from scratch",
             "command": command,
             "measured": measured,
-            "target": "<= 0.45x (must 0.6x)" if committed else "",
+            "target": "<= 0.45x (must 0.6x) of the wall before, on the same machine" if committed else "",
         },
         "pipeline_stages_peak_rss": {
             "what": "peak RSS of any stage of the default `dvc repro` (its process tree, sweep workers included)",
