@@ -195,6 +195,23 @@ def test_unreadable_walls_or_a_missing_project_are_one_error_line(project, tmp_p
     one_line_error(famarl("docs", "--root", tmp_path_factory.mktemp("empty")), 1, "no dvc.yaml here")
 
 
+@pytest.mark.parametrize("which, what", [(docs.WALLS, "pipeline walls"), (docs.MEASURED, "benchmark results")])
+@pytest.mark.parametrize("content", ["[1, 2]", '"text"', "3"])
+def test_walls_or_benchmark_results_that_are_not_named_entries_are_one_error_line(project, which, what, content):
+    (project / "benchmarks").mkdir()
+    (project / which).write_text(content)
+    before = {name: (project / name).read_text() for name in docs.FILES}
+    one_line_error(famarl("docs", "--root", project), 1, f"{what} must be a JSON object of named entries")
+    assert {name: (project / name).read_text() for name in docs.FILES} == before
+
+
+def test_a_missing_docs_file_is_one_error_line_and_nothing_is_written(project):
+    (project / "docs/skills.md").unlink()
+    before = (project / "README.md").read_text()
+    one_line_error(famarl("docs", "--root", project), 1, "docs/skills.md missing")
+    assert (project / "README.md").read_text() == before
+
+
 def test_an_error_in_the_second_file_leaves_the_first_as_it_was(project):
     pipelines = project / "docs/pipelines.md"
     pipelines.write_text(

@@ -18,10 +18,11 @@ def docs(
         bool, typer.Option("--check", help="Write nothing; exit 1 when a table differs from the metrics.")
     ] = False,
 ) -> None:
-    """Write the result tables of README.md and docs/pipelines.md (verdicts, every claim's interval and rule, the
-    headline, pipeline walls) from each pipeline's committed summary.json and benchmarks/pipeline_walls.json,
-    between their marker comments; a pipeline whose code, params or command changed since its dvc.lock is marked
-    stale. Takes a few seconds (it asks DVC which stages are stale)."""
+    """Write the result tables of README.md and docs/ (verdicts, every claim's interval and rule, each pipeline's
+    headline, pipeline walls, speed benchmarks) from each pipeline's committed summary.json,
+    benchmarks/pipeline_walls.json and benchmarks/measured.json, between their marker comments; a pipeline whose
+    code, params or command changed since its dvc.lock is marked stale. Takes a few seconds (it asks DVC which
+    stages are stale)."""
     from famarl_cli.core.errors import ArtifactError
     from famarl_cli.report.docs import FILES, write_docs
 

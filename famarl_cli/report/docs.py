@@ -215,9 +215,19 @@ def headline_table(found: list[Pipeline], name: str = "default") -> str:
     return "\n".join(lines) + "\n"
 
 
+def _read_entries(path: Path, what: str) -> dict:
+    """A committed JSON object of named entries (none when the file is absent), or one error line saying what it
+    is not."""
+    if not path.is_file():
+        return {}
+    loaded = read_json(path, what)
+    if not isinstance(loaded, dict):
+        raise ArtifactError(f"{path}: {what} must be a JSON object of named entries, got {type(loaded).__name__}")
+    return loaded
+
+
 def walls_table(root: Path, found: list[Pipeline]) -> str:
-    path = root / WALLS
-    walls = read_json(path, "pipeline walls") if path.is_file() else {}
+    walls = _read_entries(root / WALLS, "pipeline walls")
     lines = [
         "| pipeline | wall | stages (s) | date, revision, machine |",
         "|---|---|---|---|",
@@ -243,7 +253,7 @@ def walls_table(root: Path, found: list[Pipeline]) -> str:
 def performance_table(root: Path) -> str:
     """One row per benchmark result in :data:`MEASURED`, each with the date, revision and machine of its run."""
     path = root / MEASURED
-    measured = read_json(path, "benchmark results") if path.is_file() else {}
+    measured = _read_entries(path, "benchmark results")
     if not measured:
         return "No benchmark has recorded a result yet: each script in `benchmarks/` records its own when it runs.\n"
     lines = ["| what | command | measured | target | date, revision, machine |", "|---|---|---|---|---|"]
@@ -289,6 +299,8 @@ def write_docs(root: Path, check: bool = False) -> list[str]:
 
     made = tables(root)
     # Every file filled before any is written: an error in one leaves all as they were.
+    if missing := [name for name in FILES if not (root / name).is_file()]:
+        raise ArtifactError(f"{root}: {', '.join(missing)} missing (famarl docs fills tables in {', '.join(FILES)})")
     texts = {name: (root / name).read_text() for name in FILES}
     new = {name: fill(text, made, name) for name, text in texts.items()}
     changed = [name for name in FILES if new[name] != texts[name]]
