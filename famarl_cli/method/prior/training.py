@@ -83,7 +83,8 @@ def fit_prior(
     held = held_out_episodes(pairs.episode, choices.holdout, choices.seed)
     aside = np.zeros_like(held)
     aside[~held] = held_out_episodes(pairs.episode[~held], VALIDATION, choices.seed + 1)
-    fit, steps_fit, steps_aside = ~held & ~aside, (~held & ~aside)[pairs.step_segment], aside[pairs.step_segment]
+    fit = ~held & ~aside
+    steps_fit, steps_aside = fit[pairs.step_segment], aside[pairs.step_segment]
     _normaliser(prior, pairs.start_obs[fit])
     _normaliser(decoder, pairs.step_obs[steps_fit])
 
@@ -97,13 +98,15 @@ def fit_prior(
     q_std = (0.5 * t["z_logvar"]).exp()
     prior_optimizer = torch.optim.Adam(prior.parameters(), lr=choices.lr)
     decoder_optimizer = torch.optim.Adam(decoder.parameters(), lr=choices.lr)
+
+    @torch.no_grad()
+    def aside_cross_entropy() -> float:
+        mean, log_std = prior(t["start_obs"][check])
+        return cross_entropy(t["z_mean"][check], t["z_logvar"][check], mean, log_std).mean().item()
+
     best = {"prior": _Best(prior), "decoder": _Best(decoder)}
     if aside.any():
-        with torch.no_grad():
-            mean, log_std = prior(t["start_obs"][check])
-            best["prior"].offer(
-                -1, cross_entropy(t["z_mean"][check], t["z_logvar"][check], mean, log_std).mean().item()
-            )
+        best["prior"].offer(-1, aside_cross_entropy())
     log = []
     for epoch in range(choices.epochs):
         mean, log_std = prior(t["start_obs"][rows])
@@ -123,11 +126,8 @@ def fit_prior(
         decoder_optimizer.step()
         row = {"epoch": epoch, "prior_cross_entropy": prior_loss.item(), "decoder_mse": decoder_loss.item()}
         if aside.any():
+            row["prior_cross_entropy_aside"] = aside_cross_entropy()
             with torch.no_grad():
-                mean, log_std = prior(t["start_obs"][check])
-                row["prior_cross_entropy_aside"] = (
-                    cross_entropy(t["z_mean"][check], t["z_logvar"][check], mean, log_std).mean().item()
-                )
                 predicted = decoder(
                     steps["step_obs"][step_check],
                     t["z_mean"][segment[step_check]],

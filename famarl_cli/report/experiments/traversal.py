@@ -24,7 +24,7 @@ DEEPEST_SHARE = 0.5
 """Share of FAVAE fits whose strongest variable is in the deepest ladder, from which that ladder carries it."""
 
 
-PAPER = "the paper's FAVAE (--preset paper)"
+OURS, PAPER = "ours (--preset famarl)", "the paper's FAVAE (--preset paper)"
 
 
 def _effects(folders: list[Path]) -> tuple[list[str], np.ndarray]:
@@ -94,13 +94,13 @@ def traversal(data: Path, out: Path):
     from famarl_cli.report.experiments.common import favae_comparison
     from famarl_cli.report.section import Section
 
-    sources = {"ours (--preset famarl)": data / "traversal" / "macros", PAPER: data / "traversal" / "macros-paper"}
+    sources = {OURS: data / "traversal" / "macros", PAPER: data / "traversal" / "macros-paper"}
     runs = {
         label: [f for f in macros_folders(folder) if (f / "traverse.json").is_file()]
         for label, folder in sources.items()
     }
     runs = {label: folders for label, folders in runs.items() if folders}
-    if "ours (--preset famarl)" not in runs:
+    if OURS not in runs:
         return None
     level = bonferroni_level(3 * len(runs))
     claims, tables, extra = [], [], {}
@@ -112,7 +112,7 @@ def traversal(data: Path, out: Path):
     side_by_side = favae_comparison({label: sources[label] for label in runs}, extra)
     if side_by_side is not None:
         tables.append(side_by_side)
-    figures = [copy_figure(runs["ours (--preset famarl)"][0] / "traverse.png", out / "traversal.png")]
+    figures = [copy_figure(runs[OURS][0] / "traverse.png", out / "traversal.png")]
     if PAPER in runs:
         figures.append(copy_figure(runs[PAPER][0] / "traverse.png", out / "traversal-paper.png"))
     return Section("Latent traversal, down-and-up (paper Fig. 5)", claims, tables, [f for f in figures if f])
