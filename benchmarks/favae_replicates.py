@@ -1,6 +1,7 @@
 """Time per step of K FAVAE replicates fitted as one batched model, and its arithmetic rate against the core's.
 
     python benchmarks/favae_replicates.py [--replicates 1,2,5,10] [--epochs 60] [--macros data/maze/macros]
+                                          [--device cpu|cuda]
 
 A step is what ``train_replicates`` does per batch (the default pipeline's fit: batch 64, progressive, information
 capacities): K batches, one per replicate, forward with sampling, the loss, backward and ReplicateAdam, with the
@@ -8,7 +9,8 @@ epoch's shuffles and log. Each K fits the segments of replicates 0..K-1 of a def
 without it random segments of the same shape), one torch thread, and the step time is the fit's wall over its
 steps (after a 5-epoch warm-up fit). The FLOPs of one step are torch's FLOP counter's (matmuls, forward and
 backward; elementwise work is not counted), so the rate is a lower bound; the core's rate is a 2048 x 2048
-``torch.mm`` on the same thread. Also per replicate: the step time over K against K = 1.
+``torch.mm`` on the same thread. Also per replicate: the step time over K against K = 1. ``--device cuda`` fits
+on the GPU (the fit's own log reads wait for it) and takes the GPU's 2048 x 2048 ``torch.mm`` as its rate.
 """
 
 from __future__ import annotations
@@ -57,23 +59,30 @@ def steps_per_epoch(segments: list[np.ndarray], batch_size: int = 64) -> int:
     return max(-(-len(s) // batch_size) for s in segments)
 
 
-def mm_rate(size: int = 2048, repeats: int = 10) -> float:
-    a, b = torch.randn(size, size), torch.randn(size, size)
+def mm_rate(device: str, size: int = 2048, repeats: int = 10) -> float:
+    a, b = torch.randn(size, size, device=device), torch.randn(size, size, device=device)
     torch.mm(a, b)
+    wait(device)
     start = time.perf_counter()
     for _ in range(repeats):
         torch.mm(a, b)
+    wait(device)
     return 2 * size**3 * repeats / (time.perf_counter() - start)
 
 
-def records(rows: list[dict], command: str) -> dict[str, dict]:
+def wait(device: str) -> None:
+    if device == "cuda":
+        torch.cuda.synchronize()
+
+
+def records(rows: list[dict], command: str, device: str) -> dict[str, dict]:
     """measured.json's entry: the step time per replicate at each K, and the range of the core's rate reached."""
     shares = [row["share_of_core"] for row in rows]
     return {
-        "favae_replicates": {
+        f"favae_replicates{'' if device == 'cpu' else '_' + device}": {
             "what": "a FAVAE optimiser step per replicate, K = "
             + " / ".join(str(row["replicates"]) for row in rows)
-            + " replicates in one process",
+            + f" replicates in one process{'' if device == 'cpu' else ' on ' + device}",
             "command": command,
             "measured": " / ".join(f"{row['ms_per_replicate_step']:.1f}" for row in rows)
             + f" ms; {100 * min(shares):.0f}-{100 * max(shares):.0f}% of the core's `torch.mm` rate"
@@ -88,20 +97,23 @@ def main() -> None:
     parser.add_argument("--replicates", default="1,2,5,10")
     parser.add_argument("--epochs", type=int, default=60)
     parser.add_argument("--macros", type=Path, default=Path("data/maze/macros"))
-    parser.add_argument("--out", type=Path, default=RESULTS / "favae_replicates.json")
+    parser.add_argument("--device", choices=("cpu", "cuda"), default="cpu")
+    parser.add_argument("--out", type=Path, default=None, help="[default: results/favae_replicates[_cuda].json]")
     args = parser.parse_args()
+    suffix = "" if args.device == "cpu" else f"_{args.device}"
+    out = args.out or RESULTS / f"favae_replicates{suffix}.json"
     torch.set_num_threads(1)
-    core = mm_rate()
-    print(f"torch.mm 2048 x 2048 on one thread: {core / 1e9:.1f} GFLOP/s")
+    core = mm_rate(args.device)
+    print(f"torch.mm 2048 x 2048 on {args.device} (one thread): {core / 1e9:.1f} GFLOP/s")
     rows = []
     for k in map(int, parse_values(args.replicates)):
         segments = [segments_of(args.macros, i) for i in range(k)]
         with FlopCounterMode(display=False) as counter:
-            train_replicates(replicates(segments, 1))
+            train_replicates(replicates(segments, 1), device=args.device)
         flops = counter.get_total_flops() / steps_per_epoch(segments)
-        train_replicates(replicates(segments, 5))  # warm-up
+        train_replicates(replicates(segments, 5), device=args.device)  # warm-up
         start = time.perf_counter()
-        train_replicates(replicates(segments, args.epochs))
+        train_replicates(replicates(segments, args.epochs), device=args.device)
         step = (time.perf_counter() - start) / (args.epochs * steps_per_epoch(segments))
         rows.append(
             {
@@ -122,10 +134,17 @@ def main() -> None:
             f"= {row['share_of_core']:.0%} of the core"
         )
     write_result(
-        args.out,
-        {"core_gflop_per_s": core / 1e9, "epochs": args.epochs, "macros": str(args.macros), "rows": rows},
+        out,
+        {
+            "core_gflop_per_s": core / 1e9,
+            "device": args.device,
+            "epochs": args.epochs,
+            "macros": str(args.macros),
+            "rows": rows,
+        },
     )
-    for name, entry in records(rows, command_line(__file__, parser, args, shown=("macros",))).items():
+    command = command_line(__file__, parser, args, shown=("macros",))
+    for name, entry in records(rows, command, args.device).items():
         record(name, **entry)
 
 

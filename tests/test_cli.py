@@ -454,6 +454,13 @@ def test_favae_design_options_are_bounded_and_recorded(segments_file, tmp_path):
         training = load_favae(paper)[1]["training"]
         assert (training["measure"], training["progressive"]) == ("kl", progressive)
     assert famarl("favae", "fit", "--segments", segments_file, "--preset", "ours").exit_code == 2
+    # the nonlinear join: recorded in the checkpoint's config, with its hidden layer in the weights
+    joined = tmp_path / "mlp.pt"
+    args = ("favae", "fit", "--segments", segments_file, "--epochs", 2, "--join", "mlp", "--out", joined)
+    assert famarl(*args).exit_code == 0
+    model = load_favae(joined)[0]
+    assert model.config.join == "mlp" and "joins.0.2.weight" in model.state_dict()
+    assert famarl("favae", "fit", "--segments", segments_file, "--join", "deep").exit_code == 2
 
 
 FAILING = [

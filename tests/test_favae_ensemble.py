@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 import torch
-from cli_helpers import famarl
+from cli_helpers import famarl, one_line_error
 
 from famarl_cli.core.macro_actions import pad
 from famarl_cli.core.replicate_adam import ReplicateAdam
@@ -24,11 +24,11 @@ def replicate_segments(n: int, length: int, seed: int) -> np.ndarray:
     return pad(macros, length)
 
 
-def models_of(decoder: str, head: str) -> list[Favae]:
+def models_of(decoder: str, head: str, join: str = "linear") -> list[Favae]:
     models = []
     for seed, length in enumerate(LENGTHS):
         torch.manual_seed(seed)
-        models.append(Favae(FavaeConfig(action_dim=2, length=length, decoder=decoder, head=head)))
+        models.append(Favae(FavaeConfig(action_dim=2, length=length, decoder=decoder, head=head, join=join)))
     return models
 
 
@@ -42,10 +42,10 @@ def batched_inputs(rows: int) -> tuple[list[torch.Tensor], torch.Tensor]:
     return singles, batched
 
 
-@pytest.mark.parametrize("decoder", ["ladder", "shared"])
+@pytest.mark.parametrize(("decoder", "join"), [("ladder", "linear"), ("ladder", "mlp"), ("shared", "linear")])
 @pytest.mark.parametrize("head", ["flatten", "pool"])
-def test_the_ensemble_computes_each_replicates_own_favae_forward_and_backward(decoder, head):
-    models = models_of(decoder, head)
+def test_the_ensemble_computes_each_replicates_own_favae_forward_and_backward(decoder, join, head):
+    models = models_of(decoder, head, join)
     ensemble = FavaeEnsemble(models)
     for model, back in zip(models, ensemble.models(), strict=True):
         for (name, a), b in zip(model.state_dict().items(), back.state_dict().values(), strict=True):
@@ -111,6 +111,43 @@ def test_the_batched_loss_is_each_replicates_loss_with_padded_rows_and_steps_lef
         torch.testing.assert_close(terms.on_off[k], alone.on_off, rtol=1e-5, atol=1e-5)
         for a, b in zip(terms.information, alone.information, strict=True):
             torch.testing.assert_close(a[k], b, rtol=1e-5, atol=1e-5)
+
+
+@pytest.mark.parametrize("decoder", ["ladder", "shared"])
+@pytest.mark.parametrize("head", ["flatten", "pool"])
+def test_the_batched_step_keeps_every_tensor_on_the_ensembles_device(decoder, head):
+    # The meta device stands in for a GPU on a machine without one: a tensor the step made on the CPU and mixed
+    # with the ensemble's would fail here as it would on CUDA (only the rounding of a real GPU goes unchecked).
+    ensemble = FavaeEnsemble(models_of(decoder, head), "meta")
+    _, batched = batched_inputs(6)
+    rows = torch.ones(len(LENGTHS), 6, device="meta")
+    noise = torch.zeros(len(LENGTHS), 6, ensemble.config.latent_size, device="meta")
+    weights = torch.ones(len(LENGTHS), 3, device="meta")
+    reconstruction, mus, logvars, samples = ensemble.forward(batched.to("meta"), noise, weights)
+    terms = replicate_loss(
+        reconstruction,
+        batched.to("meta"),
+        mus,
+        logvars,
+        samples,
+        torch.ones(len(LENGTHS), device="meta"),
+        torch.ones(len(LENGTHS), 3, device="meta"),
+        rows.sum(dim=1),
+        "information",
+        rows,
+        ensemble.step_mask,
+    )
+    gradients = torch.autograd.grad(terms.total.sum(), ensemble.parameters)
+    assert all(g.device.type == "meta" for g in gradients)
+    assert reconstruction.shape == batched.shape
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has a GPU")
+def test_a_fit_on_a_gpu_that_is_not_there_is_one_line_and_writes_nothing(segments_file, tmp_path):
+    for command in (["favae", "fit"], ["favae", "calibrate"]):
+        result = famarl(*command, "--segments", segments_file, "--device", "cuda", "--out", tmp_path / "out")
+        one_line_error(result, 1, "torch sees no CUDA GPU")
+    assert not list(tmp_path.iterdir())
 
 
 def test_replicate_adam_follows_torch_adam_row_by_row_and_a_left_out_row_waits():

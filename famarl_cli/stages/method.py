@@ -245,6 +245,7 @@ def favae_setup(segments: Path, options: FavaeOptions):
             channels=tuple(min(32 * 2**i, 64) for i in range(options.ladders)),
             head=str(options.head),
             decoder=str(options.decoder),
+            join=str(options.join),
         )
     except ValueError as exc:
         raise UsageError(f"{exc}; re-run famarl segment with a --length divisible by {2**options.ladders}") from exc
@@ -260,6 +261,17 @@ def calibrate(
     return result
 
 
+def _device(options: list[FavaeOptions]) -> str:
+    """The device replicates fitted together run on: theirs, which must be one, and there (checked before
+    anything is read or written)."""
+    from famarl_cli.method.favae.training import fit_device
+
+    devices = {str(o.device) for o in options}
+    if len(devices) > 1:
+        raise ValueError(f"replicates fitted together must share their device, got {sorted(devices)}")
+    return str(fit_device(devices.pop()))
+
+
 def calibrate_many(
     options: list[CalibrateOptions], on_epoch: Callable[[int, dict], None] | None = None
 ) -> list[tuple[list[float], list[dict]]]:
@@ -269,6 +281,9 @@ def calibrate_many(
     from famarl_cli.method.favae.checkpoint import write_calibration
     from famarl_cli.method.favae.training import Replicate, TrainingParams, calibrate_replicates
 
+    if not options:
+        return []
+    device = _device(options)
     options = [given_segments(o) for o in options]
     outs = [prepare_output(o.destination) for o in options]
     setups = [favae_setup(o.segments, o) for o in options]
@@ -276,10 +291,10 @@ def calibrate_many(
         Replicate(loaded.padded, config, o.calibration_beta, [0.0] * config.ladders, TrainingParams.of(o))
         for o, (loaded, config) in zip(options, setups, strict=True)
     ]
-    results = calibrate_replicates(replicates, on_epoch)
+    results = calibrate_replicates(replicates, on_epoch, device)
     for o, out, replicate, (c_last, _) in zip(options, outs, replicates, results, strict=True):
         params, beta, config = replicate.params, replicate.beta, replicate.config
-        recorded = {**asdict(params), "calibration_beta": beta, "config": config.to_dict()}
+        recorded = {**asdict(params), "calibration_beta": beta, "config": config.to_dict(), "device": str(o.device)}
         write_calibration(
             out, c_last, config, provenance("famarl favae calibrate", recorded, params.seed, [o.segments]), params, beta
         )
@@ -321,6 +336,9 @@ def fit_many(options: list[FitOptions], on_epoch: Callable[[int, str, dict], Non
     def phase(name: str, among: list[int]):
         return None if on_epoch is None else (lambda k, row: on_epoch(among[k], name, row))
 
+    if not options:
+        return []
+    device = _device(options)
     options = [given_segments(o) for o in options]
     outs = [prepare_output(o.destination) for o in options]
     setups = [favae_setup(o.segments, o) for o in options]
@@ -339,7 +357,7 @@ def fit_many(options: list[FitOptions], on_epoch: Callable[[int, str, dict], Non
         Replicate(loaded.padded, config, o.beta, c, p)
         for o, (loaded, config), c, p in zip(options, setups, capacities, params, strict=True)
     ]
-    trained = train_replicates(replicates, phase("fit", list(range(len(options)))))
+    trained = train_replicates(replicates, phase("fit", list(range(len(options)))), device)
     results = []
     for k, (o, out, (model, fit_log)) in enumerate(zip(options, outs, trained, strict=True)):
         loaded, config = setups[k]
@@ -351,7 +369,7 @@ def fit_many(options: list[FitOptions], on_epoch: Callable[[int, str, dict], Non
             "capacity": capacity,
             "capacities": capacities[k],
         }
-        recorded = {**training, "ladders": o.ladders, "latent_dim": o.latent_dim}
+        recorded = {**training, "ladders": o.ladders, "latent_dim": o.latent_dim, "device": str(o.device)}
         # the information each latent carries travels with the model: famarl traverse names an empty ladder by it
         summary = {**training, "kl_per_dim": scores["kl_per_dim"], "information_per_dim": scores["information_per_dim"]}
         inputs = [o.segments] + ([o.calibration] if o.calibration else [])

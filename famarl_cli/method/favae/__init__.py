@@ -30,6 +30,16 @@ class Decoder(StrEnum):
     SHARED = "shared"
 
 
+class Join(StrEnum):
+    """How a shallower ladder's latent joins the ladder decoder's path at its depth
+    (:class:`~famarl_cli.method.favae.model.FavaeConfig`): ``linear``, one linear map to the feature map (added),
+    or ``mlp``, a hidden layer first (VLAE's and pro-VLAE's nonlinear blocks), so that a shallow latent can make
+    changes that are not linear in it."""
+
+    LINEAR = "linear"
+    MLP = "mlp"
+
+
 class Capacity(StrEnum):
     """How the pre-run's C_last becomes the fit's capacities
     (:func:`~famarl_cli.method.favae.training.allocate_capacity`)."""
@@ -47,6 +57,14 @@ class Measure(StrEnum):
 
     INFORMATION = "information"
     KL = "kl"
+
+
+class Device(StrEnum):
+    """Where a FAVAE's pre-run and fit run (:func:`~famarl_cli.method.favae.training.fit_device`): the CPU, or torch's
+    current CUDA GPU where there is one (nothing in famarl needs one)."""
+
+    CPU = "cpu"
+    CUDA = "cuda"
 
 
 class Preset(StrEnum):
@@ -96,6 +114,11 @@ class FavaeOptions:
         "depth, so the deepest shapes the whole sequence) or shared (all through one MLP stack and the same "
         "convolutions, the design before the ladder decoder); docs/favae.md.",
     )
+    join: Join = option(
+        Join.LINEAR,
+        "How a shallower ladder's latent joins the ladder decoder: linear (one linear map onto its feature map) or "
+        "mlp (a hidden layer first); docs/favae.md.",
+    )
     preset: Preset = option(
         Preset.FAMARL,
         "The FAVAE procedure: famarl (capacities on information, progressive ladders 0.2) or paper (the FaMARL "
@@ -116,6 +139,11 @@ class FavaeOptions:
     )
     calibration_beta: float = option(
         CALIBRATION_BETA, "The C_last pre-run's beta (the paper's 0.1), where the pre-run runs.", min=0.0, max=1e4
+    )
+    device: Device = option(
+        Device.CPU,
+        "Where the pre-run and the fit run: cpu, or cuda (torch's GPU, where there is one; its floats differ from "
+        "the CPU's, so its fits do too, as two CPUs' do).",
     )
 
     @property

@@ -9,11 +9,11 @@ outputs and gradients against the single model). Replicates may differ in L (eac
 maps are padded to the largest L and masked, so a shorter replicate's maps are zero past its own length, the
 weights that read or write there are zero and get zero gradient, and its layers see exactly its own maps.
 
-Layout: channels last, maps (K, B, T, C). A convolution (kernel 3, stride 2, padding 1) is an unfold of the map
-into windows and one bmm; a transposed convolution (kernel 4, stride 2, padding 1) is one bmm to the four taps and
-two shifted adds, ``even[m] = x[m] W1 + x[m-1] W3``, ``odd[m] = x[m+1] W0 + x[m] W2``. All parameters live in one
-flat (K, P) tensor, a row per replicate, so the optimiser's step is one fused pass per replicate whatever the number
-of layers (:class:`~famarl_cli.core.replicate_adam.ReplicateAdam`).
+Layout: channels last, maps (K, B, T, C). A convolution (kernel 3, stride 2, padding 1) is the map's windows
+(stacked from its even and odd steps) and one bmm; a transposed convolution (kernel 4, stride 2, padding 1) is one
+bmm to the four taps and two shifted adds, ``even[m] = x[m] W1 + x[m-1] W3``, ``odd[m] = x[m+1] W0 + x[m] W2``.
+All parameters live in one flat (K, P) tensor, a row per replicate, so the optimiser's step is one fused pass per
+replicate whatever the number of layers (:class:`~famarl_cli.core.replicate_adam.ReplicateAdam`).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from dataclasses import dataclass, replace
 import torch
 from torch.nn import functional
 
-from famarl_cli.method.favae import Decoder, Head
+from famarl_cli.method.favae import Decoder, Head, Join
 from famarl_cli.method.favae.model import Favae, FavaeConfig, posterior_logvar
 
 
@@ -105,7 +105,7 @@ def _to_map_slots(name: str, inputs: int, channels: int, steps: int, depth: int)
 
 
 def _conv_slots(name: str, inputs: int, outputs: int) -> list[_Slot]:
-    """nn.Conv1d, kernel 3: weight (out, in, 3) -> (in * 3, out), index c * 3 + j as the unfolded windows."""
+    """nn.Conv1d, kernel 3: weight (out, in, 3) -> (in * 3, out), index c * 3 + j as the windows."""
     return [
         _Slot(
             f"{name}.weight",
@@ -149,7 +149,11 @@ def _slots(config: FavaeConfig) -> list[_Slot]:
         slots += _linear_slots("top.0", top, config.hidden)
         slots += _to_map_slots("top.2", config.hidden, config.channels[-1], steps[-1], deepest)
         for depth, z in enumerate(config.latent_dims[:-1]):
-            slots += _to_map_slots(f"joins.{depth}", z, config.channels[depth], steps[depth], depth)
+            if config.join == Join.LINEAR:
+                slots += _to_map_slots(f"joins.{depth}", z, config.channels[depth], steps[depth], depth)
+            else:
+                slots += _linear_slots(f"joins.{depth}.0", z, config.hidden)
+                slots += _to_map_slots(f"joins.{depth}.2", config.hidden, config.channels[depth], steps[depth], depth)
     else:
         slots += _linear_slots("top_down.0.0", top, config.hidden)
         slots += _linear_slots("top_down.0.2", config.hidden, config.hidden)
@@ -167,7 +171,8 @@ def _shifted(h: torch.Tensor, by: int) -> torch.Tensor:
     """(K, B, S, C) maps moved ``by`` steps along S (1: ``out[m] = h[m - 1]``), zero where nothing moves in. A roll
     and a mask instead of a slice and a pad: their backward passes copy, where a slice's fills a zero map first."""
     steps = h.shape[2]
-    kept = torch.arange(steps) >= by if by > 0 else torch.arange(steps) < steps + by
+    place = torch.arange(steps, device=h.device)
+    kept = place >= by if by > 0 else place < steps + by
     return torch.roll(h, by, dims=2) * kept.to(h.dtype)[:, None]
 
 
@@ -181,9 +186,10 @@ def _same_but_length(configs: list[FavaeConfig]) -> FavaeConfig:
 
 
 class FavaeEnsemble:
-    """K Favaes (all of one config but for L) as one batched model; :meth:`models` gives them back."""
+    """K Favaes (all of one config but for L) as one batched model on ``device``; :meth:`models` gives them back
+    (on the CPU)."""
 
-    def __init__(self, models: list[Favae]) -> None:
+    def __init__(self, models: list[Favae], device: torch.device | str = "cpu") -> None:
         if not models:
             raise ValueError("an ensemble needs at least one model")
         self.configs = [m.config for m in models]
@@ -195,7 +201,7 @@ class FavaeEnsemble:
         self.steps = {d: self.config.length // 2 ** (d + 1) for d in depths}
         self.own_steps = {d: [c.length // 2 ** (d + 1) for c in self.configs] for d in depths}
         sizes = [int(torch.Size(slot.shape).numel()) for slot in self.slots]
-        self.flat = torch.zeros(self.replicates, sum(sizes))
+        self.flat = torch.zeros(self.replicates, sum(sizes), device=device)
         self.parameters: list[torch.Tensor] = []
         offset = 0
         states = [model.state_dict() for model in models]
@@ -209,9 +215,9 @@ class FavaeEnsemble:
         self.masks = {
             d: None
             if len(set(self.own_steps[d])) == 1
-            else (torch.arange(self.steps[d])[None, :] < torch.tensor(self.own_steps[d])[:, None]).float()[
-                :, None, :, None
-            ]
+            else (torch.arange(self.steps[d])[None, :] < torch.tensor(self.own_steps[d])[:, None])
+            .float()
+            .to(device)[:, None, :, None]
             for d in depths
         }
         """Per depth, (K, 1, T, 1): 1 where a replicate's map has a step; None where every replicate has all."""
@@ -253,7 +259,11 @@ class FavaeEnsemble:
     def _conv(self, depth: int, h: torch.Tensor) -> torch.Tensor:
         """Conv1d(kernel 3, stride 2, padding 1) + ReLU on (K, B, T, C) maps -> (K, B, T / 2, C')."""
         k, b, t, c = h.shape
-        windows = functional.pad(h, (0, 0, 1, 0)).unfold(2, 3, 2)  # (K, B, T/2, C, 3): c * 3 + j
+        # window m is x[2m - 1], x[2m], x[2m + 1]: the odd steps shifted, the even and the odd steps of a free view
+        # (unfold's backward costs about as much as the matmul's here; this one's only copies, to the same sums)
+        pairs = h.view(k, b, t // 2, 2, c)
+        even, odd = pairs[:, :, :, 0], pairs[:, :, :, 1]
+        windows = torch.stack([functional.pad(odd, (0, 0, 1, 0))[:, :, :-1], even, odd], dim=-1)  # c * 3 + j
         out = self._linear(f"convs.{depth}.0", windows.reshape(k, b * (t // 2), c * 3))
         return self._mask(torch.relu(out).view(k, b, t // 2, -1), depth)
 
@@ -277,7 +287,7 @@ class FavaeEnsemble:
             h = self._conv(depth, h)
             k, b, t, c = h.shape
             if self.config.head == Head.POOL:
-                features = h.sum(dim=2) / torch.tensor(self.own_steps[depth], dtype=h.dtype)[:, None, None]
+                features = h.sum(dim=2) / h.new_tensor(self.own_steps[depth])[:, None, None]
             else:
                 features = h.reshape(k, b, t * c)
             mu, logvar = self._mlp(f"heads.{depth}", features).chunk(2, dim=2)
@@ -294,7 +304,12 @@ class FavaeEnsemble:
                 h = self._deconv(i, torch.relu(h))
                 if depth >= 0:
                     k, b, s, _ = h.shape
-                    h = h + self._linear(f"joins.{depth}", parts[depth]).view(k, b, s, -1)
+                    joined = (
+                        self._linear(f"joins.{depth}", parts[depth])
+                        if self.config.join == Join.LINEAR
+                        else self._mlp(f"joins.{depth}", parts[depth])
+                    )
+                    h = h + joined.view(k, b, s, -1)
                 h = self._mask(h, depth)
             return h
         t = self._mlp("top_down.0", parts[-1])

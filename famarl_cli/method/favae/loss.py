@@ -89,7 +89,7 @@ def _mixture_weights(rows: torch.Tensor, population: torch.Tensor) -> torch.Tens
     count = rows.sum(dim=-1)
     n = population.to(rows.dtype).expand_as(count)
     other = torch.where(count > 1, (n - 1) / (n * (count - 1).clamp(min=1)), torch.zeros_like(n)).log()
-    eye = torch.eye(rows.shape[-1], dtype=torch.bool)
+    eye = torch.eye(rows.shape[-1], dtype=torch.bool, device=rows.device)
     weights = torch.where(eye, -n.log()[..., None, None], other[..., None, None])
     return weights.masked_fill(~eye & (rows[..., None, :] == 0), -torch.inf)
 
@@ -104,7 +104,7 @@ def information(
     """(...,) the information (nats) a latent of ``dims`` carries about the N = ``population`` segments a batch is
     drawn from, estimated from the batch's samples ``z`` (..., B, dims) of its posteriors (``mu``, ``logvar``): the
     mean over its (real) rows of log q(z_i | x_i) - log q(z_i), each at most log N (module docstring)."""
-    real = torch.ones(z.shape[:-1]) if rows is None else rows
+    real = z.new_ones(z.shape[:-1]) if rows is None else rows
     pairs = log_density(z, mu, logvar).sum(dim=-1)  # (..., B, B): the latent's dims jointly
     own = pairs.diagonal(dim1=-2, dim2=-1)
     weights = _mixture_weights(real, torch.as_tensor(population, dtype=z.dtype))

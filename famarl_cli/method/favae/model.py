@@ -45,7 +45,7 @@ from torch import nn
 from torch.nn import functional
 
 from famarl_cli.core.macro_actions import cut_lengths
-from famarl_cli.method.favae import DECODER, Decoder, Head
+from famarl_cli.method.favae import DECODER, Decoder, Head, Join
 
 
 @dataclass(frozen=True)
@@ -66,12 +66,17 @@ class FavaeConfig:
     decoder: str = DECODER.value
     """How the latents reach the output: ``ladder``, each at its own depth of the transposed convolutions, or
     ``shared``, all through one MLP stack and the same convolutions (:class:`~famarl_cli.method.favae.Decoder`)."""
+    join: str = Join.LINEAR.value
+    """In the ladder decoder, how a shallower ladder's latent joins the path: ``linear`` or ``mlp``
+    (:class:`~famarl_cli.method.favae.Join`)."""
 
     def __post_init__(self) -> None:
         if self.decoder not in tuple(Decoder):
             raise ValueError(f"decoder must be one of {tuple(map(str, Decoder))}, got {self.decoder!r}")
         if self.head not in tuple(Head):
             raise ValueError(f"head must be one of {tuple(map(str, Head))}, got {self.head!r}")
+        if self.join not in tuple(Join):
+            raise ValueError(f"join must be one of {tuple(map(str, Join))}, got {self.join!r}")
         if len(self.latent_dims) != len(self.channels):
             raise ValueError(f"{len(self.latent_dims)} ladders need as many channel sizes, got {self.channels}")
         if self.length % 2 ** len(self.channels):
@@ -169,7 +174,8 @@ class Favae(nn.Module):
             self.top = _mlp(top, config.hidden, deepest)
             # ladder l < deepest joins the path as a projected map at depth l
             self.joins = nn.ModuleList(
-                nn.Linear(z, c * s) for z, (c, s) in zip(config.latent_dims[:-1], self.maps[:-1], strict=True)
+                nn.Linear(z, c * s) if config.join == Join.LINEAR else _mlp(z, config.hidden, c * s)
+                for z, (c, s) in zip(config.latent_dims[:-1], self.maps[:-1], strict=True)
             )
         else:
             # Top-down MLPs: the deepest ladder starts alone; each shallower one joins the path by concatenation.

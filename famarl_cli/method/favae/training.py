@@ -15,7 +15,7 @@ import numpy as np
 import torch
 
 from famarl_cli.core.declare import default_of
-from famarl_cli.core.errors import UsageError
+from famarl_cli.core.errors import FamarlError, UsageError
 from famarl_cli.core.macro_actions import cut_lengths
 from famarl_cli.method.favae import (
     CALIBRATION_BETA,
@@ -23,6 +23,7 @@ from famarl_cli.method.favae import (
     MEASURE,
     PROGRESSIVE,
     Capacity,
+    Device,
     FavaeOptions,
     Measure,
 )
@@ -101,6 +102,16 @@ def ladder_weights(epoch: int, epochs: int, ladders: int, progressive: float) ->
     return [min(max((epoch + 1 - start) / fade, 0.0), 1.0) for start in starts]
 
 
+def fit_device(name: str) -> torch.device:
+    """The torch device a fit runs on (:class:`~famarl_cli.method.favae.Device`); a one-line error where the name is
+    not one (a usage error) or no GPU is there (the machine's: exit code 1)."""
+    if name not in tuple(Device):
+        raise UsageError(f"device must be one of {', '.join(Device)}, got {name!r}")
+    if name == Device.CUDA and not torch.cuda.is_available():
+        raise FamarlError("--device cuda: torch sees no CUDA GPU here (torch.cuda.is_available() is False)")
+    return torch.device(name)
+
+
 LOG_EVERY = 50
 """Epochs between reading the log back from the tensors it accumulates in (progress reports come as often)."""
 
@@ -157,11 +168,11 @@ def _batches(sizes: list[int], batch_size: int, shuffles: list[torch.Generator])
 
 
 def train_replicates(
-    replicates: list[Replicate], on_epoch: Callable[[int, dict], None] | None = None
+    replicates: list[Replicate], on_epoch: Callable[[int, dict], None] | None = None, device: str = "cpu"
 ) -> list[tuple[Favae, list[dict]]]:
-    """Fit K fresh FAVAEs as one batched model (:class:`~famarl_cli.method.favae.ensemble.FavaeEnsemble`); returns
-    each replicate's model and its log, one row per epoch. ``on_epoch(k, row)`` gets replicate k's rows, every
-    :data:`LOG_EVERY` epochs and at the end.
+    """Fit K fresh FAVAEs as one batched model (:class:`~famarl_cli.method.favae.ensemble.FavaeEnsemble`) on
+    ``device`` (:func:`fit_device`); returns each replicate's model (on the CPU) and its log, one row per epoch.
+    ``on_epoch(k, row)`` gets replicate k's rows, every :data:`LOG_EVERY` epochs and at the end.
 
     Replicate k starts from the weights ``torch.manual_seed(seed); Favae(config)`` makes, draws its sampling noise
     from a generator that continues that stream and shuffles its segments with a generator of its seed, so it fits
@@ -169,6 +180,9 @@ def train_replicates(
     and their config but for L; they may hold different numbers of segments (batches are padded and masked, and a
     replicate with fewer batches in an epoch skips the extra steps). Each row holds the epoch's means of the loss
     terms, KL and information per ladder, the capacity C per ladder (and each ladder's weight when progressive).
+
+    On a GPU the initial weights, noise and shuffles are the same (drawn on the CPU, as alone); its kernels round
+    differently from the CPU's, so its fits differ from the CPU's as two CPUs' do (docs/favae.md).
     """
     from famarl_cli.core.replicate_adam import ReplicateAdam
     from famarl_cli.method.favae.ensemble import FavaeEnsemble
@@ -185,27 +199,30 @@ def train_replicates(
         torch.manual_seed(replicate.params.seed)
         models.append(Favae(replicate.config))
         noises.append(torch.Generator().set_state(torch.get_rng_state()))
-    ensemble = FavaeEnsemble(models)
+    on = fit_device(device)
+    ensemble = FavaeEnsemble(models, on)
     shuffles = [torch.Generator().manual_seed(r.params.seed) for r in replicates]
     sizes = [len(r.padded) for r in replicates]
     # every replicate's segments, padded to the longest L, and after the most segments an all-zero row that pads batches
     data = torch.zeros(len(replicates), max(sizes) + 1, ensemble.config.length, ensemble.config.action_dim + 2)
     for k, replicate in enumerate(replicates):
         data[k, : sizes[k], : replicate.config.length] = torch.as_tensor(replicate.padded)
+    data = data.to(on)
     optimiser = ReplicateAdam(ensemble.flat, lr=params.learning_rate)
     gradient = torch.empty_like(ensemble.flat)
     ladders, latent = ensemble.config.ladders, ensemble.config.latent_size
-    beta = torch.tensor([r.beta for r in replicates])
-    population = torch.tensor(sizes, dtype=torch.float32)
+    beta = torch.tensor([r.beta for r in replicates], device=on)
+    population = torch.tensor(sizes, dtype=torch.float32, device=on)
     columns = _log_columns(ladders)
-    sums = torch.zeros(params.epochs, len(replicates), len(columns))
+    sums = torch.zeros(params.epochs, len(replicates), len(columns), device=on)
     logs: list[list[dict]] = [[] for _ in replicates]
-    everyone = torch.arange(len(replicates))[:, None]
+    everyone = torch.arange(len(replicates), device=on)[:, None]
     schedule = []
     for epoch in range(params.epochs):
         weights = torch.tensor(ladder_weights(epoch, params.epochs, ladders, params.progressive))
         capacities = weights * torch.tensor([capacity(r.c_last, epoch, params.epochs) for r in replicates])
         schedule.append((weights, capacities))
+        weights, capacities = weights.to(on), capacities.to(on)
         for index, rows, active in _batches(sizes, params.batch_size, shuffles):
             counts = rows.sum(dim=1).long().tolist()
             width = index.shape[1]
@@ -214,9 +231,10 @@ def train_replicates(
                 if count:  # ladder by ladder, as a Favae draws it alone (randn_like of each ladder's mean)
                     draws = [torch.randn(count, z, generator=noises[k]) for z in ensemble.config.latent_dims]
                     noise[k, :count] = torch.cat(draws, dim=1)
-            batch = data[everyone, index]
+            batch = data[everyone, index.to(on)]
+            noise, rows, weighed = noise.to(on), rows.to(on), active.to(on)
             # a replicate without a batch at this step is scored on padding (a finite loss) and weighed 0
-            padded_rows = None if all(c == width for c in counts) else rows.masked_fill(~active[:, None], 1)
+            padded_rows = None if all(c == width for c in counts) else rows.masked_fill(~weighed[:, None], 1)
             reconstruction, mus, logvars, samples = ensemble.forward(batch, noise, weights.expand(len(replicates), -1))
             terms = replicate_loss(
                 reconstruction,
@@ -231,7 +249,7 @@ def train_replicates(
                 padded_rows,
                 ensemble.step_mask,
             )
-            gradients = torch.autograd.grad((terms.total * active).sum(), ensemble.parameters)
+            gradients = torch.autograd.grad((terms.total * weighed).sum(), ensemble.parameters)
             torch.cat([g.reshape(len(replicates), -1) for g in gradients], dim=1, out=gradient)
             optimiser.step(gradient, None if bool(active.all()) else active)
             values = torch.stack(
@@ -247,7 +265,7 @@ def train_replicates(
 def _read_log(sums, schedule, sizes, columns, params: TrainingParams, logs: list[list[dict]], on_epoch) -> None:
     """Turn the epochs accumulated since the last read into log rows (one host read for all of them)."""
     first = len(logs[0])
-    means = (sums[first : len(schedule)] / torch.tensor(sizes, dtype=sums.dtype)[None, :, None]).tolist()
+    means = (sums[first : len(schedule)].cpu() / torch.tensor(sizes, dtype=sums.dtype)[None, :, None]).tolist()
     for offset, epoch_means in enumerate(means):
         epoch = first + offset
         weights, capacities = schedule[epoch]
@@ -278,14 +296,15 @@ def train_favae(
 
 
 def calibrate_replicates(
-    replicates: list[Replicate], on_epoch: Callable[[int, dict], None] | None = None
+    replicates: list[Replicate], on_epoch: Callable[[int, dict], None] | None = None, device: str = "cpu"
 ) -> list[tuple[list[float], list[dict]]]:
     """The C_last pre-runs of K replicates at once: each ``Replicate``'s beta is its pre-run's (the paper's 0.1),
     its C_last ignored (C = 0); each ladder's value in the last epoch of what the capacities constrain
-    (``params.measure``: its information, or its KL) is its C_last. Returns (C_last, log) per replicate."""
+    (``params.measure``: its information, or its KL) is its C_last. Returns (C_last, log) per replicate. They run
+    on ``device`` (:func:`train_replicates`)."""
     zero = [replace(r, c_last=[0.0] * r.config.ladders) for r in replicates]
     results = []
-    for replicate, (_, log) in zip(zero, train_replicates(zero, on_epoch), strict=True):
+    for replicate, (_, log) in zip(zero, train_replicates(zero, on_epoch, device), strict=True):
         column = "kl" if replicate.params.measure == Measure.KL else "information"
         results.append(([float(log[-1][f"{column}_{i + 1}"]) for i in range(replicate.config.ladders)], log))
     return results
