@@ -322,7 +322,9 @@ def calibrate(
 
 
 FLOOR_BINDS = 0.5
-"""A fit whose floor holds more than this share of a ladder's posterior variances is said to lean on it."""
+"""A fit whose floor holds more than this share of a ladder's posterior variances is said to lean on it. The share is
+a ladder's, over its latents together: a ladder of two latents, one on the floor for every segment and the other
+off it, reads 0.50 and does not count; ``python benchmarks/floor_per_latent.py`` counts latent by latent."""
 
 
 @torch.no_grad()
