@@ -143,11 +143,14 @@ def test_the_batched_step_keeps_every_tensor_on_the_ensembles_device(decoder, he
 
 
 @pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has a GPU")
-def test_a_fit_on_a_gpu_that_is_not_there_is_one_line_and_writes_nothing(segments_file, tmp_path):
+def test_a_fit_on_a_gpu_that_is_not_there_is_one_line_and_writes_nothing(demos_file, segments_file, tmp_path):
     for command in (["favae", "fit"], ["favae", "calibrate"]):
         result = famarl(*command, "--segments", segments_file, "--device", "cuda", "--out", tmp_path / "out")
         one_line_error(result, 1, "torch sees no CUDA GPU")
-    assert not list(tmp_path.iterdir())
+    # famarl macros says so before its segmenter runs
+    result = famarl("macros", "--demos", demos_file, "--device", "cuda", "--out", tmp_path / "macros")
+    one_line_error(result, 1, "torch sees no CUDA GPU")
+    assert not [p for p in tmp_path.rglob("*") if p.is_file()]
 
 
 def test_replicate_adam_follows_torch_adam_row_by_row_and_a_left_out_row_waits():
