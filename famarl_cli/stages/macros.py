@@ -89,7 +89,7 @@ def learn_macros_many(
     folder ends with the files :func:`learn_macros` writes; the FAVAE of seed S is the one
     ``famarl macros --seed S`` fits, up to float rounding (docs/favae.md, "Replicates in one batched model").
     ``on_progress(k, phase, done, total)`` follows replicate k."""
-    stages.fit_device(configs)  # before the segmenters write anything
+    stages.shared_device(configs)  # before the segmenters write anything
     segments = [segments_path(folder, config) for config, folder in zip(configs, folders, strict=True)]
     pending = [
         k

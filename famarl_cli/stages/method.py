@@ -261,15 +261,15 @@ def calibrate(
     return result
 
 
-def fit_device(options: list[FavaeOptions]) -> str:
+def shared_device(options: list[FavaeOptions]) -> str:
     """The device replicates fitted together run on: theirs, which must be one, and there (a one-line error
     otherwise; the stages check it before they read or write anything)."""
-    from famarl_cli.method.favae.training import fit_device as device_of
+    from famarl_cli.method.favae.training import fit_device
 
     devices = {str(o.device) for o in options}
     if len(devices) > 1:
         raise ValueError(f"replicates fitted together must share their device, got {sorted(devices)}")
-    return str(device_of(devices.pop()))
+    return str(fit_device(devices.pop()))
 
 
 def calibrate_many(
@@ -283,7 +283,7 @@ def calibrate_many(
 
     if not options:
         return []
-    device = fit_device(options)
+    device = shared_device(options)
     options = [given_segments(o) for o in options]
     outs = [prepare_output(o.destination) for o in options]
     setups = [favae_setup(o.segments, o) for o in options]
@@ -338,7 +338,7 @@ def fit_many(options: list[FitOptions], on_epoch: Callable[[int, str, dict], Non
 
     if not options:
         return []
-    device = fit_device(options)
+    device = shared_device(options)
     options = [given_segments(o) for o in options]
     outs = [prepare_output(o.destination) for o in options]
     setups = [favae_setup(o.segments, o) for o in options]
