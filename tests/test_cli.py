@@ -461,6 +461,8 @@ def test_favae_design_options_are_bounded_and_recorded(segments_file, tmp_path):
     model = load_favae(joined)[0]
     assert model.config.join == "mlp" and "joins.0.2.weight" in model.state_dict()
     assert famarl("favae", "fit", "--segments", segments_file, "--join", "deep").exit_code == 2
+    refused = famarl("favae", "fit", "--segments", segments_file, "--decoder", "shared", "--join", "mlp")
+    assert "goes with --decoder ladder" in usage_error(refused)
 
 
 FAILING = [

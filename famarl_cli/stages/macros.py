@@ -51,6 +51,7 @@ class MacrosConfig(stages.TraversalPlace, FitChoices, FavaeOptions, SegmentParam
     seed: int = option(0, "Seed of the segmenter, the pre-run and the fit.")
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         with_paths(self)
         if (self.demos is None) == (self.segments is None):
             raise UsageError("give either --demos (segment them first) or --segments, not both or neither")

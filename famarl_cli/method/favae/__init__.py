@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 from famarl_cli.core.declare import option
+from famarl_cli.core.errors import UsageError
 
 
 class Head(StrEnum):
@@ -145,6 +146,10 @@ class FavaeOptions:
         "Where the pre-run and the fit run: cpu, or cuda (torch's GPU, where there is one; its floats differ from "
         "the CPU's, so its fits do too, as two CPUs' do).",
     )
+
+    def __post_init__(self) -> None:
+        if self.join != Join.LINEAR and self.decoder != Decoder.LADDER:
+            raise UsageError(f"--join {self.join} goes with --decoder ladder: the {self.decoder} decoder has no joins")
 
     @property
     def measure(self) -> Measure:
