@@ -102,6 +102,8 @@ def main() -> None:
     args = parser.parse_args()
     suffix = "" if args.device == "cpu" else f"_{args.device}"
     out = args.out or RESULTS / f"favae_replicates{suffix}.json"
+    if args.device == "cuda" and not torch.cuda.is_available():
+        raise SystemExit("error: --device cuda: torch sees no CUDA GPU here")
     torch.set_num_threads(1)
     core = mm_rate(args.device)
     print(f"torch.mm 2048 x 2048 on {args.device} (one thread): {core / 1e9:.1f} GFLOP/s")

@@ -42,6 +42,8 @@ def test_config_checks_and_round_trip():
         FavaeConfig(action_dim=2, length=20)
     with pytest.raises(ValueError, match="ladders need as many channel sizes"):
         FavaeConfig(action_dim=2, length=16, latent_dims=(2, 2), channels=(8, 8, 8))
+    with pytest.raises(ValueError, match="needs the ladder decoder"):
+        FavaeConfig(action_dim=2, length=16, decoder="shared", join="mlp")
     assert FavaeConfig.from_dict(json.loads(json.dumps(CONFIG.to_dict()))) == CONFIG
 
 

@@ -77,6 +77,8 @@ class FavaeConfig:
             raise ValueError(f"head must be one of {tuple(map(str, Head))}, got {self.head!r}")
         if self.join not in tuple(Join):
             raise ValueError(f"join must be one of {tuple(map(str, Join))}, got {self.join!r}")
+        if self.join != Join.LINEAR and self.decoder != Decoder.LADDER:
+            raise ValueError(f"join {self.join!r} needs the ladder decoder: the {self.decoder} decoder has no joins")
         if len(self.latent_dims) != len(self.channels):
             raise ValueError(f"{len(self.latent_dims)} ladders need as many channel sizes, got {self.channels}")
         if self.length % 2 ** len(self.channels):
@@ -137,9 +139,14 @@ def posterior_logvar(raw: torch.Tensor) -> torch.Tensor:
     return (LOGVAR_FLOOR + functional.softplus(raw - LOGVAR_FLOOR)).clamp(max=LOGVAR_CEILING)
 
 
+def held_by_floor(logvar: torch.Tensor) -> torch.Tensor:
+    """Where the floor holds the posterior's variance (within :data:`FLOOR_MARGIN`), elementwise."""
+    return logvar < LOGVAR_FLOOR + FLOOR_MARGIN
+
+
 def floor_share(logvar: torch.Tensor) -> float:
-    """The share of the posteriors' variances (any shape) that the floor holds (within :data:`FLOOR_MARGIN`)."""
-    return float((logvar < LOGVAR_FLOOR + FLOOR_MARGIN).float().mean())
+    """The share of the posteriors' variances (any shape) that the floor holds (:func:`held_by_floor`)."""
+    return float(held_by_floor(logvar).float().mean())
 
 
 def to_input(padded: np.ndarray) -> torch.Tensor:

@@ -1,0 +1,46 @@
+"""The benchmark scripts' options this repository's tools added: a bad input is one ``error:`` line, a non-zero exit
+and nothing written."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+
+BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+
+
+def run(script: str, *args) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, str(BENCHMARKS / script), *map(str, args)], capture_output=True, text=True, timeout=120
+    )
+
+
+def one_error_line(result: subprocess.CompletedProcess, needle: str) -> None:
+    assert result.returncode != 0
+    lines = result.stderr.strip().split("\n")
+    assert len(lines) == 1 and lines[0].startswith("error: ") and needle in lines[0], result.stderr
+
+
+def test_floor_per_latent_says_what_a_folder_lacks(tmp_path):
+    one_error_line(run("floor_per_latent.py", tmp_path), "no replicate with a finished FAVAE")
+    replicate = tmp_path / "seed0"
+    replicate.mkdir()
+    (replicate / "favae.metrics.json").write_text("{}")
+    one_error_line(run("floor_per_latent.py", tmp_path), "lacks 'information_per_dim'")
+    (replicate / "favae.metrics.json").write_text('{"information_per_dim": [0.0], "floor_binds": false}')
+    one_error_line(run("floor_per_latent.py", tmp_path), "favae.pt: no such file")
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has a GPU")
+def test_favae_replicates_on_a_gpu_that_is_not_there(tmp_path):
+    out = tmp_path / "result.json"
+    one_error_line(run("favae_replicates.py", "--device", "cuda", "--out", out), "torch sees no CUDA GPU")
+    assert not out.exists()
+
+
+def test_pipeline_stages_against_a_revision_that_is_not_there(tmp_path):
+    out = tmp_path / "result.json"
+    one_error_line(run("pipeline_stages.py", "--against", "no-such-revision", "--out", out), "git archive")
+    assert not out.exists()
