@@ -79,6 +79,7 @@ def project(tmp_path: Path, monkeypatch) -> Path:
         f"{docs.BEGIN.format(name='performance')}\n{docs.END.format(name='performance')}\n"
     )
     (tmp_path / "docs" / "skills.md").write_text("# Skills\n")
+    (tmp_path / "docs" / "favae.md").write_text("# FAVAE\n")
     return tmp_path
 
 
@@ -130,13 +131,21 @@ def test_the_performance_table_is_each_benchmark_s_recorded_result_with_where_it
         "machine": "CPU, AVX2, 2 cores",
         "revision": "abc1234",
     }
-    (project / docs.MEASURED).write_text(json.dumps({"ppo_vs_sb3": entry}))
+    favae = {**entry, "what": "the pre-run", "command": "python benchmarks/compare_replicates.py a b"}
+    (project / docs.MEASURED).write_text(json.dumps({"ppo_vs_sb3": entry, "favae_prerun": favae}))
+    page = project / "docs/favae.md"
+    page.write_text(
+        f"# FAVAE\n{docs.BEGIN.format(name='benchmarks-favae')}\n{docs.END.format(name='benchmarks-favae')}\n"
+    )
     docs.write_docs(project)
     row = (
         "| PPO vs SB3 | `python benchmarks/ppo_vs_sb3.py` | ours 13,700 env steps/s: **4.7x** | >= 5x | 2026-12-04, "
         "`abc1234`, CPU, AVX2, 2 cores |"
     )
     assert row in (project / "docs/performance.md").read_text()
+    # a page about one subject shows that subject's results alone: those named after it
+    assert "| the pre-run | `python benchmarks/compare_replicates.py a b` |" in page.read_text()
+    assert "PPO vs SB3" not in page.read_text()
     (project / docs.MEASURED).write_text(json.dumps({"ppo_vs_sb3": {"what": "x"}}))
     with pytest.raises(ArtifactError, match="benchmark result 'ppo_vs_sb3' lacks command"):
         docs.tables(project)

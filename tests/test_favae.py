@@ -1,4 +1,5 @@
 import json
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -10,7 +11,8 @@ from famarl_cli.envs.continuous_world import DT, Layouts, physics_step, simulate
 from famarl_cli.method.favae.checkpoint import load_favae, read_calibration, save_favae, write_calibration
 from famarl_cli.method.favae.loss import capacity, data_information, favae_loss, information, kl_per_dim, kl_per_ladder
 from famarl_cli.method.favae.model import LOGVAR_FLOOR, Favae, FavaeConfig, FavaeOutput, posterior_logvar
-from famarl_cli.method.favae.training import TrainingParams, calibrate, evaluate_fit, ladder_weights, train_favae
+from famarl_cli.method.favae.schedule import ladder_weights, pre_run_window
+from famarl_cli.method.favae.training import TrainingParams, calibrate, evaluate_fit, train_favae
 from famarl_cli.method.traversal import traverse, variables_of
 
 CONFIG = FavaeConfig(action_dim=2, length=16)
@@ -88,12 +90,14 @@ def test_fit_learns_and_is_deterministic():
     assert len(scores["kl_per_dim"]) == 6 and len(scores["kl_per_ladder"]) == 3
 
 
-def test_calibration_takes_the_last_epochs_information_or_kl_and_refuses_bad_settings():
+def test_calibration_takes_the_mean_over_the_pre_runs_last_epochs_and_refuses_bad_settings():
     padded, _, _ = toy_segments()
-    c_last, log = calibrate(padded, CONFIG, TrainingParams(epochs=3, batch_size=8))
-    assert c_last == [log[-1][f"information_{i}"] for i in (1, 2, 3)]
-    c_last, log = calibrate(padded, CONFIG, TrainingParams(epochs=3, batch_size=8, measure="kl"))
-    assert c_last == [log[-1][f"kl_{i}"] for i in (1, 2, 3)]
+    params = TrainingParams(epochs=20, batch_size=8, progressive=0.0, pre_run=0.5)
+    c_last, log = calibrate(padded, CONFIG, params)
+    assert len(log) == 10  # half the fit's schedule; C_last is the mean of its last third, epochs 6-9
+    assert c_last == pytest.approx([np.mean([row[f"information_{i}"] for row in log[6:]]) for i in (1, 2, 3)])
+    c_last, log = calibrate(padded, CONFIG, replace(params, measure="kl"))
+    assert c_last == pytest.approx([np.mean([row[f"kl_{i}"] for row in log[6:]]) for i in (1, 2, 3)])
     with pytest.raises(UsageError, match="beta"):
         train_favae(padded, CONFIG, -1.0, [0.0] * 3, TrainingParams(epochs=1))
     with pytest.raises(UsageError, match="C_last has 2 values for 3 ladders"):
@@ -112,7 +116,7 @@ def test_checkpoint_and_calibration_round_trip(tmp_path):
 
     calibration = tmp_path / "c.json"
     params = TrainingParams()
-    write_calibration(calibration, [0.5, 0.25, 0.0], CONFIG, {}, params, 0.1)
+    write_calibration(calibration, [0.5, 0.25, 0.0], CONFIG, {}, params, 0.1, range(337, 450))
     assert read_calibration(calibration, CONFIG, params) == [0.5, 0.25, 0.0]
     other = FavaeConfig(action_dim=2, length=16, latent_dims=(3, 3, 3))
     with pytest.raises(ArtifactError, match="calibrated for another model"):
@@ -287,6 +291,18 @@ def test_progressive_weights_bring_in_the_deepest_ladder_first_and_every_ladder_
         TrainingParams(progressive=0.9)
     with pytest.raises(UsageError, match="capacity measure"):
         TrainingParams(measure="entropy")
+
+
+def test_the_pre_run_is_the_first_share_of_the_fits_schedule_and_averages_its_settled_last_third():
+    # the default: 450 of 1500 epochs; the shallowest ladder is in from epoch 337, so C_last is the mean of 337-449
+    assert pre_run_window(0.3, 1500, 3, 0.2) == range(337, 450)
+    assert pre_run_window(0.3, 1500, 3, 0.0) == range(300, 450)  # all ladders from the start: the last third
+    assert pre_run_window(1.0, 1500, 3, 0.2) == range(1000, 1500)
+    # a pre-run shorter than the progressive schedule runs until every ladder is in, and one epoch more
+    window = pre_run_window(0.3, 1500, 3, 0.8)
+    assert min(ladder_weights(window.start, 1500, 3, 0.8)) == 1.0 > min(ladder_weights(window.start - 1, 1500, 3, 0.8))
+    assert window.stop == window.start + 1
+    assert pre_run_window(0.3, 1, 3, 0.2) == range(0, 1)
 
 
 def test_a_progressive_fit_holds_a_ladder_at_capacity_zero_until_it_is_in():

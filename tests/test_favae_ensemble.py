@@ -8,11 +8,13 @@ import torch
 from cli_helpers import famarl, one_line_error
 
 from famarl_cli.core.macro_actions import pad
+from famarl_cli.core.replay import Replayed
 from famarl_cli.core.replicate_adam import ReplicateAdam
 from famarl_cli.method.favae.ensemble import FavaeEnsemble
+from famarl_cli.method.favae.lockstep import Lockstep, plan_epoch
 from famarl_cli.method.favae.loss import favae_loss, replicate_loss
 from famarl_cli.method.favae.model import Favae, FavaeConfig
-from famarl_cli.method.favae.training import Replicate, TrainingParams, train_replicates
+from famarl_cli.method.favae.training import Replicate, TrainingParams, schedule, train_replicates
 from famarl_cli.sweep.plan import Job, batches
 
 LENGTHS = (16, 24, 16)
@@ -153,6 +155,55 @@ def test_a_fit_on_a_gpu_that_is_not_there_is_one_line_and_writes_nothing(demos_f
     assert not [p for p in tmp_path.rglob("*") if p.is_file()]
 
 
+def test_an_epochs_batches_split_each_replicates_order_as_tensor_split_would_and_pad_to_the_widest():
+    steps = plan_epoch([20, 12, 25], 8)
+    # 20 segments: 7, 7, 6; 12: 6, 6; 25: 7, 6, 6, 6 (as few batches of at most 8 as can be, equal give or take one)
+    assert [step.active for step in steps] == [(True, True, True), (True, True, True), (True, False, True)] + [
+        (False, False, True)
+    ]
+    assert [step.positions.shape[1] for step in steps] == [7, 7, 6, 6]
+    order = torch.arange(25)
+    for k, n in enumerate([20, 12, 25]):
+        split = [part.tolist() for part in order[:n].tensor_split(-(-n // 8))]
+        taken = [step.positions[k][step.real[k]].tolist() for step in steps if step.active[k]]
+        assert taken == split
+    assert steps[0].scored is not None and steps[0].scored[1].tolist() == [1.0] * 6 + [0.0]
+    assert steps[3].scored[0].tolist() == [1.0] * 6, "a replicate without a batch is scored on padding, weighed 0"
+    assert steps[3].weighed.tolist() == [0.0, 0.0, 1.0]
+    assert plan_epoch([16, 16], 8)[0].scored is None  # every row of every replicate real: no masks at all
+
+
+def test_a_lockstep_epoch_reads_nothing_back_and_makes_nothing_on_the_host(monkeypatch):
+    """What a CUDA graph of an epoch needs, checked without a GPU: the whole epoch (orders, noise, schedule,
+    forward, loss, gradients, log) runs on torch's meta device, where a tensor made on the CPU and mixed in fails,
+    and so does any read of a value back to the host (``.item()``, ``.tolist()``, ``bool()``). Fused Adam has no meta
+    kernel; its step (torch's own, capturable on CUDA) is left out here."""
+    monkeypatch.setattr(ReplicateAdam, "step", lambda *_: None)
+    replicates = [
+        Replicate(replicate_segments(n, length, k), FavaeConfig(action_dim=2, length=length), 5.0, [0.3, 0.2, 1.0],
+                  TrainingParams(epochs=3, batch_size=8, seed=k, progressive=0.5))
+        for k, (n, length) in enumerate([(20, 16), (12, 24), (25, 16)])
+    ]  # fmt: skip
+    weights, capacities = schedule(replicates, replicates[0].params)
+    fit = Lockstep(
+        [r.padded for r in replicates], [r.config for r in replicates], [4, 5, 6], [5.0] * 3, "information", 1e-3, 8,
+        weights, capacities, "meta",
+    )  # fmt: skip
+    fit.run(2)
+    assert fit.sums.device.type == "meta" and fit.ensemble.flat.device.type == "meta"
+    with pytest.raises(Exception, match="meta"):
+        fit.epoch.item()  # the check above is a check: a host read fails here
+
+
+def test_replayed_runs_the_step_on_the_cpu_and_captures_only_on_cuda():
+    calls = []
+    replayed = Replayed(lambda: calls.append(1), "cpu")
+    replayed(3)
+    replayed()
+    assert len(calls) == 4 and replayed.graph is None and not replayed.capture
+    assert Replayed(lambda: None, "cuda").capture and not Replayed(lambda: None, "cuda", graph=False).capture
+
+
 def test_replicate_adam_follows_torch_adam_row_by_row_and_a_left_out_row_waits():
     generator = torch.Generator().manual_seed(0)
     start = torch.randn(3, 7, generator=generator)
@@ -161,8 +212,7 @@ def test_replicate_adam_follows_torch_adam_row_by_row_and_a_left_out_row_waits()
     adam = ReplicateAdam(flat, lr=0.01)
     left_out = 1  # row 1 skips step 2: it then takes the other rows' gradients one step late
     for step, gradient in enumerate(gradients):
-        active = torch.tensor([True, step != 2, True])
-        adam.step(gradient, active)
+        adam.step(gradient, (True, step != 2, True))
     for row in range(3):
         reference = start[row].clone().requires_grad_()
         optimiser = torch.optim.Adam([reference], lr=0.01)

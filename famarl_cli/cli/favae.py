@@ -42,7 +42,7 @@ def favae_calibrate(options: CalibrateOptions) -> None:
     torch_on_one_thread()
     options = stages.given_segments(options)
     with progress_bar() as progress:
-        task = progress.add_task("calibrate", total=options.epochs)
+        task = progress.add_task("calibrate", total=options.pre_run_window().stop)
         c_last, _ = stages.calibrate(options, _epoch_reporter(progress, task, "C_last pre-run"))
     out, measure = options.destination, options.measure
     Console().print(f"C_last per ladder ({measure}): {', '.join(f'{c:.3f}' for c in c_last)}  -> {out}")
@@ -59,7 +59,8 @@ def favae_fit(options: FitOptions) -> None:
     options = stages.given_segments(options)
     epochs = options.epochs
     with progress_bar() as progress:
-        tasks = {} if options.calibration else {"calibrate": progress.add_task("calibrate", total=epochs)}
+        pre_run = options.pre_run_window().stop
+        tasks = {} if options.calibration else {"calibrate": progress.add_task("calibrate", total=pre_run)}
         tasks["fit"] = progress.add_task("fit", total=epochs)
         reporters = {
             phase: _epoch_reporter(progress, task, "C_last pre-run" if phase == "calibrate" else phase)

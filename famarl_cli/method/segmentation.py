@@ -118,28 +118,36 @@ def train_autoencoders(
     training: TrainingConfig,
     seeds: list[int],
     on_epoch: Callable[[int, int, float], None] | None = None,
+    device: torch.device | str = "cpu",
 ) -> list[tuple[WindowAutoencoder, float]]:
     """Fit one autoencoder per seed on every window of every episode, all of them at once: their parameters stacked
     along a seed axis, each linear layer one batched matmul over the seeds (:meth:`WindowAutoencoder.batched`). Seed
     s starts from the weights ``torch.manual_seed(s); WindowAutoencoder(config)`` gives and shuffles with a
     generator of its own, as it would alone; every seed has the same windows, so the same batches, and one Adam over
-    the stacked tensors is each seed's own. Returns each model with its last epoch's mean MSE; ``on_epoch(k, epoch,
-    mse)`` follows seed k. Measured on the default demos (3015 windows, batch 256, one thread): a step of 1 seed 0.94
-    ms, of 5 seeds 1.42 ms (the module alone with torch's Adam 1.11 ms; ``torch.func.vmap`` over it 1.66 and 2.51)."""
+    the stacked tensors is each seed's own. Returns each model (on the CPU) with its last epoch's mean MSE;
+    ``on_epoch(k, epoch, mse)`` follows seed k. Measured on the default demos (3015 windows, batch 256, one thread):
+    a step of 1 seed 0.94 ms, of 5 seeds 1.42 ms (the module alone with torch's Adam 1.11 ms; ``torch.func.vmap``
+    over it 1.66 and 2.51).
+
+    On ``device`` (a GPU) the windows, parameters, optimiser and losses live there; the shuffles are still drawn on
+    the CPU from each seed's generator (an epoch's orders are one copy), so a seed's batches are the same on every
+    device."""
     from torch.func import stack_module_state
 
     data = torch.tensor(np.concatenate(episode_windows(episodes_actions, config.window)), dtype=torch.float32)
+    data = data.to(device)
     models = []
     for seed in seeds:
         torch.manual_seed(seed)
         models.append(WindowAutoencoder(config))
     params, _ = stack_module_state(models)
+    params = {name: value.detach().to(device).requires_grad_() for name, value in params.items()}
     optimiser = torch.optim.Adam(params.values(), lr=training.learning_rate, fused=True)
     shuffles = [torch.Generator().manual_seed(seed) for seed in seeds]
     mse = [float("nan")] * len(seeds)
     for epoch in range(training.epochs):
-        order = torch.stack([torch.randperm(len(data), generator=g) for g in shuffles])
-        total = torch.zeros(len(seeds))
+        order = torch.stack([torch.randperm(len(data), generator=g) for g in shuffles]).to(device)
+        total = torch.zeros(len(seeds), device=device)
         for start in range(0, len(data), training.batch_size):
             batch = data[order[:, start : start + training.batch_size]]
             values = (models[0].batched(params, batch) - batch).pow(2).mean(dim=(1, 2))  # each seed's MSE
@@ -147,12 +155,13 @@ def train_autoencoders(
             values.sum().backward()
             optimiser.step()
             total += values.detach() * batch.shape[1]
-        mse = (total / len(data)).tolist()
+        if on_epoch or epoch + 1 == training.epochs:  # the one read back from the device per epoch, if any
+            mse = (total / len(data)).tolist()
         if on_epoch:
             for k, value in enumerate(mse):
                 on_epoch(k, epoch, value)
     for k, model in enumerate(models):
-        model.load_state_dict({name: value[k].detach() for name, value in params.items()})
+        model.load_state_dict({name: value[k].detach().cpu() for name, value in params.items()})
     return [(model.eval(), value) for model, value in zip(models, mse, strict=True)]
 
 

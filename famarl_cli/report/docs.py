@@ -20,7 +20,7 @@ from famarl_cli.core.errors import ArtifactError
 from famarl_cli.core.statistics import Interval
 from famarl_cli.report.results import read_json
 
-FILES = ("README.md", "docs/pipelines.md", "docs/performance.md", "docs/skills.md")
+FILES = ("README.md", "docs/pipelines.md", "docs/performance.md", "docs/skills.md", "docs/favae.md")
 """The files that carry generated tables."""
 WALLS = "benchmarks/pipeline_walls.json"
 MEASURED = "benchmarks/measured.json"
@@ -250,10 +250,13 @@ def walls_table(root: Path, found: list[Pipeline]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def performance_table(root: Path) -> str:
-    """One row per benchmark result in :data:`MEASURED`, each with the date, revision and machine of its run."""
+def performance_table(root: Path, subject: str | None = None) -> str:
+    """One row per benchmark result in :data:`MEASURED` (those of one ``subject``, the first word of their names,
+    when given), each with the date, revision and machine of its run."""
     path = root / MEASURED
     measured = _read_entries(path, "benchmark results")
+    if subject is not None:
+        measured = {name: row for name, row in measured.items() if _subject(name) == subject}
     if not measured:
         return "No benchmark has recorded a result yet: each script in `benchmarks/` records its own when it runs.\n"
     lines = ["| what | command | measured | target | date, revision, machine |", "|---|---|---|---|---|"]
@@ -268,8 +271,16 @@ def performance_table(root: Path) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _subject(name: str) -> str:
+    """A benchmark result's subject: the first word of its name (``favae_prerun`` -> ``favae``)."""
+    return name.split("_")[0]
+
+
 def tables(root: Path) -> dict[str, str]:
+    """Every table a page may hold: the verdicts, claims, headline, walls and performance tables, a headline per
+    pipeline (``headline-NAME``) and the benchmark results of one subject (``benchmarks-SUBJECT``)."""
     found = pipelines(root)
+    subjects = sorted({_subject(name) for name in _read_entries(root / MEASURED, "benchmark results")})
     return {
         "verdicts": verdicts_table(found),
         "claims": claims_table(found),
@@ -277,6 +288,7 @@ def tables(root: Path) -> dict[str, str]:
         "walls": walls_table(root, found),
         "performance": performance_table(root),
         **{f"headline-{p.name}": headline_table(found, p.name) for p in found if p.name != "default"},
+        **{f"benchmarks-{subject}": performance_table(root, subject) for subject in subjects},
     }
 
 

@@ -114,7 +114,11 @@ def learn_macros_many(
         """A batched step's on_epoch (replicate index among those it runs, ..., the epoch's row) as progress."""
         if on_progress is None:
             return None
-        return lambda i, *rest: on_progress(among[i], phase, rest[-1]["epoch"] + 1, configs[among[i]].epochs)
+
+        def total(config: MacrosConfig) -> int:
+            return config.pre_run_window().stop if phase == "calibrate" else config.epochs
+
+        return lambda i, *rest: on_progress(among[i], phase, rest[-1]["epoch"] + 1, total(configs[among[i]]))
 
     favaes = [folder / FAVAE for folder in folders]
     calibrations = [c.calibration or f.with_suffix(".calibration.json") for c, f in zip(configs, favaes, strict=True)]
@@ -181,7 +185,7 @@ def run_jobs(configs: list[dict], contexts: list) -> list[dict]:
     for macros in replicates:
         phases = {
             "segment": macros.segment_epochs if macros.segments is None else 0,
-            "calibrate": macros.epochs if macros.calibration is None else 0,
+            "calibrate": macros.pre_run_window().stop if macros.calibration is None else 0,
             "fit": macros.epochs,
         }
         before.append({phase: sum(phases[p] for p in PHASES[: PHASES.index(phase)]) for phase in PHASES})

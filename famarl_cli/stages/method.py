@@ -22,7 +22,7 @@ from famarl_cli.core.declare import option, pick, same_as, to_json
 from famarl_cli.core.errors import UsageError
 from famarl_cli.envs import DEFAULT_WORLD, World
 from famarl_cli.envs.external import MakeOptions
-from famarl_cli.method.favae import FavaeOptions, FitChoices
+from famarl_cli.method.favae import Device, FavaeOptions, FitChoices
 from famarl_cli.method.segment_params import SegmenterOptions, SegmentParams
 from famarl_cli.method.traversal import DRAWS, parse_dims, parse_values
 from famarl_cli.stages import defaults
@@ -37,6 +37,12 @@ class SegmentOptions(SegmentParams, SegmenterOptions):
     encoder: Path | None = option(None, "Use this trained segmenter (a .segmenter.pt) instead of training one.")
     plot: bool = option(True, "Also draw distance curves and boundaries to <out>.png.")
     episodes: int | None = option(None, "Only the first this many episodes of the demos.  [default: all]", min=1)
+    device: Device = same_as(
+        FavaeOptions,
+        "device",
+        help="Where the segmenter trains: cpu, or cuda (torch's GPU, where there is one; the shuffles are the CPU's, "
+        "the floats the GPU's).",
+    )
 
     @property
     def destination(self) -> Path:
@@ -172,10 +178,11 @@ def segment_many(
     )
     from famarl_cli.report.plots import plot_segmentation
 
+    untrained = [k for k, o in enumerate(options) if o.encoder is None]
+    device = shared_device([options[k] for k in untrained]) if untrained else "cpu"  # before anything is written
     outs = [prepare_output(o.destination) for o in options]
     demos = [_episodes_of(o) for o in options]
     trained: dict[int, tuple] = {}
-    untrained = [k for k, o in enumerate(options) if o.encoder is None]
     if untrained:
         shared = {(options[k].demos, options[k].episodes, pick(SegmenterOptions, options[k])) for k in untrained}
         if len(shared) > 1:
@@ -193,13 +200,14 @@ def segment_many(
             TrainingConfig(epochs=first.epochs),
             [options[k].seed for k in untrained],
             None if on_epoch is None else (lambda i, epoch, mse: on_epoch(untrained[i], epoch, mse)),
+            device,
         )
         trained = dict(zip(untrained, results, strict=True))
     segmented = []
     for k, (o, out, loaded) in enumerate(zip(options, outs, demos, strict=True)):
         params, segmenter = pick(SegmentParams, o), pick(SegmenterOptions, o)
         metrics_path, segmenter_path = out.with_suffix(".metrics.json"), out.with_suffix(".segmenter.pt")
-        recorded = {**to_json(params), **to_json(segmenter), "episodes": o.episodes}
+        recorded = {**to_json(params), **to_json(segmenter), "episodes": o.episodes, "device": str(o.device)}
         inputs = [o.demos] + ([o.encoder] if o.encoder else [])
         model, train_mse = trained[k] if o.encoder is None else (load_autoencoder(o.encoder), None)
         segments, metrics = segment_demos(loaded, model, params)
@@ -261,7 +269,7 @@ def calibrate(
     return result
 
 
-def shared_device(options: list[FavaeOptions]) -> str:
+def shared_device(options: list[FavaeOptions] | list[SegmentOptions]) -> str:
     """The device replicates fitted together run on: theirs, which must be one, and there (a one-line error
     otherwise; the stages check it before they read or write anything)."""
     from famarl_cli.method.favae.training import fit_device
@@ -296,7 +304,13 @@ def calibrate_many(
         params, beta, config = replicate.params, replicate.beta, replicate.config
         recorded = {**asdict(params), "calibration_beta": beta, "config": config.to_dict(), "device": str(o.device)}
         write_calibration(
-            out, c_last, config, provenance("famarl favae calibrate", recorded, params.seed, [o.segments]), params, beta
+            out,
+            c_last,
+            config,
+            provenance("famarl favae calibrate", recorded, params.seed, [o.segments]),
+            params,
+            beta,
+            o.pre_run_window(),
         )
     return results
 

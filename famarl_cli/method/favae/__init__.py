@@ -71,8 +71,8 @@ class Device(StrEnum):
 class Preset(StrEnum):
     """A FAVAE procedure by name (``famarl favae calibrate`` / ``fit`` / ``macros --preset``): ``famarl``, this
     project's (capacities on the information each ladder carries, ladders added deepest first over a fifth of the
-    epochs, in the pre-run too), or ``paper``, the FaMARL paper's (capacities on the KL, every ladder from the start,
-    the pre-run's C_last its KL); docs/favae.md."""
+    epochs, in the pre-run too, a pre-run of 0.3 of the fit's epochs), or ``paper``, the FaMARL paper's (capacities
+    on the KL, every ladder from the start, the pre-run as long as the fit and its C_last a KL); docs/favae.md."""
 
     FAMARL = "famarl"
     PAPER = "paper"
@@ -86,8 +86,16 @@ PROGRESSIVE = 0.2
 """Share of the epochs over which ladders are added one by one, deepest first (0: all from the start). 0.2 gives
 the deepest ladder a tenth of the epochs alone: enough for it to take the whole-sequence factor (the direction of
 down-and-up and pushed-down-only macros, most of 2D Reaching), and not so much that it takes the detail too."""
-PRESETS = {Preset.FAMARL: (MEASURE, PROGRESSIVE), Preset.PAPER: (Measure.KL, 0.0)}
-"""Each preset's capacity measure and progressive share."""
+PRE_RUN = 0.3
+"""The C_last pre-run's length in this project's procedure, a share of the fit's epochs. The pre-run follows the
+fit's schedule (its ladders enter at the epochs they enter in the fit) and stops after this share; each ladder's
+C_last is its mean over the pre-run's last third, or over the epochs since the last ladder came fully in where that
+is shorter (:func:`~famarl_cli.method.favae.schedule.pre_run_window`). The pre-run as long as the fit was half of
+every fit's arithmetic; the measurements that chose this share are in docs/favae.md ("The pre-run")."""
+PRESETS = {Preset.FAMARL: (MEASURE, PROGRESSIVE, PRE_RUN), Preset.PAPER: (Measure.KL, 0.0, 1.0)}
+"""Each preset's capacity measure, progressive share and pre-run share (the paper's pre-run is as long as its fit;
+it reads C_last at the last epoch, ours as the mean of the pre-run's last third, a steadier reading of the same
+settled value)."""
 MAX_PROGRESSIVE = 0.8
 """The largest share: with two ladders the second then finishes fading in at the last epoch."""
 CALIBRATION_BETA = 0.1
@@ -123,7 +131,8 @@ class FavaeOptions:
     preset: Preset = option(
         Preset.FAMARL,
         "The FAVAE procedure: famarl (capacities on information, progressive ladders 0.2) or paper (the FaMARL "
-        "paper's: capacities on KL, all ladders from the start); --capacity-measure and --progressive override it.",
+        "paper's: capacities on KL, all ladders from the start, a pre-run as long as the fit); --capacity-measure, "
+        "--progressive and --pre-run override it.",
     )
     capacity_measure: Measure | None = option(
         None,
@@ -141,6 +150,14 @@ class FavaeOptions:
     calibration_beta: float = option(
         CALIBRATION_BETA, "The C_last pre-run's beta (the paper's 0.1), where the pre-run runs.", min=0.0, max=1e4
     )
+    pre_run: float | None = option(
+        None,
+        "Length of the C_last pre-run, a share of --epochs: it follows the fit's schedule and stops there (at the "
+        "earliest once every ladder is in); each ladder's C_last is its mean over the pre-run's last third "
+        "(docs/favae.md). Default: the preset's (famarl 0.3, paper 1: as long as the fit).",
+        min=0.01,
+        max=1.0,
+    )
     device: Device = option(
         Device.CPU,
         "Where the pre-run and the fit run: cpu, or cuda (torch's GPU, where there is one; its floats differ from "
@@ -151,6 +168,12 @@ class FavaeOptions:
         if self.join != Join.LINEAR and self.decoder != Decoder.LADDER:
             raise UsageError(f"--join {self.join} goes with --decoder ladder: the {self.decoder} decoder has no joins")
 
+    def pre_run_window(self) -> range:
+        """The epochs of the C_last pre-run whose mean is C_last (its last is the pre-run's last)."""
+        from famarl_cli.method.favae.schedule import pre_run_window
+
+        return pre_run_window(self.pre_run_share, self.epochs, self.ladders, self.progressive_share)
+
     @property
     def measure(self) -> Measure:
         """What the capacities constrain: the option, else the preset's."""
@@ -160,6 +183,11 @@ class FavaeOptions:
     def progressive_share(self) -> float:
         """The progressive share: the option, else the preset's."""
         return PRESETS[self.preset][1] if self.progressive is None else self.progressive
+
+    @property
+    def pre_run_share(self) -> float:
+        """The pre-run's share of the epochs: the option, else the preset's."""
+        return PRESETS[self.preset][2] if self.pre_run is None else self.pre_run
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,9 @@
 """FAVAE checkpoints and the calibration file of the C_last pre-run.
 
 Version 2 of both records the decoder (a version-1 checkpoint has the shared decoder and still loads as one) and,
-in the calibration, what C_last measures (a version-1 calibration measured KL).
+in the calibration, what C_last measures (a version-1 calibration measured KL). Version 3 of the calibration records
+the pre-run's share of the fit's epochs and the epochs C_last is the mean of (before it, C_last was the last
+epoch's value of a pre-run as long as the fit); C_last reads the same in every version.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from famarl_cli.method.favae.training import TrainingParams
 SCHEMA = "famarl.favae"
 SCHEMA_VERSION = 2
 CALIBRATION_SCHEMA = "famarl.favae-calibration"
-CALIBRATION_SCHEMA_VERSION = 2
+CALIBRATION_SCHEMA_VERSION = 3
 
 
 def save_favae(path: str | os.PathLike, model: Favae, training: dict, provenance: dict) -> None:
@@ -48,8 +50,10 @@ def write_calibration(
     provenance: dict,
     params: TrainingParams,
     beta: float,
+    window: range,
 ) -> None:
-    """C_last of a pre-run of ``config`` trained with ``params`` at ``beta``; C_last is in ``params.measure``."""
+    """C_last of a pre-run of ``config`` trained with ``params`` at ``beta``; C_last is in ``params.measure``, the
+    mean over the pre-run's epochs ``window``."""
     write_json(
         path,
         {
@@ -59,6 +63,8 @@ def write_calibration(
             "measure": params.measure,
             "beta": beta,
             "progressive": params.progressive,
+            "pre_run": params.pre_run,
+            "c_last_epochs": [window.start, window.stop],
             "config": config.to_dict(),
             "provenance": provenance,
         },

@@ -18,6 +18,7 @@ replicate whatever the number of layers (:class:`~famarl_cli.core.replicate_adam
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
@@ -200,17 +201,15 @@ class FavaeEnsemble:
         # map steps per depth (-1: the output), largest and each replicate's
         self.steps = {d: self.config.length // 2 ** (d + 1) for d in depths}
         self.own_steps = {d: [c.length // 2 ** (d + 1) for c in self.configs] for d in depths}
-        sizes = [int(torch.Size(slot.shape).numel()) for slot in self.slots]
-        self.flat = torch.zeros(self.replicates, sum(sizes), device=device)
-        self.parameters: list[torch.Tensor] = []
-        offset = 0
+        self.sizes = [int(torch.Size(slot.shape).numel()) for slot in self.slots]
+        # filled on the CPU and moved in one copy (a copy per tensor and replicate costs K x 32 transfers on a GPU)
+        flat = torch.zeros(self.replicates, sum(self.sizes))
         states = [model.state_dict() for model in models]
-        for slot, size in zip(self.slots, sizes, strict=True):
-            view = self.flat[:, offset : offset + size].view(self.replicates, *slot.shape)
+        for slot, view in zip(self.slots, self._views(flat), strict=True):
             for k, state in enumerate(states):
                 view[k] = slot.to_batched(state[slot.name].detach(), self._own(slot, k))
-            self.parameters.append(view.requires_grad_())
-            offset += size
+        self.flat = flat.to(device)
+        self.parameters: list[torch.Tensor] = [view.requires_grad_() for view in self._views(self.flat)]
         self.named = dict(zip((s.name for s in self.slots), self.parameters, strict=True))
         self.masks = {
             d: None
@@ -221,9 +220,23 @@ class FavaeEnsemble:
             for d in depths
         }
         """Per depth, (K, 1, T, 1): 1 where a replicate's map has a step; None where every replicate has all."""
+        self.pool_steps = [
+            torch.tensor(self.own_steps[d], dtype=torch.float32).to(device)[:, None, None]
+            for d in range(self.config.ladders)
+        ]
+        """Per depth, (K, 1, 1): each replicate's own map steps, what a pooled head's mean divides by (made here, since
+        a step that copies from the host cannot be a CUDA graph)."""
 
     def _own(self, slot: _Slot, k: int) -> int:
         return self.own_steps[slot.steps][k] if slot.steps is not None else 0
+
+    def _views(self, flat: torch.Tensor) -> list[torch.Tensor]:
+        """Each slot's (K, *shape) view of a flat (K, P) tensor."""
+        offsets = [0, *itertools.accumulate(self.sizes)]
+        return [
+            flat[:, a:b].view(self.replicates, *slot.shape)
+            for slot, a, b in zip(self.slots, offsets[:-1], offsets[1:], strict=True)
+        ]
 
     @property
     def step_mask(self) -> torch.Tensor | None:
@@ -232,13 +245,15 @@ class FavaeEnsemble:
         return None if mask is None else mask[:, 0, :, 0]
 
     def models(self) -> list[Favae]:
-        """Each replicate as its own Favae (in eval mode), with the ensemble's current weights."""
+        """Each replicate as its own Favae (in eval mode, on the CPU), with the ensemble's current weights (read
+        from the device in one copy)."""
+        views = self._views(self.flat.detach().cpu())
         result = []
         for k, config in enumerate(self.configs):
             model = Favae(config)
             state = {
-                slot.name: slot.to_single(p.detach()[k], self._own(slot, k)).contiguous()
-                for slot, p in zip(self.slots, self.parameters, strict=True)
+                slot.name: slot.to_single(view[k], self._own(slot, k)).contiguous()
+                for slot, view in zip(self.slots, views, strict=True)
             }
             model.load_state_dict(state)
             result.append(model.eval())
@@ -287,7 +302,7 @@ class FavaeEnsemble:
             h = self._conv(depth, h)
             k, b, t, c = h.shape
             if self.config.head == Head.POOL:
-                features = h.sum(dim=2) / h.new_tensor(self.own_steps[depth])[:, None, None]
+                features = h.sum(dim=2) / self.pool_steps[depth]
             else:
                 features = h.reshape(k, b, t * c)
             mu, logvar = self._mlp(f"heads.{depth}", features).chunk(2, dim=2)

@@ -172,7 +172,8 @@ def replicate_loss(
     (K, ladders) the C_l of each, ``population`` (K,) the number of segments each replicate's batches are drawn
     from; ``rows`` (K, B) marks each replicate's real rows of a padded batch and ``steps`` (K, L) its own steps of a
     padded L (None: all real). ``measure`` says what the capacities constrain (module docstring)."""
-    count = x.new_tensor(x.shape[1]).expand(x.shape[0]) if rows is None else rows.sum(dim=1).clamp(min=1)
+    # a fill, not a tensor from a Python number: a host-to-device copy cannot be part of a CUDA graph
+    count = x.new_full((x.shape[0],), x.shape[1]) if rows is None else rows.sum(dim=1).clamp(min=1)
     on = x[..., -2]  # zero on padded rows and steps, as on each macro's own padding
     action_error = ((reconstruction[..., :-2] - x[..., :-2]).pow(2) * on[..., None]).sum(dim=(1, 2, 3)) / count
     # cross-entropy of the on/off logits against the target (class 1 where action_off): softplus of the other

@@ -21,6 +21,7 @@ from famarl_cli.method.favae import (
     CALIBRATION_BETA,
     MAX_PROGRESSIVE,
     MEASURE,
+    PRE_RUN,
     PROGRESSIVE,
     Capacity,
     Device,
@@ -29,13 +30,12 @@ from famarl_cli.method.favae import (
 )
 from famarl_cli.method.favae.loss import capacity, data_information, kl_per_dim
 from famarl_cli.method.favae.model import Favae, FavaeConfig, floor_share, to_input
+from famarl_cli.method.favae.schedule import ladder_weights, pre_run_window
 from famarl_cli.method.metrics import mig_interval
 
 ACTIVE_VARIANCE = 0.01
 """A latent whose posterior mean varies over the segments by more than this (variance) is active (Burda et al.
 2016's active units); below it the latent says the same of every segment, whatever its KL."""
-FADE_SHARE = 0.25
-"""Share of a progressive stage over which its new ladder fades in (its weight rising from 0 to 1)."""
 
 
 def allocate_capacity(c_last: list[float], allocation: str) -> list[float]:
@@ -67,6 +67,8 @@ class TrainingParams:
     (:mod:`~famarl_cli.method.favae.loss`)."""
     progressive: float = PROGRESSIVE
     """Share of the epochs over which the ladders are added one by one, deepest first (0: all from the start)."""
+    pre_run: float = PRE_RUN
+    """The C_last pre-run's length, a share of ``epochs`` (:data:`~famarl_cli.method.favae.PRE_RUN`)."""
 
     @staticmethod
     def of(options: FavaeOptions) -> TrainingParams:
@@ -76,6 +78,7 @@ class TrainingParams:
             seed=options.seed,
             measure=str(options.measure),
             progressive=options.progressive_share,
+            pre_run=options.pre_run_share,
         )
 
     def __post_init__(self) -> None:
@@ -83,23 +86,8 @@ class TrainingParams:
             raise UsageError(f"capacity measure must be one of {tuple(map(str, Measure))}, got {self.measure!r}")
         if not 0.0 <= self.progressive <= MAX_PROGRESSIVE:
             raise UsageError(f"progressive must be in [0, {MAX_PROGRESSIVE}], got {self.progressive}")
-
-
-def ladder_weights(epoch: int, epochs: int, ladders: int, progressive: float) -> list[float]:
-    """The weight of each ladder's latent in the decoder at ``epoch`` (0-based), shallowest first.
-
-    The deepest ladder is always in. With ``progressive`` p > 0 the first p of the epochs are split into
-    ``ladders - 1`` equal stages: the deepest trains alone in the first, and at the end of each stage the next
-    ladder, counted from the deepest, begins to fade in, its weight rising linearly from 0 to 1 over
-    :data:`FADE_SHARE` of a stage. Ladder l < ladders enters at epoch ``p * epochs * (ladders - l) / (ladders - 1)``,
-    so the shallowest enters at p * epochs. p = 0: all weights 1 from the start.
-    """
-    if progressive <= 0 or ladders == 1:
-        return [1.0] * ladders
-    stage = progressive * epochs / (ladders - 1)
-    fade = max(FADE_SHARE * stage, 1.0)
-    starts = [stage * (ladders - ladder) for ladder in range(1, ladders)] + [-fade]
-    return [min(max((epoch + 1 - start) / fade, 0.0), 1.0) for start in starts]
+        if not 0.0 < self.pre_run <= 1.0:
+            raise UsageError(f"the pre-run's share must be in (0, 1], got {self.pre_run}")
 
 
 def fit_device(name: str) -> torch.device:
@@ -110,10 +98,6 @@ def fit_device(name: str) -> torch.device:
     if name == Device.CUDA and not torch.cuda.is_available():
         raise FamarlError("--device cuda: torch sees no CUDA GPU here (torch.cuda.is_available() is False)")
     return torch.device(name)
-
-
-LOG_EVERY = 50
-"""Epochs between reading the log back from the tensors it accumulates in (progress reports come as often)."""
 
 
 @dataclass(frozen=True)
@@ -134,149 +118,89 @@ class Replicate:
             raise UsageError(f"C_last has {len(self.c_last)} values for {self.config.ladders} ladders")
 
 
-def _log_columns(ladders: int) -> list[str]:
-    return [
-        "loss",
-        "reconstruction",
-        "action_error",
-        "on_off",
-        *(f"kl_{i + 1}" for i in range(ladders)),
-        *(f"information_{i + 1}" for i in range(ladders)),
-    ]
+def schedule(replicates: list[Replicate], params: TrainingParams) -> tuple[torch.Tensor, torch.Tensor]:
+    """Per epoch, each ladder's weight in the decoder (E, ladders) and each replicate's capacities (E, K,
+    ladders): the weight times C_l (:func:`ladder_weights`, :func:`~famarl_cli.method.favae.loss.capacity`)."""
+    ladders, epochs = replicates[0].config.ladders, params.epochs
+    weights = torch.tensor([ladder_weights(e, epochs, ladders, params.progressive) for e in range(epochs)])
+    # capacity(c, e, E) is c times the epoch's fraction: the same float64 products, made for all replicates at once
+    fractions = torch.tensor([capacity([1.0], e, epochs)[0] for e in range(epochs)], dtype=torch.float64)
+    c_last = torch.tensor([r.c_last for r in replicates], dtype=torch.float64)
+    return weights, weights[:, None, :] * (fractions[:, None, None] * c_last[None]).float()
 
 
-def _batches(sizes: list[int], batch_size: int, shuffles: list[torch.Generator]):
-    """One epoch's batches of every replicate, in lockstep: per step, (K, B) segment indices (``max(sizes)``, the
-    data's all-zero row, on padding), the (K, B) mask of their real rows and the (K,) replicates that have a batch
-    at that step, B being the largest batch at that step. Each replicate shuffles its own segments with its own
-    generator, exactly as it would alone, and splits them into as few batches of at most ``batch_size`` as it can,
-    of equal sizes give or take one (111 segments: 56 and 55, not 64 and 47), so that the information a batch's
-    estimate can see is alike in every batch."""
-    splits = [
-        torch.randperm(n, generator=g).tensor_split(-(-n // batch_size)) for n, g in zip(sizes, shuffles, strict=True)
-    ]
-    replicates = len(sizes)
-    for step in range(max(len(s) for s in splits)):
-        width = max(len(split[step]) for split in splits if step < len(split))
-        index = torch.full((replicates, width), max(sizes))  # the padding row, all zeros
-        rows = torch.zeros(replicates, width)
-        for k, split in enumerate(splits):
-            if step < len(split):
-                index[k, : len(split[step])] = split[step]
-                rows[k, : len(split[step])] = 1.0
-        yield index, rows, rows[:, 0] > 0
+def lockstep(replicates: list[Replicate], device: str = "cpu", graph: bool = True, stop: int | None = None):
+    """The batched fit of ``replicates`` on ``device`` (:func:`fit_device`), ready to run
+    (:class:`~famarl_cli.method.favae.lockstep.Lockstep`; on a GPU each epoch one replayed CUDA graph, unless
+    ``graph`` is off): the first ``stop`` epochs of their schedule (all without it). The replicates must share
+    their training but for the seed, and their config but for L."""
+    from famarl_cli.method.favae.lockstep import Lockstep
 
-
-def train_replicates(
-    replicates: list[Replicate], on_epoch: Callable[[int, dict], None] | None = None, device: str = "cpu"
-) -> list[tuple[Favae, list[dict]]]:
-    """Fit K fresh FAVAEs as one batched model (:class:`~famarl_cli.method.favae.ensemble.FavaeEnsemble`) on
-    ``device`` (:func:`fit_device`); returns each replicate's model (on the CPU) and its log, one row per epoch.
-    ``on_epoch(k, row)`` gets replicate k's rows, every :data:`LOG_EVERY` epochs and at the end.
-
-    Replicate k starts from the weights ``torch.manual_seed(seed); Favae(config)`` makes, draws its sampling noise
-    from a generator that continues that stream and shuffles its segments with a generator of its seed, so it fits
-    the model it would fit alone, up to float rounding. The replicates must share their training but for the seed,
-    and their config but for L; they may hold different numbers of segments (batches are padded and masked, and a
-    replicate with fewer batches in an epoch skips the extra steps). Each row holds the epoch's means of the loss
-    terms, KL and information per ladder, the capacity C per ladder (and each ladder's weight when progressive).
-
-    On a GPU the initial weights, noise and shuffles are the same (drawn on the CPU, as alone); its kernels round
-    differently from the CPU's, so its fits differ from the CPU's as two CPUs' do (docs/favae.md).
-    """
-    from famarl_cli.core.replicate_adam import ReplicateAdam
-    from famarl_cli.method.favae.ensemble import FavaeEnsemble
-    from famarl_cli.method.favae.loss import replicate_loss
-
-    if not replicates:
-        return []
     shared = {replace(r.params, seed=0) for r in replicates}
     if len(shared) != 1:
         raise ValueError("replicates fitted together must share their training parameters but for the seed")
     params = shared.pop()
-    models, noises = [], []  # each replicate's initial weights and noise stream, as it would have them alone
-    for replicate in replicates:
-        torch.manual_seed(replicate.params.seed)
-        models.append(Favae(replicate.config))
-        noises.append(torch.Generator().set_state(torch.get_rng_state()))
-    on = fit_device(device)
-    ensemble = FavaeEnsemble(models, on)
-    shuffles = [torch.Generator().manual_seed(r.params.seed) for r in replicates]
-    sizes = [len(r.padded) for r in replicates]
-    # every replicate's segments, padded to the longest L, and after the most segments an all-zero row that pads batches
-    data = torch.zeros(len(replicates), max(sizes) + 1, ensemble.config.length, ensemble.config.action_dim + 2)
-    for k, replicate in enumerate(replicates):
-        data[k, : sizes[k], : replicate.config.length] = torch.as_tensor(replicate.padded)
-    data = data.to(on)
-    optimiser = ReplicateAdam(ensemble.flat, lr=params.learning_rate)
-    gradient = torch.empty_like(ensemble.flat)
-    ladders, latent = ensemble.config.ladders, ensemble.config.latent_size
-    beta = torch.tensor([r.beta for r in replicates], device=on)
-    population = torch.tensor(sizes, dtype=torch.float32, device=on)
-    columns = _log_columns(ladders)
-    sums = torch.zeros(params.epochs, len(replicates), len(columns), device=on)
+    weights, capacities = schedule(replicates, params)
+    epochs = params.epochs if stop is None else stop
+    return Lockstep(
+        [r.padded for r in replicates],
+        [r.config for r in replicates],
+        [r.params.seed for r in replicates],
+        [r.beta for r in replicates],
+        params.measure,
+        params.learning_rate,
+        params.batch_size,
+        weights[:epochs],
+        capacities[:epochs],
+        fit_device(device),
+        graph,
+    )
+
+
+def train_replicates(
+    replicates: list[Replicate],
+    on_epoch: Callable[[int, dict], None] | None = None,
+    device: str = "cpu",
+    graph: bool = True,
+    stop: int | None = None,
+) -> list[tuple[Favae, list[dict]]]:
+    """Fit K fresh FAVAEs as one batched model, their epochs in lockstep (:func:`lockstep`); returns each
+    replicate's model (on the CPU) and its log, one row per epoch. ``on_epoch(k, row)`` gets replicate k's rows,
+    every :data:`~famarl_cli.method.favae.lockstep.LOG_EVERY` epochs and at the end. ``stop`` trains only the
+    schedule's first ``stop`` epochs (the pre-run).
+
+    Replicate k starts from the weights ``torch.manual_seed(seed); Favae(config)`` makes and draws its epoch orders
+    and sampling noise from counter-based streams of its seed, so it fits the model it would fit alone, up to float
+    rounding, on any device. The replicates may hold different numbers of segments (batches are padded and masked,
+    and a replicate with fewer batches in an epoch skips the extra steps). Each row holds the epoch's means of the
+    loss terms, KL and information per ladder, the capacity C per ladder (and each ladder's weight when
+    progressive).
+    """
+    from famarl_cli.method.favae.lockstep import LOG_EVERY
+
+    if not replicates:
+        return []
+    fit = lockstep(replicates, device, graph, stop)
+    columns = fit.columns(replicates[0].config.ladders)
+    progressive = replicates[0].params.progressive
     logs: list[list[dict]] = [[] for _ in replicates]
-    everyone = torch.arange(len(replicates), device=on)[:, None]
-    schedule = []
-    for epoch in range(params.epochs):
-        weights = torch.tensor(ladder_weights(epoch, params.epochs, ladders, params.progressive))
-        capacities = weights * torch.tensor([capacity(r.c_last, epoch, params.epochs) for r in replicates])
-        schedule.append((weights, capacities))
-        weights, capacities = weights.to(on), capacities.to(on)
-        for index, rows, active in _batches(sizes, params.batch_size, shuffles):
-            counts = rows.sum(dim=1).long().tolist()
-            width = index.shape[1]
-            noise = torch.zeros(len(replicates), width, latent)
-            for k, count in enumerate(counts):
-                if count:  # ladder by ladder, as a Favae draws it alone (randn_like of each ladder's mean)
-                    draws = [torch.randn(count, z, generator=noises[k]) for z in ensemble.config.latent_dims]
-                    noise[k, :count] = torch.cat(draws, dim=1)
-            batch = data[everyone, index.to(on)]
-            noise, rows, weighed = noise.to(on), rows.to(on), active.to(on)
-            # a replicate without a batch at this step is scored on padding (a finite loss) and weighed 0
-            padded_rows = None if all(c == width for c in counts) else rows.masked_fill(~weighed[:, None], 1)
-            reconstruction, mus, logvars, samples = ensemble.forward(batch, noise, weights.expand(len(replicates), -1))
-            terms = replicate_loss(
-                reconstruction,
-                batch,
-                mus,
-                logvars,
-                samples,
-                beta,
-                capacities,
-                population,
-                params.measure,
-                padded_rows,
-                ensemble.step_mask,
-            )
-            gradients = torch.autograd.grad((terms.total * weighed).sum(), ensemble.parameters)
-            torch.cat([g.reshape(len(replicates), -1) for g in gradients], dim=1, out=gradient)
-            optimiser.step(gradient, None if bool(active.all()) else active)
-            values = torch.stack(
-                [terms.total, terms.reconstruction, terms.action_error, terms.on_off, *terms.kl, *terms.information],
-                dim=1,
-            )
-            sums[epoch] += values.detach() * rows.sum(dim=1, keepdim=True)
-        if (epoch + 1) % LOG_EVERY == 0 or epoch + 1 == params.epochs:
-            _read_log(sums, schedule, sizes, columns, params, logs, on_epoch)
-    return list(zip(ensemble.models(), logs, strict=True))
-
-
-def _read_log(sums, schedule, sizes, columns, params: TrainingParams, logs: list[list[dict]], on_epoch) -> None:
-    """Turn the epochs accumulated since the last read into log rows (one host read for all of them)."""
-    first = len(logs[0])
-    means = (sums[first : len(schedule)].cpu() / torch.tensor(sizes, dtype=sums.dtype)[None, :, None]).tolist()
-    for offset, epoch_means in enumerate(means):
-        epoch = first + offset
-        weights, capacities = schedule[epoch]
-        for k, values in enumerate(epoch_means):
-            row = {"epoch": epoch, **dict(zip(columns, values, strict=True))}
-            row.update({f"capacity_{i + 1}": float(c) for i, c in enumerate(capacities[k])})
-            if params.progressive:
-                row.update({f"weight_{i + 1}": float(w) for i, w in enumerate(weights)})
-            logs[k].append(row)
-            if on_epoch:
-                on_epoch(k, row)
+    for first in range(0, fit.epochs, LOG_EVERY):
+        last = min(first + LOG_EVERY, fit.epochs)
+        fit.run(last - first)
+        # as Python lists, a chunk at a time: a tensor read per row costs seconds at a thousand replicates
+        means, capacities = fit.means(first, last).tolist(), fit.schedule_capacities[first:last].tolist()
+        weights = fit.schedule_weights[first:last].tolist()
+        for offset, epoch_means in enumerate(means):
+            epoch = first + offset
+            for k, values in enumerate(epoch_means):
+                row = {"epoch": epoch, **dict(zip(columns, values, strict=True))}
+                row.update({f"capacity_{i + 1}": c for i, c in enumerate(capacities[offset][k])})
+                if progressive:
+                    row.update({f"weight_{i + 1}": w for i, w in enumerate(weights[offset])})
+                logs[k].append(row)
+                if on_epoch:
+                    on_epoch(k, row)
+    return list(zip(fit.models(), logs, strict=True))
 
 
 def train_favae(
@@ -299,14 +223,20 @@ def calibrate_replicates(
     replicates: list[Replicate], on_epoch: Callable[[int, dict], None] | None = None, device: str = "cpu"
 ) -> list[tuple[list[float], list[dict]]]:
     """The C_last pre-runs of K replicates at once: each ``Replicate``'s beta is its pre-run's (the paper's 0.1),
-    its C_last ignored (C = 0); each ladder's value in the last epoch of what the capacities constrain
-    (``params.measure``: its information, or its KL) is its C_last. Returns (C_last, log) per replicate. They run
-    on ``device`` (:func:`train_replicates`)."""
+    its C_last ignored (C = 0); the pre-run trains the first ``params.pre_run`` of the fit's schedule, and each
+    ladder's mean, over the pre-run's window (:func:`~famarl_cli.method.favae.schedule.pre_run_window`), of what the
+    capacities constrain (``params.measure``: its information, or its KL) is its C_last. Returns (C_last, log) per
+    replicate. They run on ``device`` (:func:`train_replicates`)."""
+    if not replicates:
+        return []
     zero = [replace(r, c_last=[0.0] * r.config.ladders) for r in replicates]
+    params, ladders = replicates[0].params, replicates[0].config.ladders
+    window = pre_run_window(params.pre_run, params.epochs, ladders, params.progressive)
     results = []
-    for replicate, (_, log) in zip(zero, train_replicates(zero, on_epoch, device), strict=True):
+    for replicate, (_, log) in zip(zero, train_replicates(zero, on_epoch, device, stop=window.stop), strict=True):
         column = "kl" if replicate.params.measure == Measure.KL else "information"
-        results.append(([float(log[-1][f"{column}_{i + 1}"]) for i in range(replicate.config.ladders)], log))
+        c_last = [float(np.mean([log[e][f"{column}_{i + 1}"] for e in window])) for i in range(ladders)]
+        results.append((c_last, log))
     return results
 
 
