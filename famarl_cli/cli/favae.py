@@ -34,9 +34,10 @@ def _epoch_reporter(progress: Progress, task, phase: str):
 
 @command(favae_app, CalibrateOptions, "calibrate")
 def favae_calibrate(options: CalibrateOptions) -> None:
-    """The C_last pre-run: fit with a small beta and C = 0; each ladder's final information (or KL, with
-    --capacity-measure kl) becomes its C_last. With the defaults, about half a minute on one core of a 2-core
-    AMD EPYC VM (1500 epochs of 2 batches, about 12 ms a step: docs/performance.md)."""
+    """The C_last pre-run: fit with a small beta and C = 0 for the first --pre-run share of the fit's schedule;
+    each ladder's mean information (or KL, with --capacity-measure kl) over the pre-run's last third becomes its
+    C_last. With the defaults, about 12 s on one core of a 2-core AMD EPYC VM (450 epochs of 2 batches;
+    docs/performance.md)."""
     from famarl_cli.stages import method as stages
 
     torch_on_one_thread()
@@ -51,8 +52,8 @@ def favae_calibrate(options: CalibrateOptions) -> None:
 @command(favae_app, FitOptions, "fit")
 def favae_fit(options: FitOptions) -> None:
     """Fit FAVAE on segments (after the C_last pre-run unless --calibration is given) and score it. With the
-    defaults, about a minute on one core of a 2-core AMD EPYC VM (pre-run and fit, 1500 epochs each; half of it
-    with --calibration: docs/performance.md)."""
+    defaults, about 40 s on one core of a 2-core AMD EPYC VM (a pre-run of 450 epochs and a fit of 1500; three
+    quarters of it with --calibration: docs/performance.md)."""
     from famarl_cli.stages import method as stages
 
     torch_on_one_thread()

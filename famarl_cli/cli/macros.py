@@ -29,8 +29,8 @@ def macros(options: MacrosOptions) -> None:
     prior fit's, on the folder's segments and FAVAE). An interrupted folder continues at the step it was in. famarl
     sweep macros runs this for many seeds (independent replicates).
 
-    Time with the defaults (100 demos): about 70 s on one core of a 2-core AMD EPYC VM; 10 replicates with famarl
-    sweep macros, about 3 minutes on 2 cores (docs/performance.md, docs/pipelines.md).
+    Time with the defaults (100 demos): about 45 s on one core of a 2-core AMD EPYC VM; 10 replicates with famarl
+    sweep macros, about 2.5 minutes on 2 cores (docs/performance.md, docs/pipelines.md).
     """
     from famarl_cli.artifacts.lock import claim_folder
     from famarl_cli.stages.macros import learn_macros
