@@ -312,6 +312,8 @@ def test_robot_hand_trains_and_evaluates_through_the_gymnasium_loop(tmp_path):
     assert famarl("evaluate", "--run", out, "--episodes", 2).exit_code == 0
     metrics = json.loads((out / "eval.json").read_text())
     assert metrics["episodes"] == 2 and 1 <= metrics["macro_length"] <= 16
+    # the layouts it was judged on, drawn from the evaluation's seed with the run's
+    assert metrics["evaluation_seed"] == 100 and metrics["layout_seed"] not in (0, 100)
     assert_film(out, max_frames=301)
     mismatched = famarl("train", "--env", "famarl/ContinuousWorld-Maze-v0", "--favae", favae, "--out", tmp_path / "x")
     assert mismatched.exit_code != 0 and "Traceback" not in mismatched.output

@@ -7,6 +7,7 @@ import json
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 from cli_helpers import famarl, one_line_error
 
@@ -80,6 +81,10 @@ def project(tmp_path: Path, monkeypatch) -> Path:
     )
     (tmp_path / "docs" / "skills.md").write_text("# Skills\n")
     (tmp_path / "docs" / "favae.md").write_text("# FAVAE\n")
+    (tmp_path / "docs" / "verdicts.md").write_text("# Verdicts\n")
+    (tmp_path / "docs" / "aggregate.md").write_text(
+        f"{docs.BEGIN.format(name='aggregate')}\n{docs.END.format(name='aggregate')}\n"
+    )
     return tmp_path
 
 
@@ -89,9 +94,10 @@ def test_the_committed_docs_are_what_the_committed_metrics_give():
 
 
 def test_tables_carry_each_claim_with_its_interval_n_rule_and_where_it_was_made(project):
-    assert docs.write_docs(project) == ["README.md", "docs/pipelines.md", "docs/performance.md"]
+    assert docs.write_docs(project) == ["README.md", "docs/pipelines.md", "docs/performance.md", "docs/aggregate.md"]
     readme = (project / "README.md").read_text()
-    assert "| `dvc.yaml` | maze | 1 | 1 | 0 | 0 | 2026-12-04, `abc1234`, CPU, AVX2, 2 cores | current |" in readme
+    row = "| `dvc.yaml` | maze | 1 | 1 | 0 | 0 | 0.05 | 2026-12-04, `abc1234`, CPU, AVX2, 2 cores | current |"
+    assert row in readme
     assert "| FaMARL completes the Maze | famarl: n=3: 0.90 [0.85, 0.95] | mean >= 0.8 | reproduces |" in readme
     assert readme.startswith("# x\n") and readme.endswith("\ntext after\n") and "old" not in readme
     pipelines = (project / "docs/pipelines.md").read_text()
@@ -149,6 +155,28 @@ def test_the_performance_table_is_each_benchmark_s_recorded_result_with_where_it
     (project / docs.MEASURED).write_text(json.dumps({"ppo_vs_sb3": {"what": "x"}}))
     with pytest.raises(ArtifactError, match="benchmark result 'ppo_vs_sb3' lacks command"):
         docs.tables(project)
+
+
+def test_the_aggregate_pools_the_paper_agents_runs_over_the_tasks_all_three_ran(project):
+    assert "No committed summary holds per-run scores" in docs.tables(project)["aggregate"]
+    summary = _summary()
+    rng = np.random.default_rng(0)
+    levels = {"famarl": 0.9, "ppo": 0.5, "figar": 0.2}
+    summary["maze"]["scores"] = {
+        agent: {"label": agent, "env": "famarl/ContinuousWorld-Maze-v0", "seeds": list(range(10)),
+                "success": np.clip(level + rng.normal(0, 0.05, 10), 0, 1).round(3).tolist()}
+        for agent, level in levels.items()
+    }  # fmt: skip
+    (project / "summary.json").write_text(json.dumps(summary))
+    table = docs.tables(project)["aggregate"]
+    assert "`famarl/ContinuousWorld-Maze-v0`" in table and "| famarl over ppo | 1.00 [1.00, 1.00] |" in table
+    assert "| figar |" in table and "10 of 10 |" in table  # every FiGAR run at 0.2: failed
+    docs.write_docs(project)
+    assert (project / docs.AGGREGATE_FIGURE).stat().st_size > 1000
+    # a task the three did not all run is left out
+    del summary["maze"]["scores"]["figar"]
+    (project / "summary.json").write_text(json.dumps(summary))
+    assert "No committed summary" in docs.tables(project)["aggregate"]
 
 
 def test_a_pipeline_without_committed_metrics_says_how_to_make_them(project):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +39,8 @@ def make_run(
     wall: float = 10.0,
 ) -> None:
     """An evaluated run as a pipeline leaves it: <experiment>/runs/<name>/ (run.json, train.csv whose training
-    success jumps from 0 to ``success`` at ``learned_at`` of the budget) and <experiment>/eval/<name>/eval.json."""
+    success jumps from 0 to ``success`` at ``learned_at`` of the budget) and <experiment>/eval/<name>/eval.json. Its
+    seed (its replicate) is the number that ends ``name``."""
     run = data / experiment / "runs" / name
     run.mkdir(parents=True)
     spec = {"ppo": {"total_steps": BUDGET}, "favae": None if favae is None else str(favae)}
@@ -60,7 +62,7 @@ def make_run(
         "label": label,
         "agent": agent,
         "env": env,
-        "seed": 0,
+        "seed": int(re.search(r"(\d+)$", name)[1]),
         "run": str(run),
         "env_steps": BUDGET,
         "train_wall_s": wall,

@@ -12,6 +12,8 @@ from famarl_cli.report.verdicts import (
     bonferroni_level,
     equivalent,
     fails,
+    faster,
+    fastest,
     improves,
     solves,
 )
@@ -45,20 +47,89 @@ def test_seeds_all_at_one_are_judged_with_the_evaluations_noise():
     assert judgement.verdict == Verdict.INCONCLUSIVE
 
 
-def test_beats_needs_the_difference_above_zero_and_denies_it_below_delta():
+def test_beats_needs_the_difference_shown_at_least_delta_and_denies_it_below_delta():
     assert beats("a", HIGH, "b", LOW, 0.05, episodes=100).verdict == Verdict.REPRODUCES
     assert beats("b", LOW, "a", HIGH, 0.05, episodes=100).verdict == Verdict.DOES_NOT
-    # Equal arms: the difference's upper end is above 0 but below no delta of 0.5: "not better by 0.5".
+    # Equal arms: the difference's upper end is above 0 but below a delta of 0.5: "not better by 0.5".
     assert beats("a", HIGH, "c", HIGH, 0.5, episodes=100).verdict == Verdict.DOES_NOT
     assert beats("a", HIGH, "c", HIGH, 0.01, episodes=100).verdict == Verdict.INCONCLUSIVE
 
 
+def test_an_effect_shown_smaller_than_delta_never_reproduces():
+    """The overlap of the old rule: two tight arms 0.02 apart, the interval wholly above 0 and wholly below delta.
+    "Better" and "not better by delta" cannot both hold; delta decides, and the verdict is "does not"."""
+    a = [0.520, 0.521, 0.519, 0.520, 0.522, 0.518, 0.520, 0.521, 0.519, 0.520]
+    b = [0.500, 0.501, 0.499, 0.500, 0.502, 0.498, 0.500, 0.501, 0.499, 0.500]
+    judgement = beats("a", a, "b", b, 0.05)
+    interval = judgement.estimates[0].interval
+    assert 0 < interval.low and interval.high < 0.05
+    assert judgement.verdict == Verdict.DOES_NOT
+    assert beats("a", a, "b", b, 0.05, paired=True).verdict == Verdict.DOES_NOT
+
+
+@pytest.mark.parametrize(
+    ("shift", "expected"),
+    [
+        (0.10, Verdict.REPRODUCES),  # interval wholly at or above delta
+        (0.05, Verdict.INCONCLUSIVE),  # estimate on delta: the interval straddles it
+        (0.00, Verdict.DOES_NOT),  # wholly below delta
+        (-0.10, Verdict.DOES_NOT),  # worse
+    ],
+)
+def test_each_side_of_delta(shift, expected):
+    base = [0.50, 0.52, 0.48, 0.51, 0.49, 0.50, 0.53, 0.47, 0.50, 0.50]
+    better = [v + shift for v in base]
+    noisy = [v + d for v, d in zip(better, [0.01, -0.01, 0.0, 0.01, -0.01, 0.0, 0.01, -0.01, 0.0, 0.0], strict=True)]
+    assert beats("a", noisy, "b", base, 0.05, paired=True).verdict == expected
+
+
+def test_the_boundary_counts_as_shown():
+    """Every difference exactly delta (binary fractions, so exactly): the interval is [delta, delta]. Its lower end on
+    delta reproduces, as a lower end on tau solves; its upper end on delta denies nothing."""
+    base = [1.0, 2.0, 3.0, 4.0]
+    judgement = beats("a", [v + 0.25 for v in base], "b", base, 0.25, paired=True)
+    assert (judgement.estimates[0].interval.low, judgement.estimates[0].interval.high) == (0.25, 0.25)
+    assert judgement.verdict == Verdict.REPRODUCES
+    assert beats("a", [v + 0.25 for v in base], "b", base, 0.5, paired=True).verdict == Verdict.DOES_NOT
+
+
+def test_pairing_by_replicate_removes_what_the_replicates_share():
+    """Two agents on the same replicates: a replicate effect much larger than the difference hides the difference
+    from Welch's interval and not from the paired one."""
+    replicate = [0.1, 0.5, 0.9, 0.3, 0.7, 0.2, 0.8, 0.4, 0.6, 0.5]
+    a = [r + 0.10 for r in replicate]
+    b = [r + d for r, d in zip(replicate, [0.01, -0.01, 0.0, 0.02, -0.02, 0.0, 0.01, -0.01, 0.0, 0.0], strict=True)]
+    assert beats("a", a, "b", b, 0.05).verdict == Verdict.INCONCLUSIVE
+    judgement = beats("a", a, "b", b, 0.05, paired=True)
+    assert judgement.verdict == Verdict.REPRODUCES and "paired by replicate" in judgement.rule
+
+
 def test_best_is_bonferroni_over_the_rivals():
-    judgement = best("a", HIGH, {"b": LOW, "c": LOW}, 0.05, episodes=100)
+    judgement = best("a", {"b": (HIGH, LOW, False), "c": (HIGH, LOW, False)}, 0.05, episodes=100)
     assert judgement.verdict == Verdict.REPRODUCES
     assert "97.5%" in judgement.rule and len(judgement.estimates) == 2
-    assert best("a", HIGH, {"b": LOW, "c": [0.99, 0.99, 0.98, 0.99, 1.0]}, 0.05, 100).verdict == Verdict.DOES_NOT
+    near = [0.99, 0.99, 0.98, 0.99, 1.0]
+    assert best("a", {"b": (HIGH, LOW, False), "c": (HIGH, near, True)}, 0.05, 100).verdict == Verdict.DOES_NOT
     assert bonferroni_level(4) == pytest.approx(1 - 0.05 / 4)
+
+
+INF = float("inf")
+
+
+def test_learning_faster_is_judged_on_censored_steps_to_the_threshold():
+    # shares of the budget at which each replicate first reached 0.8; inf: never
+    quick = [0.10, 0.12, 0.09, 0.11, 0.10, 0.13, 0.08, 0.12, 0.10, 0.11]
+    slow = [0.30, 0.35, 0.28, 0.40, INF, 0.33, 0.31, INF, 0.29, 0.36]
+    judgement = faster("a", quick, "b", slow, 0.05, paired=True)
+    assert judgement.verdict == Verdict.REPRODUCES and "censored" in judgement.rule
+    assert faster("b", slow, "a", quick, 0.05, paired=True).verdict == Verdict.DOES_NOT
+    # a head start does not count: the same steps to the threshold is no faster, whatever the start
+    assert faster("a", quick, "c", quick, 0.05, paired=True).verdict == Verdict.DOES_NOT
+    # every run of one arm censored: it is slower than any arm that got there; when neither did, neither is faster
+    never = [INF] * 10
+    assert faster("a", quick, "n", never, 0.05, paired=True).verdict == Verdict.REPRODUCES
+    assert faster("n", never, "m", never, 0.05, paired=True).verdict == Verdict.DOES_NOT
+    assert fastest("a", {"b": (quick, slow, True), "n": (quick, never, True)}, 0.05).verdict == Verdict.REPRODUCES
 
 
 def test_equivalence_within_and_outside_the_margin():

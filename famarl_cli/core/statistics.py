@@ -5,6 +5,12 @@ judged on.
   difference of means, over per-seed values. For success rates, each arm's variance is floored at the
   evaluation's binomial noise, ``p (1 - p) / K`` with ``p = (successes + 1/2) / (n K + 1)`` over its n seeds of K
   episodes each: without the floor, seeds that all score 1.00 give an interval of zero width.
+  :func:`paired_difference_interval`: the t interval of the mean of per-replicate differences, where two arms share
+  their replicates (the same seed's runs, evaluated on the same layouts); its variance floored, for rates, at the
+  two arms' binomial noise together.
+- :func:`censored_difference` and :func:`censored_ratio`: how much sooner one arm reaches a threshold than another
+  (or how many times as long it takes), where a run that never reaches it is censored (counted as later than every
+  run that does), by medians with a bootstrap interval.
   :func:`ratio_interval`: a bootstrap interval of a ratio of means (one agent's cost or speed over another's).
 - :func:`aggregate_interval`, :func:`iqm`, :func:`probability_of_improvement`, :func:`performance_profile`:
   aggregates over several tasks as rliable computes them (Agarwal et al. 2021), with the stratified bootstrap
@@ -40,7 +46,10 @@ class Interval:
         return Interval(self.estimate, max(self.low, bounds[0]), min(self.high, bounds[1]), self.level)
 
     def text(self, fmt: str = "{:.2f}") -> str:
-        return f"{fmt.format(self.estimate)} [{fmt.format(self.low)}, {fmt.format(self.high)}]"
+        """``estimate [low, high]``, and the level where it is not :data:`LEVEL` (a Bonferroni share of it, say), so
+        that no interval is read at a level it does not have."""
+        level = "" if round(self.level, 6) == LEVEL else f" ({100 * self.level:.4g}%)"
+        return f"{fmt.format(self.estimate)} [{fmt.format(self.low)}, {fmt.format(self.high)}]{level}"
 
 
 def floored_variance(values: Sequence[float], episodes: int | None = None) -> float:
@@ -92,6 +101,124 @@ def difference_interval(
     df = 1 / (wa**2 / (len(a) - 1) + wb**2 / (len(b) - 1))
     half = stats.t.ppf(0.5 + level / 2, df) * se
     return Interval(estimate, estimate - half, estimate + half, level).within(bounds)
+
+
+def paired_difference_interval(
+    a: Sequence[float], b: Sequence[float], episodes: int | None = None, level: float = LEVEL
+) -> Interval:
+    """t interval of the mean of a_i - b_i over replicates i that pair (a_i and b_i from the same replicate). For
+    success rates over ``episodes`` episodes, the differences' variance is floored at the two arms' binomial
+    variances together: what each rate's own episodes add, which pairing does not remove (an upper bound of it,
+    so the floor errs wide), and the interval is cut to [-1, 1]."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if a.shape != b.shape:
+        raise ValueError(f"paired values need one value per replicate on each side, got {len(a)} and {len(b)}")
+    differences = a - b
+    estimate = float(differences.mean())
+    bounds = (-1.0, 1.0) if episodes else None
+    if len(differences) < 2:
+        return Interval(estimate, -np.inf, np.inf, level).within(bounds)
+    variance = float(differences.var(ddof=1))
+    if episodes:
+        variance = max(variance, _binomial(a, episodes) + _binomial(b, episodes))
+    half = stats.t.ppf(0.5 + level / 2, len(differences) - 1) * np.sqrt(variance / len(differences))
+    return Interval(estimate, estimate - half, estimate + half, level).within(bounds)
+
+
+def _binomial(values: np.ndarray, episodes: int) -> float:
+    """One seed's binomial variance of a rate over ``episodes`` episodes, at the arm's mean rate (shrunk off 0 and
+    1 as :func:`floored_variance` shrinks it)."""
+    p = (values.sum() * episodes + 0.5) / (len(values) * episodes + 1)
+    return float(p * (1 - p) / episodes)
+
+
+def censored_difference(
+    a: Sequence[float], b: Sequence[float], paired: bool, level: float = LEVEL, seed: int = 0
+) -> Interval:
+    """How much sooner arm ``a`` reaches a threshold than arm ``b``: values are the times at which each run
+    reached it, ``inf`` for a run that never did (censored: it is later than every run that did, by how much
+    nobody knows). Paired: the median over replicates of b_i - a_i, where two censored runs tie (0) and one
+    censored run is +-inf; unpaired, median(b) - median(a). Either way a percentile bootstrap over replicates
+    (pairs resampled together), whose ends may be infinite: where most runs are censored nothing finite is known.
+    Medians, because a mean of censored times is not defined."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if paired:
+        if a.shape != b.shape:
+            raise ValueError(f"paired values need one value per replicate on each side, got {len(a)} and {len(b)}")
+        differences = _censored_differences(b, a)
+        estimate = _median(differences)
+        if len(differences) < 2:
+            return Interval(estimate, -np.inf, np.inf, level)
+        draws = _resamples(len(differences), seed)
+        return _percentiles([_median(differences[d]) for d in draws], estimate, level)
+    estimate = _censored_difference_of_medians(b, a)
+    if len(a) < 2 or len(b) < 2:
+        return Interval(estimate, -np.inf, np.inf, level)
+    draws_a, draws_b = _resamples(len(a), seed), _resamples(len(b), seed + 1)
+    resampled = [_censored_difference_of_medians(b[db], a[da]) for da, db in zip(draws_a, draws_b, strict=True)]
+    return _percentiles(resampled, estimate, level)
+
+
+def censored_ratio(
+    a: Sequence[float], b: Sequence[float], paired: bool, level: float = LEVEL, seed: int = 0
+) -> Interval:
+    """median(a) / median(b) of times to a threshold, ``inf`` for a censored run (see :func:`censored_difference`),
+    with a percentile bootstrap over replicates (pairs resampled together where ``paired``): how many times one
+    arm's typical time another's. Infinite where more than half of ``a``'s runs never got there; 0 where ``b``'s."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+
+    def ratio(x: np.ndarray, y: np.ndarray) -> float:
+        top, bottom = _median(x), _median(y)
+        if np.isinf(top) and np.isinf(bottom):
+            return 1.0  # neither arm's typical run got there: nothing tells them apart
+        with np.errstate(divide="ignore"):
+            return float(top / bottom) if bottom > 0 else np.inf
+
+    estimate = ratio(a, b)
+    if len(a) < 2 or len(b) < 2:
+        return Interval(estimate, 0.0, np.inf, level)
+    if paired:
+        if a.shape != b.shape:
+            raise ValueError(f"paired values need one value per replicate on each side, got {len(a)} and {len(b)}")
+        draws = _resamples(len(a), seed)
+        return _percentiles([ratio(a[d], b[d]) for d in draws], estimate, level)
+    draws_a, draws_b = _resamples(len(a), seed), _resamples(len(b), seed + 1)
+    return _percentiles([ratio(a[da], b[db]) for da, db in zip(draws_a, draws_b, strict=True)], estimate, level)
+
+
+def _censored_differences(later: np.ndarray, sooner: np.ndarray) -> np.ndarray:
+    """later - sooner per pair, two censored (inf) runs tying at 0."""
+    both = np.isinf(later) & np.isinf(sooner)
+    with np.errstate(invalid="ignore"):
+        return np.where(both, 0.0, later - sooner)
+
+
+def _median(values: np.ndarray) -> float:
+    """The median where values may be infinite: a middle pair of one infinite value is infinite (at least that far),
+    a pair of opposite infinities has no centre and counts as 0 (no difference known)."""
+    with np.errstate(invalid="ignore"):
+        median = float(np.median(values))
+    return 0.0 if np.isnan(median) else median
+
+
+def _censored_difference_of_medians(later: np.ndarray, sooner: np.ndarray) -> float:
+    m_later, m_sooner = _median(later), _median(sooner)
+    if np.isinf(m_later) and np.isinf(m_sooner):
+        return 0.0
+    return float(m_later - m_sooner)
+
+
+def _resamples(n: int, seed: int) -> np.ndarray:
+    return np.random.default_rng(seed).integers(0, n, (BOOTSTRAP_RESAMPLES, n))
+
+
+def _percentiles(values: list[float], estimate: float, level: float) -> Interval:
+    """The percentile interval of bootstrap ``values`` (nearest rank: infinite values stay what they are)."""
+    tail = (1 - level) / 2
+    ordered = np.sort(np.asarray(values, dtype=float))
+    low = ordered[int(np.floor(tail * (len(ordered) - 1)))]
+    high = ordered[int(np.ceil((1 - tail) * (len(ordered) - 1)))]
+    return Interval(estimate, float(low), float(high), level)
 
 
 def ratio_interval(a: Sequence[float], b: Sequence[float], level: float = LEVEL, seed: int = 0) -> Interval:

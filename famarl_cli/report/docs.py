@@ -16,11 +16,21 @@ import re
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
+import numpy as np
+
 from famarl_cli.core.errors import ArtifactError
-from famarl_cli.core.statistics import Interval
+from famarl_cli.core.statistics import LEVEL, Interval
 from famarl_cli.report.results import read_json
 
-FILES = ("README.md", "docs/pipelines.md", "docs/performance.md", "docs/skills.md", "docs/favae.md")
+FILES = (
+    "README.md",
+    "docs/pipelines.md",
+    "docs/performance.md",
+    "docs/skills.md",
+    "docs/favae.md",
+    "docs/verdicts.md",
+    "docs/aggregate.md",
+)
 """The files that carry generated tables."""
 WALLS = "benchmarks/pipeline_walls.json"
 MEASURED = "benchmarks/measured.json"
@@ -132,29 +142,30 @@ def _status(pipeline: Pipeline) -> str:
 
 def verdicts_table(found: list[Pipeline]) -> str:
     lines = [
-        "| pipeline | experiment | claims | reproduce (met) | do not (missed) | inconclusive | made (date, revision, "
-        "machine) | status |",
-        "|---|---|---|---|---|---|---|---|",
+        "| pipeline | experiment | claims | reproduce (met) | do not (missed) | inconclusive | wrong by chance, "
+        "expected at most | made (date, revision, machine) | status |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     totals = {"current": [0, 0, 0, 0], "stale": [0, 0, 0, 0]}
     for pipeline in found:
         if pipeline.summary is None:
-            lines.append(f"| {pipeline.link} | | | | | | | {_status(pipeline)} |")
+            lines.append(f"| {pipeline.link} | | | | | | | | {_status(pipeline)} |")
             continue
         for name, section in _experiments(pipeline):
             counts = [section[key] for key in COUNTS]
             kind = "stale" if pipeline.stale else "current"
             totals[kind] = [a + b for a, b in zip(totals[kind], counts, strict=True)]
             lines.append(
-                f"| {pipeline.link} | {name} | " + " | ".join(map(str, counts)) + f" | {_made(section)} | "
-                f"{_status(pipeline)} |"
+                f"| {pipeline.link} | {name} | " + " | ".join(map(str, counts)) + f" | {_chance(counts):.2g} | "
+                f"{_made(section)} | {_status(pipeline)} |"
             )
     lines.append("")
     for kind, (claims, held, not_held, open_) in totals.items():
         if claims:
             lines.append(
                 f"In {kind} pipelines: {claims} claims, {held} reproduce (or met), {not_held} do not (or missed), "
-                f"{open_} inconclusive."
+                f"{open_} inconclusive; at most {_chance([claims, held, not_held, open_]):.2g} of the decisive "
+                "verdicts are expected to be wrong by chance."
             )
     missing = [p.name for p in found if p.summary is None]
     if missing:
@@ -162,17 +173,24 @@ def verdicts_table(found: list[Pipeline]) -> str:
     return "\n".join(lines).rstrip() + "\n"
 
 
+def _chance(counts: list[int]) -> float:
+    """The wrong verdicts chance allows among a count's decisive ones (reproduce or not; inconclusive is never
+    wrong): each is wrong with probability at most 1 - LEVEL (docs/verdicts.md, "The family")."""
+    return (1 - LEVEL) * (counts[1] + counts[2])
+
+
 def _estimates(claim: dict) -> str:
     parts = []
     for e in claim["estimates"]:
         n = f"n={e['n']}: " if e["n"] else ""
-        parts.append(f"{e['name']}: {n}{Interval(e['estimate'], e['low'], e['high']).text()}")
+        interval = Interval(e["estimate"], e["low"], e["high"], e.get("level", LEVEL))
+        parts.append(f"{e['name']}: {n}{interval.text()}")
     return "<br>".join(parts) or "(no runs)"
 
 
 def claims_table(found: list[Pipeline]) -> str:
     lines = [
-        "| pipeline | claim (paper) or goal | estimate [95% CI], n seeds | rule | verdict |",
+        "| pipeline | claim (paper) or goal | estimate [95% CI unless marked], n seeds | rule | verdict |",
         "|---|---|---|---|---|",
     ]
     for pipeline in found:
@@ -210,7 +228,7 @@ def headline_table(found: list[Pipeline], name: str = "default") -> str:
             f"| {agent} | {h['n']} | {Interval(h['success'], h['success_low'], h['success_high']).text()} | "
             f"{h['auc']:.2f} | {h['return']:.1f} |"
         )
-    lines += ["", "| claim | estimate [95% CI] | verdict |", "|---|---|---|"]
+    lines += ["", "| claim | estimate [95% CI unless marked] | verdict |", "|---|---|---|"]
     lines += [f"| {c['claim']} | {_estimates(c)} | {c['verdict']} |" for c in section.get("judged", [])]
     return "\n".join(lines) + "\n"
 
@@ -271,6 +289,82 @@ def performance_table(root: Path, subject: str | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
+PAPER_AGENTS = ("famarl", "ppo", "figar")
+"""The paper's three agents, compared over its tasks in the aggregate table."""
+PAPER_TASKS = ("maze", "robothand")
+"""The experiments that run all three on the paper's tasks (the Maze; RobotHand's Reaching and BallPlacing)."""
+FAILED_SUCCESS = 0.5
+"""A run whose success is at most this failed (the report's threshold for "fails to converge")."""
+AGGREGATE_FIGURE = "docs/img/aggregate-profile.png"
+
+
+def paper_task_scores(found: list[Pipeline]) -> tuple[dict[str, dict[str, list[float]]], list[str]]:
+    """Per task (env id) that all of :data:`PAPER_AGENTS` ran, each agent's per-run success, from the committed
+    summaries of :data:`PAPER_TASKS`; and the pipelines they came from that are stale."""
+    tasks: dict[str, dict[str, list[float]]] = {}
+    stale = []
+    for pipeline in found:
+        for name, section in _experiments(pipeline):
+            if name not in PAPER_TASKS or "scores" not in section:
+                continue
+            if pipeline.stale:
+                stale.append(pipeline.name)
+            for series in section["scores"].values():
+                if series["label"] in PAPER_AGENTS:
+                    tasks.setdefault(series["env"], {}).setdefault(series["label"], series["success"])
+    complete = {env: agents for env, agents in tasks.items() if all(a in agents for a in PAPER_AGENTS)}
+    return complete, sorted(set(stale))
+
+
+def aggregate_table(found: list[Pipeline]) -> str:
+    """The paper's agents over its tasks, as rliable aggregates them: IQM, mean and optimality gap of the success
+    with stratified-bootstrap intervals, the share of failed runs, and FaMARL's probability of improvement over each
+    baseline."""
+    from famarl_cli.core.statistics import aggregate_interval, probability_of_improvement
+
+    tasks, stale = paper_task_scores(found)
+    if not tasks:
+        return (
+            "No committed summary holds per-run scores of all three agents on a paper's task yet: they come with the "
+            "next run of the default and robothand pipelines.\n"
+        )
+    per_agent = {agent: [np.asarray(tasks[env][agent]) for env in tasks] for agent in PAPER_AGENTS}
+    envs = ", ".join(f"`{env}`" for env in tasks)
+    lines = [
+        f"Tasks: {envs} ({sum(len(v) for v in per_agent['famarl'])} FaMARL runs in all)"
+        + (f"; from stale pipelines: {', '.join(stale)}." if stale else "."),
+        "",
+        "| agent | IQM [95% CI] | mean [95% CI] | optimality gap [95% CI] | failed runs (success <= 0.5) |",
+        "|---|---|---|---|---|",
+    ]
+    for agent, runs in per_agent.items():
+        gap = aggregate_interval(runs, lambda x: float(np.mean(np.maximum(0.0, 1.0 - x))))
+        pooled = np.concatenate(runs)
+        lines.append(
+            f"| {agent} | {aggregate_interval(runs).text()} | {aggregate_interval(runs, np.mean).text()} | "
+            f"{gap.text()} | {int((pooled <= FAILED_SUCCESS).sum())} of {len(pooled)} |"
+        )
+    lines += ["", "| probability of improvement (a run of the first beats a run of the second) | [95% CI] |"]
+    lines.append("|---|---|")
+    for rival in PAPER_AGENTS[1:]:
+        improvement = probability_of_improvement(per_agent["famarl"], per_agent[rival])
+        lines.append(f"| famarl over {rival} | {improvement.text()} |")
+    return "\n".join(lines) + "\n"
+
+
+def aggregate_figure(root: Path, found: list[Pipeline]) -> Path | None:
+    """The performance profile of the aggregate table's runs, drawn to :data:`AGGREGATE_FIGURE`."""
+    from famarl_cli.report.plots import plot_performance_profile
+
+    tasks, _ = paper_task_scores(found)
+    if not tasks:
+        return None
+    path = root / AGGREGATE_FIGURE
+    per_agent = {agent: [np.asarray(tasks[env][agent]) for env in tasks] for agent in PAPER_AGENTS}
+    plot_performance_profile(per_agent, path, f"The paper's tasks ({len(tasks)}): performance profile")
+    return path
+
+
 def _subject(name: str) -> str:
     """A benchmark result's subject: the first word of its name (``favae_prerun`` -> ``favae``)."""
     return name.split("_")[0]
@@ -287,6 +381,7 @@ def tables(root: Path) -> dict[str, str]:
         "headline": headline_table(found),
         "walls": walls_table(root, found),
         "performance": performance_table(root),
+        "aggregate": aggregate_table(found),
         **{f"headline-{p.name}": headline_table(found, p.name) for p in found if p.name != "default"},
         **{f"benchmarks-{subject}": performance_table(root, subject) for subject in subjects},
     }
@@ -320,4 +415,5 @@ def write_docs(root: Path, check: bool = False) -> list[str]:
         for name in changed:
             with atomic_path(root / name) as temp:
                 temp.write_text(new[name])
+        aggregate_figure(root, pipelines(root))
     return changed

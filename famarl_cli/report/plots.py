@@ -286,8 +286,8 @@ VERDICT_COLOURS = {"reproduces": "tab:green", "does not reproduce": "tab:red", "
 
 
 def plot_intervals(claims: list, path: str | os.PathLike, title: str) -> None:
-    """Per claim, each interval its verdict read (estimate and 95% interval, coloured by the verdict) beside the
-    threshold it was compared with (a black tick)."""
+    """Per claim, each interval its verdict read (estimate and interval at the rule's level, coloured by the
+    verdict) beside the threshold it was compared with (a black tick)."""
     rows = [(claim, estimate) for claim in claims for estimate in claim.judgement.estimates]
     fig = Figure(figsize=(10, 0.55 * max(len(rows), 1) + 1.2), layout="constrained")
     ax = fig.subplots()
@@ -305,7 +305,7 @@ def plot_intervals(claims: list, path: str | os.PathLike, title: str) -> None:
     handles = [Line2D([], [], color=c, linewidth=3, label=v) for v, c in VERDICT_COLOURS.items()]
     handles.append(Line2D([], [], color="black", marker="|", linestyle="", markersize=10, label="threshold"))
     fig.legend(handles=handles, fontsize=7, loc="outside lower center", ncols=len(handles), frameon=False)
-    ax.set_title(f"{title}: estimate and 95% interval per claim", fontsize=9)
+    ax.set_title(f"{title}: estimate and interval (at its rule's level) per claim", fontsize=9)
     _save(fig, path)
 
 

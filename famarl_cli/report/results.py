@@ -10,7 +10,8 @@ A pipeline leaves, per run, a run folder (``run.json``, ``train.csv``) and an ev
 - **AUC**: the area under the training success curve (mean over the last 100 episodes, from ``train.csv``) on a
   common grid of env steps up to the budget, normalised to [0, 1]: sample efficiency.
 - **steps to 0.8**: env steps until the training success, smoothed over 5 updates, first reaches 0.8. Runs that
-  never reach it are censored: tables give the fraction that did and the mean over those, and drop none.
+  never reach it are censored (later than every run that does): tables give how many did and the median over all,
+  and drop none; "learns faster" is judged on it (:func:`famarl_cli.report.verdicts.faster`).
 """
 
 from __future__ import annotations
@@ -137,10 +138,14 @@ def _cell(values: np.ndarray, episodes: int | None = None, fmt: str = "{:.2f}") 
 
 
 def reached(g: Group) -> str:
+    """How many runs reached the threshold and the median env steps to it, the others counted as later than all
+    (censored): unknown where half or more never got there."""
     steps = [run.steps_to_threshold for run in g.runs]
     hit = [s for s in steps if s is not None]
-    mean = f", mean {np.mean(hit) / 1000:,.0f}k" if hit else ""
-    return f"{len(hit)}/{len(steps)}{mean}"
+    ordered = sorted(np.inf if s is None else s for s in steps)
+    median = float(np.median(ordered))
+    shown = f", median {median / 1000:,.0f}k" if np.isfinite(median) else ", median not reached"
+    return f"{len(hit)}/{len(steps)}{shown}"
 
 
 def results_table(groups: list[Group], extra: dict | None = None) -> str:
@@ -154,7 +159,7 @@ def results_table(groups: list[Group], extra: dict | None = None) -> str:
         "success [95% CI]",
         "deterministic success",
         "AUC [95% CI]",
-        f"steps to {THRESHOLD:g} (reached, mean)",
+        f"steps to {THRESHOLD:g} (reached, median)",
         "return",
         "macro length",
         "train wall / run",
@@ -223,6 +228,20 @@ def headline(groups: list[Group]) -> dict[str, dict[str, float]]:
             "return": round(float(g.values("return_mean").mean()), 1),
         }
     return numbers
+
+
+def scores(groups: list[Group]) -> dict[str, dict]:
+    """Per series: its label and env and each run's seed and success (sampled policy), what an aggregate across
+    pipelines reads (``famarl docs``' aggregate table)."""
+    return {
+        series: {
+            "label": g.label,
+            "env": g.runs[0].evaluation["env"],
+            "seeds": [int(run.evaluation["seed"]) for run in g.runs],
+            "success": [round(run.success, 4) for run in g.runs],
+        }
+        for series, g in zip(series_names(groups), groups, strict=True)
+    }
 
 
 def copy_figure(source: Path, target: Path) -> str | None:

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from famarl_cli.report.results import Group, headline
+from famarl_cli.core.statistics import LEVEL
+from famarl_cli.report.results import Group, headline, scores
 from famarl_cli.report.verdicts import Claim, Verdict
 
 GOAL_WORDS = {Verdict.REPRODUCES: "met", Verdict.DOES_NOT: "missed", Verdict.INCONCLUSIVE: "inconclusive"}
@@ -53,13 +54,20 @@ class Section:
         lines = [
             f"## {self.title}: {self.verdict}",
             "",
-            f"| {first} | per seed we measure | rule (95% intervals) | per-seed values; estimate [95% CI] | {last} |",
+            f"| {first} | per seed we measure | rule | per-seed values; estimate [95% CI unless marked] | {last} |",
             "|---|---|---|---|---|",
         ]
         for c in self.claims:
             word = self.word(c.verdict)
             verdict = word if c.verdict == Verdict.REPRODUCES else f"**{word}**"
             lines.append(f"| {c.paper} | {c.measure} | {c.judgement.rule} | {c.per_seed()} | {verdict} |")
+        decisive = self.held + self.count(Verdict.DOES_NOT)
+        lines += [
+            "",
+            f"Each decisive verdict ({decisive} here) is wrong by chance with probability at most {1 - LEVEL:.0%}, the "
+            f"level of its intervals: at most {(1 - LEVEL) * decisive:.2g} wrong verdicts expected among them "
+            '(docs/verdicts.md, "The family").',
+        ]
         for table in self.tables:
             lines += ["", table]
         lines += [""] + [f"![{name}]({name})" for name in self.figures]
@@ -92,5 +100,5 @@ class Section:
                 }
                 for c in self.claims
             ],
-            **({"headline": headline(self.groups)} if self.groups else {}),
+            **({"headline": headline(self.groups), "scores": scores(self.groups)} if self.groups else {}),
         }

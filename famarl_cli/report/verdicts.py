@@ -6,10 +6,18 @@ The rules (docs/verdicts.md shows why point comparisons of a few seeds are not e
 - **A solves the task** (mean >= tau): reproduces if the interval's lower end >= tau, does not if its upper end
   < tau.
 - **B fails** (mean <= tau): reproduces if the upper end <= tau, does not if the lower end > tau.
-- **A beats B**: the Welch interval of mean(A) - mean(B); reproduces if its lower end > 0, does not if its upper
-  end < delta (A is not better by the smallest effect that matters).
-- **A performs best** among m agents: "beats" against every rival at level alpha / (m - 1) (Bonferroni);
-  reproduces if every comparison does, does not if any does not.
+- **A beats B** by the smallest effect that matters, delta: the interval of mean(A) - mean(B), paired by replicate
+  where A and B share their replicates (the t interval of the per-replicate differences), else Welch's;
+  reproduces if its lower end >= delta (A is shown better by at least delta), does not if its upper end < delta
+  (A is shown not to be better by that much). A minimum-effect test (Murphy & Myors 1999) with its mirror: delta
+  is the one threshold on both sides, so an effect shown to be smaller than delta can never reproduce
+  (docs/verdicts.md).
+- **A learns faster than B**: how many env steps sooner A's training success first reaches 0.8 than B's, as a
+  share of the budget; a run that never reaches it is censored (later than every run that does). The median of
+  the paired differences with a bootstrap interval (:func:`~famarl_cli.core.statistics.censored_difference`);
+  reproduces if its lower end >= delta, does not if its upper end < delta.
+- **A performs best (learns fastest)** among m agents: "beats" ("learns faster") against every rival at level
+  alpha / (m - 1) (Bonferroni); reproduces if every comparison does, does not if any does not.
 - **The groups do not differ** (equivalence): every pairwise Welch interval, Bonferroni-adjusted; reproduces if
   each lies inside (-margin, margin), does not if one lies wholly outside [-margin, margin].
 - **A improves on B over tasks** (aggregates): the probability of improvement's bootstrap interval; reproduces if
@@ -26,7 +34,15 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 from itertools import combinations
 
-from famarl_cli.core.statistics import LEVEL, Interval, difference_interval, mean_interval, probability_of_improvement
+from famarl_cli.core.statistics import (
+    LEVEL,
+    Interval,
+    censored_difference,
+    difference_interval,
+    mean_interval,
+    paired_difference_interval,
+    probability_of_improvement,
+)
 
 
 class Verdict(StrEnum):
@@ -99,12 +115,38 @@ def beats(
     delta: float,
     episodes: int | None = None,
     level: float = LEVEL,
+    paired: bool = False,
 ) -> Judgement:
-    interval = difference_interval(a, b, episodes, level)
+    """``a`` beats ``b`` by at least ``delta``; ``paired``: a[i] and b[i] are one replicate's."""
+    if paired:
+        interval, how = paired_difference_interval(a, b, episodes, level), "paired by replicate"
+    else:
+        interval, how = difference_interval(a, b, episodes, level), "Welch"
     return Judgement(
-        three_way(interval.low > 0, interval.high < delta),
-        f"{a_name} - {b_name} (Welch, {level:.1%}): lower end > 0 reproduces, upper end < {delta:g} does not",
+        three_way(interval.low >= delta, interval.high < delta),
+        f"{a_name} - {b_name} ({how}, {level:.1%}): lower end >= {delta:g} reproduces, upper end < {delta:g} does not",
         (Estimate(f"{a_name} - {b_name}", interval, (), delta),),
+    )
+
+
+def faster(
+    a_name: str,
+    a: Sequence[float],
+    b_name: str,
+    b: Sequence[float],
+    delta: float,
+    level: float = LEVEL,
+    paired: bool = False,
+) -> Judgement:
+    """``a`` reaches the threshold sooner than ``b`` by at least ``delta``: ``a`` and ``b`` are each run's time to it
+    as a share of the budget, ``inf`` for a run that never reached it."""
+    interval = censored_difference(a, b, paired, level)
+    how = "median of paired differences" if paired else "difference of medians"
+    return Judgement(
+        three_way(interval.low >= delta, interval.high < delta),
+        f"{b_name} - {a_name}, steps to the threshold over the budget ({how}, censored runs last; bootstrap, "
+        f"{level:.1%}): lower end >= {delta:g} reproduces, upper end < {delta:g} does not",
+        (Estimate(f"{b_name} - {a_name}", interval, (), delta),),
     )
 
 
@@ -116,12 +158,24 @@ def all_of(parts: Sequence[Judgement], rule: str) -> Judgement:
     )
 
 
-def best(
-    name: str, values: Sequence[float], rivals: dict[str, Sequence[float]], delta: float, episodes: int | None = None
-) -> Judgement:
+Pairs = dict[str, tuple[Sequence[float], Sequence[float], bool]]
+"""Per rival: the candidate's values, the rival's, and whether they pair by replicate (index by index)."""
+
+
+def best(name: str, rivals: Pairs, delta: float, episodes: int | None = None) -> Judgement:
     level = bonferroni_level(len(rivals))
-    parts = [beats(name, values, rival, other, delta, episodes, level) for rival, other in rivals.items()]
+    parts = [beats(name, mine, rival, theirs, delta, episodes, level, paired) for rival, (mine, theirs, paired) in
+             rivals.items()]  # fmt: skip
     return all_of(parts, f"{name} beats each of {len(rivals)} rivals at {level:.1%} (Bonferroni), delta {delta:g}")
+
+
+def fastest(name: str, rivals: Pairs, delta: float) -> Judgement:
+    level = bonferroni_level(len(rivals))
+    parts = [faster(name, mine, rival, theirs, delta, level, paired) for rival, (mine, theirs, paired) in
+             rivals.items()]  # fmt: skip
+    return all_of(
+        parts, f"{name} learns faster than each of {len(rivals)} rivals at {level:.1%} (Bonferroni), delta {delta:g}"
+    )
 
 
 def equivalent(groups: dict[str, Sequence[float]], margin: float, episodes: int | None = None) -> Judgement:

@@ -1,8 +1,10 @@
 """Evaluation of a trained agent: deterministic policy, frozen observation statistics, one episode per world.
 
 The policy acts with its mean (and, for FiGAR, its most likely repeat count); the observation normaliser keeps
-the statistics it had at the end of training. Episodes run on layouts drawn from ``seed``, which by default
-differs from every training seed, so the numbers are on episodes the agent has not been trained on.
+the statistics it had at the end of training. Episodes run on layouts drawn from the evaluation's ``seed`` and the
+run's own seed together (:mod:`famarl_cli.core.seeding`): every run of one replicate meets the same layouts, so
+agents compare paired by replicate, and replicates meet different ones, so an interval over replicates covers the
+layouts too. The streams are not the training's, so the episodes are ones the agent was not trained on.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from famarl_cli.core.seeding import Stream, generator, seed_of
 from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.envs.continuous_world import Layouts
 from famarl_cli.envs.external import make_env
@@ -58,6 +61,11 @@ class FrozenActor:
         return self.mode.to_sequences(action.u.astype(np.float64), action.index)
 
 
+def layout_seed(agent: TrainedAgent, seed: int) -> int:
+    """The seed of the evaluation episodes' layouts: the evaluation's ``seed`` with the run's replicate seed."""
+    return seed_of(agent.spec.seed, Stream.EVALUATION_LAYOUTS, seed)
+
+
 def evaluate(
     agent: TrainedAgent,
     episodes: int,
@@ -66,14 +74,14 @@ def evaluate(
     sample: bool = False,
     success_return: float | None = None,
 ) -> Evaluation:
-    """``episodes`` episodes (one per world, layouts from ``seed``) of the policy acting with its mode, or, with
-    ``sample``, drawing its actions as in training (from a generator seeded with ``seed``). Success follows
-    :mod:`famarl_cli.envs.success` with ``success_return`` (default: the run's); ``success_rate`` is None and
-    ``success_rule`` says why where it is not defined."""
+    """``episodes`` episodes (one per world, layouts from :func:`layout_seed`) of the policy acting with its mode,
+    or, with ``sample``, drawing its actions as in training (from the evaluation's action stream of the run's seed
+    and ``seed``). Success follows :mod:`famarl_cli.envs.success` with ``success_return`` (default: the run's);
+    ``success_rate`` is None and ``success_rule`` says why where it is not defined."""
     if success_return is None:
         success_return = agent.spec.success_return
-    env = make_batch(agent.spec.env_id, episodes, seed, agent.spec.env_kwargs, success_return)
-    act = FrozenActor(agent, env, np.random.default_rng(seed) if sample else None)
+    env = make_batch(agent.spec.env_id, episodes, layout_seed(agent, seed), agent.spec.env_kwargs, success_return)
+    act = FrozenActor(agent, env, generator(agent.spec.seed, Stream.EVALUATION_ACTIONS, seed) if sample else None)
     obs = env.reset()
     alive = np.ones(episodes, dtype=bool)
     returns, lengths, decisions, chosen, macros, macro_steps = (np.zeros(episodes) for _ in range(6))
@@ -150,7 +158,7 @@ def film_episode(agent: TrainedAgent, seed: int) -> Film:
     """Render one deterministic episode of ``agent`` (its first frame is the reset state)."""
     batch = GymBatch(
         [make_env(agent.spec.env_id, agent.spec.env_kwargs, render_mode="rgb_array")],
-        seed,
+        layout_seed(agent, seed),
         autoreset=False,
         success_return=agent.spec.success_return,
     )

@@ -29,6 +29,7 @@ from dataclasses import asdict, dataclass, field, fields
 import numpy as np
 import torch
 
+from famarl_cli.core.seeding import Stream, generator, seed_of
 from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.rl import MacroDiscount
 from famarl_cli.rl.action_modes import ActionMode
@@ -378,8 +379,8 @@ class PPOTrainer:
         self, env: BatchedEnv, mode: ActionMode, config: PPOConfig, seed: int, guide: PriorGuide | None = None
     ) -> None:
         self.config = config
-        torch.manual_seed(seed)  # initialisation, then the minibatch shuffles
-        rng, choice_rng = np.random.default_rng(seed), np.random.default_rng([1, seed])
+        torch.manual_seed(seed_of(seed, Stream.NETWORK))  # initialisation, then the minibatch shuffles
+        rng, choice_rng = generator(seed, Stream.ACTIONS), generator(seed, Stream.CHOICES)
         self.policy = ActorCritic(
             env.observation_size, mode.policy_action_size, mode.choices, config.hidden, mode.branches
         )

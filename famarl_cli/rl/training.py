@@ -16,6 +16,7 @@ from famarl_cli.artifacts import provenance
 from famarl_cli.artifacts.base import sha256
 from famarl_cli.artifacts.runs import CHECKPOINT_FILE, read_run_checkpoint, write_run
 from famarl_cli.core.errors import ArtifactError, UsageError
+from famarl_cli.core.seeding import Stream, seed_of
 from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.method.favae.model import Favae, FavaeConfig
 from famarl_cli.method.prior.checkpoint import Skills, load_skills
@@ -169,7 +170,8 @@ class Run:
         self, spec: RunSpec, favae: Favae | None, prov: dict, state: dict | None = None, skills: Skills | None = None
     ) -> None:
         self.spec, self.favae, self.skills, self.provenance = spec, favae, skills, prov
-        env = make_batch(spec.env_id, spec.ppo.n_envs, spec.seed, spec.env_kwargs, spec.success_return)
+        layouts = seed_of(spec.seed, Stream.LAYOUTS)
+        env = make_batch(spec.env_id, spec.ppo.n_envs, layouts, spec.env_kwargs, spec.success_return)
         if skills is not None:
             check_skills(spec, skills, favae, env, spec.favae if state is None else None)
         mode = build_mode(spec, env, favae, skills)

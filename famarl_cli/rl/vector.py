@@ -3,7 +3,8 @@ of different lengths can run side by side.
 
 Every batch follows gymnasium's SAME_STEP autoreset: an episode that ends is restarted in the same step, the
 returned observation is the new episode's first one and the finished episode's last observation is in
-``info["final_obs"]``, and ``info["success"]`` (N,) is each ended episode's success by
+``info["final_obs"]``; an episode ends terminated or truncated, never both (a step that terminates at the time
+limit is terminated), and ``info["success"]`` (N,) is each ended episode's success by
 :mod:`famarl_cli.envs.success`: 1.0, 0.0, or NaN where success is not defined. ``success_rule`` says, in words,
 which rule judged the episodes that ended so far (None before any has).
 
@@ -119,6 +120,9 @@ class GymBatch:
             # famarl_cli.core.errors.foreign: a context manager per step costs more than the try, which costs nothing.
             try:
                 obs, rewards[i], terminated[i], truncated[i], self.last_info[i] = self.envs[i].step(actions[i])
+                # gymnasium's TimeLimit sets truncated on a step that also terminates: terminated wins, so that no
+                # learner bootstraps a value through a terminal state
+                truncated[i] = truncated[i] and not terminated[i]
                 self._observe(i, obs)
             except FamarlError:
                 raise

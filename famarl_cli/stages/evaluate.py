@@ -25,7 +25,12 @@ class EvaluateOptions:
         path="dir",
     )
     episodes: int = option(100, "Evaluation episodes per run.", min=1)
-    seed: int = option(100, "Seed of the evaluation episodes (differs from training seeds by default).")
+    seed: int = option(
+        100,
+        "Seed of the evaluation: with each run's own seed it draws the episodes' layouts and the sampled policy's "
+        "noise, so every run of one seed meets the same layouts and runs of other seeds other ones.",
+        min=0,
+    )
     rollouts: int = option(4, "Episodes drawn in each run's rollouts.png (ContinuousWorld).", min=0)
     film: bool = option(True, "Also render one episode of each run: episode.gif and a strip of stills, episode.png.")
     curves: Path | None = option(
@@ -72,7 +77,7 @@ def evaluate_run(
         read_run_file,
     )
     from famarl_cli.report.plots import plot_rollouts, save_film
-    from famarl_cli.rl.evaluation import evaluate, film_episode
+    from famarl_cli.rl.evaluation import evaluate, film_episode, layout_seed
     from famarl_cli.rl.training import load_agent
 
     run_folder, into_folder = Path(run), Path(into)
@@ -86,6 +91,8 @@ def evaluate_run(
         "agent": str(agent.spec.agent),
         "env": agent.spec.env_id,
         "seed": agent.spec.seed,
+        "evaluation_seed": seed,
+        "layout_seed": layout_seed(agent, seed),
         "run": str(run_folder),
         "env_steps": agent.env_steps,
         "train_wall_s": read_run_file(run_folder)["wall_s"],

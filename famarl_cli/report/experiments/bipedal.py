@@ -10,6 +10,8 @@ from pathlib import Path
 from famarl_cli.core.statistics import mean_interval
 from famarl_cli.report.experiments import experiment
 from famarl_cli.report.experiments.common import (
+    aligned,
+    by_seed,
     curves,
     demos_and_traversal,
     fails_claim,
@@ -30,7 +32,8 @@ RETURN_MEASURE = "mean return over the evaluation episodes, policy sampling as i
 def walks_further(paper: str, a: Group | None, b: Group | None) -> Claim:
     if a is None or b is None:
         return not_run(paper, RETURN_MEASURE)
-    judgement = beats(a.label, per_seed(a, sampled_return), b.label, per_seed(b, sampled_return), RETURN_DELTA)
+    mine, theirs, paired = aligned(by_seed(a, sampled_return), by_seed(b, sampled_return))
+    judgement = beats(a.label, mine, b.label, theirs, RETURN_DELTA, paired=paired)
     return Claim(paper, RETURN_MEASURE, judgement)
 
 

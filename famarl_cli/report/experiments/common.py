@@ -7,14 +7,34 @@ shows curves, not numbers, so each is our reading of its words.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from famarl_cli.core.errors import ArtifactError
-from famarl_cli.core.statistics import LEVEL, RATE, Interval, mean_interval, ratio_interval
+from famarl_cli.core.statistics import (
+    LEVEL,
+    RATE,
+    Interval,
+    censored_ratio,
+    mean_interval,
+    paired_difference_interval,
+    ratio_interval,
+)
 from famarl_cli.report.results import Group, RunResult, gather, group, macros_folders, read_json
-from famarl_cli.report.verdicts import Claim, Estimate, Judgement, Verdict, best, fails, not_run, solves, three_way
+from famarl_cli.report.verdicts import (
+    Claim,
+    Estimate,
+    Judgement,
+    Verdict,
+    best,
+    fails,
+    fastest,
+    not_run,
+    solves,
+    three_way,
+)
 
 MAZE = "famarl/ContinuousWorld-Maze-v0"
 SOLVED = 0.8
@@ -24,7 +44,12 @@ FAILED = 0.5
 SUCCESS_DELTA = 0.05
 """Smallest difference in success rate that counts as one agent being better."""
 AUC_DELTA = 0.05
-"""Smallest difference in normalised area under the success curve that counts as learning faster."""
+"""Smallest difference in normalised area under the success curve that counts as a better curve overall (shown
+and judged only where a goal is about the whole curve; learning faster is judged on :data:`SPEED_DELTA`)."""
+SPEED_DELTA = 0.05
+"""Smallest difference in env steps to 0.8 training success, as a share of the budget (25k of 500k), that counts as
+learning faster. Fixed, as AUC_DELTA's share, before the runs it judges: the area credits success at the start
+(FaMARL sampling the FAVAE prior reaches the goal before it has learned anything), the steps to 0.8 do not."""
 EQUIVALENCE_MARGIN = 0.1
 """Largest difference in success rate that still counts as "does not impact"."""
 
@@ -35,6 +60,10 @@ def success_measure(g: Group | None) -> str:
 
 
 AUC_MEASURE = "area under the training success curve, normalised to [0, 1] over the budget"
+SPEED_MEASURE = (
+    "env steps until the training success (last 100 episodes, smoothed over 5 updates) first reaches 0.8, as a "
+    "share of the budget; a run that never does is censored"
+)
 
 
 def solves_claim(paper: str, g: Group | None, level: float = LEVEL) -> Claim:
@@ -49,14 +78,47 @@ def fails_claim(paper: str, g: Group | None, level: float = LEVEL) -> Claim:
     return Claim(paper, success_measure(g), fails(g.label, g.values("success"), FAILED, g.episodes, level))
 
 
-def best_claim(paper: str, candidate: Group | None, rivals: list[Group], key: str = "success") -> Claim:
-    measure = success_measure(candidate) if key == "success" else AUC_MEASURE
+def by_seed(g: Group, measure: Callable[[RunResult], float]) -> dict[int, float]:
+    """``measure(run)`` of each of ``g``'s runs, by the run's seed (its replicate)."""
+    return {int(run.evaluation["seed"]): float(measure(run)) for run in g.runs}
+
+
+def aligned(a: dict[int, float], b: dict[int, float]) -> tuple[np.ndarray, np.ndarray, bool]:
+    """Two arms' per-replicate values, paired (in seed order) where both hold the same replicates, else each arm's
+    own values, unpaired."""
+    if set(a) == set(b) and len(a) > 1:
+        seeds = sorted(a)
+        return np.array([a[s] for s in seeds]), np.array([b[s] for s in seeds]), True
+    return np.array(list(a.values())), np.array(list(b.values())), False
+
+
+def success_of(run: RunResult) -> float:
+    return run.success
+
+
+def speed(run: RunResult) -> float:
+    """Env steps to 0.8 training success over the budget; ``inf`` for a run that never got there (censored)."""
+    steps = run.steps_to_threshold
+    return np.inf if steps is None else steps / run.budget
+
+
+def best_claim(paper: str, candidate: Group | None, rivals: list[Group]) -> Claim:
+    """``candidate``'s success beats every rival's by SUCCESS_DELTA, paired by replicate where they share them."""
+    measure = success_measure(candidate)
     if candidate is None or not rivals:
         return not_run(paper, measure)
-    episodes = candidate.episodes if key == "success" else None
-    delta = SUCCESS_DELTA if key == "success" else AUC_DELTA
-    judgement = best(candidate.label, candidate.values(key), {r.label: r.values(key) for r in rivals}, delta, episodes)
-    return Claim(paper, measure, judgement)
+    mine = by_seed(candidate, success_of)
+    pairs = {r.label: aligned(mine, by_seed(r, success_of)) for r in rivals}
+    return Claim(paper, measure, best(candidate.label, pairs, SUCCESS_DELTA, candidate.episodes))
+
+
+def fastest_claim(paper: str, candidate: Group | None, rivals: list[Group]) -> Claim:
+    """``candidate`` reaches 0.8 training success sooner than every rival by SPEED_DELTA of the budget."""
+    if candidate is None or not rivals:
+        return not_run(paper, SPEED_MEASURE)
+    mine = by_seed(candidate, speed)
+    pairs = {r.label: aligned(mine, by_seed(r, speed)) for r in rivals}
+    return Claim(paper, SPEED_MEASURE, fastest(candidate.label, pairs, SPEED_DELTA))
 
 
 def _favae_rows(folder: Path) -> dict[str, list[float]]:
@@ -132,17 +194,25 @@ def favae_comparison(folders: dict[str, Path], extra: dict[str, dict[str, list[f
     columns = {label: {**_favae_rows(folder), **(extra or {}).get(label, {})} for label, folder in folders.items()}
     names = [name for name in next(iter(columns.values())) if all(name in rows for rows in columns.values())]
     counts = ", ".join(f"{label} n = {len(rows[names[0]])}" for label, rows in columns.items())
+    # two procedures fitted on the same replicates' segments pair by replicate
+    replicates = [[f.name for f in macros_folders(folder)] for folder in folders.values()]
+    paired = len(folders) == 2 and replicates[0] == replicates[1]
+    first, second = list(columns)[:2]
+    heads = [*columns, f"{second} - {first}, paired by replicate"] if paired else list(columns)
     lines = [
         f"The FAVAEs side by side, mean [95% CI] over seeds ({counts}):",
         "",
-        "| score | " + " | ".join(columns) + " |",
-        "|---|" + "---|" * len(columns),
+        "| score | " + " | ".join(heads) + " |",
+        "|---|" + "---|" * len(heads),
     ]
     for name in names:
         cells = []
         for rows in columns.values():
             fmt, interval = _score_interval(name, rows[name])
             cells.append(interval.text(fmt))
+        if paired:
+            fmt = _score_interval(name, columns[first][name])[0]
+            cells.append(paired_difference_interval(columns[second][name], columns[first][name]).text(fmt))
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -210,12 +280,6 @@ def curves(groups: list[Group], path: Path, title: str, panels: tuple[str, ...] 
     return path.name
 
 
-def steps_to_learn(run: RunResult) -> float:
-    """Env steps to 0.8 training success; a run that never gets there counts its whole budget (censored)."""
-    steps = run.steps_to_threshold
-    return float(run.budget if steps is None else steps)
-
-
 def wall_per_million(run: RunResult) -> float:
     return float(run.evaluation["train_wall_s"]) / float(run.evaluation["env_steps"]) * 1e6
 
@@ -226,6 +290,27 @@ def at_least(interval: Interval, goal: float) -> Verdict:
 
 def at_most(interval: Interval, goal: float) -> Verdict:
     return three_way(interval.high <= goal, interval.low > goal)
+
+
+def speed_ratio_goal(
+    goal: str,
+    measure: str,
+    name: str,
+    mine: dict[int, float],
+    theirs: dict[int, float],
+    bound: float,
+    level: float = LEVEL,
+) -> Claim:
+    """A goal on the typical time to 0.8 training success of one arm over another's (:func:`speed` values by
+    seed): median over median, paired by replicate where they share them, at most ``bound``."""
+    a, b, paired = aligned(mine, theirs)
+    interval = censored_ratio(a, b, paired, level)
+    how = "paired" if paired else "unpaired"
+    rule = (
+        f"median over median (censored runs last; bootstrap over replicates, {how}); upper end <= {bound:g} met, "
+        f"lower end > {bound:g} missed"
+    )
+    return Claim(goal, measure, Judgement(at_most(interval, bound), rule, (Estimate(name, interval, (), bound),)))
 
 
 def ratio_goal(

@@ -11,18 +11,22 @@ from pathlib import Path
 
 import numpy as np
 
-from famarl_cli.core.statistics import difference_interval, mean_interval
+from famarl_cli.core.statistics import difference_interval, mean_interval, paired_difference_interval
 from famarl_cli.report.experiments import experiment
 from famarl_cli.report.experiments.common import (
     MAZE,
+    SPEED_MEASURE,
+    aligned,
     at_least,
+    by_seed,
     curves,
     per_seed,
     ratio_goal,
     sampled_return,
-    steps_to_learn,
+    speed_ratio_goal,
     wall_per_million,
 )
+from famarl_cli.report.experiments.common import speed as speed_of
 from famarl_cli.report.experiments.robothand import BALL_PLACING, REACHING
 from famarl_cli.report.results import THRESHOLD, Group, RunResult, by_agent, copy_figure, gather, group, results_table
 from famarl_cli.report.verdicts import Claim, Estimate, Judgement, combine, not_run
@@ -41,6 +45,10 @@ COST_RATIO = 1.2
 """Goal: the hybrid's wall time per env step is at most this many times PPO's."""
 VARIANTS = ("hybrid-whole", "hybrid-no-residual", "hybrid-per-decision")
 """The Maze variants of pipelines/hybrid, by label."""
+
+
+def auc_of(run: RunResult) -> float:
+    return run.auc
 
 
 def early_success(run: RunResult) -> float:
@@ -70,13 +78,16 @@ def goals(maze: dict[str, Group], reaching: dict[str, Group]) -> list[Claim]:
     else:
         claims.append(not_run(start, "early training success"))
     if hybrid is not None and ppo is not None:
-        measure = f"env steps until the smoothed training success reaches {THRESHOLD:g} (never: the budget)"
-        mine, theirs = per_seed(hybrid, steps_to_learn), per_seed(ppo, steps_to_learn)
-        claims.append(ratio_goal(speed, measure, "hybrid / ppo", mine, theirs, SPEED_RATIO, most=True))
-        mine, theirs = per_seed(hybrid, sampled_return), per_seed(ppo, sampled_return)
+        measure = SPEED_MEASURE
+        claims.append(
+            speed_ratio_goal(speed, measure, "hybrid / ppo", by_seed(hybrid, speed_of), by_seed(ppo, speed_of),
+                             SPEED_RATIO)
+        )  # fmt: skip
+        mine, theirs, paired = aligned(by_seed(hybrid, sampled_return), by_seed(ppo, sampled_return))
         floor = -RETURN_MARGIN * abs(theirs.mean())
-        interval = difference_interval(mine, theirs)
-        rule = f"hybrid - ppo (Welch): lower end >= {floor:.0f} met, upper end < {floor:.0f} missed"
+        interval = (paired_difference_interval if paired else difference_interval)(mine, theirs)
+        how = "paired by replicate" if paired else "Welch"
+        rule = f"hybrid - ppo ({how}): lower end >= {floor:.0f} met, upper end < {floor:.0f} missed"
         estimate = Estimate("hybrid - ppo", interval, (), floor)
         measure = "return of the final policy, sampling as in training, over the evaluation episodes"
         claims.append(Claim(end, measure, Judgement(at_least(interval, floor), rule, (estimate,))))
@@ -87,12 +98,18 @@ def goals(maze: dict[str, Group], reaching: dict[str, Group]) -> list[Claim]:
         claims += [not_run(goal, "") for goal in (speed, end, cost)]
     rivals = [g for g in (ppo, famarl) if g is not None]
     if hybrid is not None and rivals:
-        parts = [difference_interval(hybrid.values("auc"), rival.values("auc")) for rival in rivals]
+        parts = []
+        for rival in rivals:
+            mine, theirs, paired = aligned(by_seed(hybrid, auc_of), by_seed(rival, auc_of))
+            parts.append((paired_difference_interval if paired else difference_interval)(mine, theirs))
         verdict = combine([at_least(part, 0.0) for part in parts])
         estimates = tuple(
             Estimate(f"hybrid - {rival.label}", part, (), 0.0) for rival, part in zip(rivals, parts, strict=True)
         )
-        rule = "hybrid - each rival (Welch): every lower end >= 0 met, any upper end < 0 missed"
+        rule = (
+            "hybrid - each rival (paired by replicate where they share seeds, else Welch): every lower end >= 0 met, "
+            "any upper end < 0 missed"
+        )
         measure = "area under the training success curve, normalised to [0, 1] over the budget"
         claims.append(Claim(overall, measure, Judgement(verdict, rule, estimates)))
     else:

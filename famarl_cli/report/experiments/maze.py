@@ -5,7 +5,15 @@ from __future__ import annotations
 from pathlib import Path
 
 from famarl_cli.report.experiments import experiment
-from famarl_cli.report.experiments.common import MAZE, best_claim, curves, fails_claim, favae_table, solves_claim
+from famarl_cli.report.experiments.common import (
+    MAZE,
+    best_claim,
+    curves,
+    fails_claim,
+    fastest_claim,
+    favae_table,
+    solves_claim,
+)
 from famarl_cli.report.results import by_agent, copy_figure, gather, group, macros_folders, results_table
 
 
@@ -26,7 +34,7 @@ def maze(data: Path, out: Path):
         fails_claim("PPO with primitive actions fails to converge", ppo),
         fails_claim("FiGAR fails to converge", figar),
         best_claim("FaMARL performs best", famarl, rivals),
-        best_claim("FaMARL learns fastest (the learning curves of Fig. 4a)", famarl, rivals, key="auc"),
+        fastest_claim("FaMARL learns fastest (the learning curves of Fig. 4a)", famarl, rivals),
     ]
     tables = [results_table(present)]
     favae = favae_table(data / "maze" / "macros")

@@ -9,27 +9,36 @@ from pathlib import Path
 
 from famarl_cli.report.experiments import experiment
 from famarl_cli.report.experiments.common import (
-    AUC_DELTA,
-    AUC_MEASURE,
+    SPEED_DELTA,
+    SPEED_MEASURE,
     SUCCESS_DELTA,
+    aligned,
+    by_seed,
     curves,
     demos_and_traversal,
     favae_table,
+    speed,
     success_measure,
+    success_of,
 )
 from famarl_cli.report.results import Group, by_agent, gather, group, results_table
-from famarl_cli.report.verdicts import Claim, beats, not_run
+from famarl_cli.report.verdicts import Claim, beats, faster, not_run
 
 MAZES = {"Medium": "PointMaze_Medium-v3", "Large": "PointMaze_Large-v3"}
 
 
 def helps(question: str, a: Group | None, b: Group | None, key: str) -> Claim:
-    """``a`` beats ``b`` on ``key`` (``auc`` or ``success``) by the smallest effect of interest."""
-    measure = AUC_MEASURE if key == "auc" else success_measure(a)
+    """``a`` learns faster than ``b`` (``speed``) or ends higher (``success``) by the smallest effect of interest,
+    paired by replicate where they share them."""
+    measure = SPEED_MEASURE if key == "speed" else success_measure(a)
     if a is None or b is None:
         return not_run(question, measure)
-    delta, episodes = (AUC_DELTA, None) if key == "auc" else (SUCCESS_DELTA, a.episodes)
-    return Claim(question, measure, beats(a.label, a.values(key), b.label, b.values(key), delta, episodes))
+    if key == "speed":
+        mine, theirs, paired = aligned(by_seed(a, speed), by_seed(b, speed))
+        return Claim(question, measure, faster(a.label, mine, b.label, theirs, SPEED_DELTA, paired=paired))
+    mine, theirs, paired = aligned(by_seed(a, success_of), by_seed(b, success_of))
+    judgement = beats(a.label, mine, b.label, theirs, SUCCESS_DELTA, a.episodes, paired=paired)
+    return Claim(question, measure, judgement)
 
 
 @experiment("pointmaze", "pipelines/pointmaze/dvc.yaml", order=12)
@@ -43,14 +52,14 @@ def pointmaze(data: Path, out: Path):
     claims = []
     for name, agents in mazes.items():
         famarl, ppo = agents.get("famarl"), agents.get("ppo")
-        claims.append(helps(f"{name}: UMaze macros make FaMARL learn faster than PPO", famarl, ppo, "auc"))
+        claims.append(helps(f"{name}: UMaze macros make FaMARL learn faster than PPO", famarl, ppo, "speed"))
         claims.append(helps(f"{name}: UMaze macros make FaMARL end higher than PPO", famarl, ppo, "success"))
     claims.append(
         helps(
             "Large: the hybrid (UMaze macros or primitives) learns faster than PPO",
             mazes["Large"].get("hybrid"),
             mazes["Large"].get("ppo"),
-            "auc",
+            "speed",
         )
     )
     tables, figures, every = [], [], []

@@ -17,16 +17,21 @@ from pathlib import Path
 
 import numpy as np
 
-from famarl_cli.core.statistics import difference_interval, mean_interval
+from famarl_cli.core.statistics import difference_interval, mean_interval, paired_difference_interval
 from famarl_cli.report.experiments import experiment
 from famarl_cli.report.experiments.common import (
     MAZE,
+    SPEED_MEASURE,
+    aligned,
     at_least,
+    by_seed,
     curves,
     per_seed,
     ratio_goal,
     sampled_return,
-    steps_to_learn,
+    speed,
+    speed_ratio_goal,
+    success_of,
     wall_per_million,
 )
 from famarl_cli.report.experiments.robothand import REACHING
@@ -108,9 +113,13 @@ def skill_groups(groups: dict[str, Group]) -> list[Group]:
     return [g for label, g in groups.items() if label in SKILLS]
 
 
-def best_of(candidates: list[Group], measure: Callable[[Group], np.ndarray], highest: bool = True) -> Group:
-    means = [float(np.mean(measure(g))) for g in candidates]
-    return candidates[int(np.argmax(means) if highest else np.argmin(means))]
+def best_of(
+    candidates: list[Group], measure: Callable[[Group], np.ndarray], highest: bool = True, typical=np.mean
+) -> Group:
+    """The candidate whose ``typical`` value (mean; the median where censored times are infinite) is highest (or
+    lowest)."""
+    values = [float(typical(measure(g))) for g in candidates]
+    return candidates[int(np.argmax(values) if highest else np.argmin(values))]
 
 
 def pointmaze_goal(places: dict[str, dict[str, Group]]) -> Claim:
@@ -133,11 +142,13 @@ def pointmaze_goal(places: dict[str, dict[str, Group]]) -> Claim:
         floor = mean_interval(mine, chosen.episodes, level)
         parts = [Judgement(at_least(floor, 1e-9), "PPO never succeeds: any success is more than twice it",
                            (Estimate(name, floor, tuple(mine), 0.0),))]  # fmt: skip
-    versus = difference_interval(mine, figar.values("success"), chosen.episodes, level)
+    a, b, paired = aligned(by_seed(chosen, success_of), by_seed(figar, success_of))
+    versus = (paired_difference_interval if paired else difference_interval)(a, b, chosen.episodes, level)
     parts.append(Judgement(at_least(versus, 1e-9), "", (Estimate(f"{name} - figar", versus, (), 0.0),)))
     rule = (
         f"best of {len(candidates)} skill agents by mean success, intervals at {level:.1%} (Bonferroni): ratio to "
-        f"PPO (bootstrap) lower end >= {POINTMAZE_RATIO:g} and difference to FiGAR (Welch) lower end > 0 met; "
+        f"PPO (bootstrap) lower end >= {POINTMAZE_RATIO:g} and difference to FiGAR (paired by replicate where the "
+        "runs share seeds) lower end > 0 met; "
         "either upper end below missed"
     )
     estimates = tuple(e for part in parts for e in part.estimates)
@@ -149,31 +160,27 @@ def maze_goal(groups: dict[str, Group]) -> Claim:
         f"Maze: env steps to {THRESHOLD:g} success <= {MAZE_SPEED:g}x PPO's, final success >= {MAZE_SUCCESS:g}, "
         f"return within {MAZE_RETURN:.0%} of PPO's"
     )
-    measure = (
-        f"env steps until the smoothed training success reaches {THRESHOLD:g} (never: the budget); success and "
-        "return over the evaluation episodes, sampling as in training"
-    )
+    measure = f"{SPEED_MEASURE}; success and return over the evaluation episodes, sampling as in training"
     candidates, ppo = skill_groups(groups), groups.get("ppo")
     if not candidates or ppo is None:
         return not_run(goal, measure)
     level = bonferroni_level(len(candidates))
-    chosen = best_of(candidates, lambda g: per_seed(g, steps_to_learn), highest=False)
-    speed = ratio_goal(
-        goal, measure, f"{chosen.label} / ppo, steps", per_seed(chosen, steps_to_learn), per_seed(ppo, steps_to_learn),
-        MAZE_SPEED, most=True, level=level,
-    ).judgement  # fmt: skip
+    chosen = best_of(candidates, lambda g: per_seed(g, speed), highest=False, typical=np.median)
+    quick = speed_ratio_goal(
+        goal, measure, f"{chosen.label} / ppo, steps", by_seed(chosen, speed), by_seed(ppo, speed), MAZE_SPEED, level
+    ).judgement
     success = mean_interval(chosen.values("success"), chosen.episodes, level)
-    mine, theirs = per_seed(chosen, sampled_return), per_seed(ppo, sampled_return)
+    mine, theirs, paired = aligned(by_seed(chosen, sampled_return), by_seed(ppo, sampled_return))
     floor = -MAZE_RETURN * abs(theirs.mean())
-    returns = difference_interval(mine, theirs, level=level)
-    verdict = combine([speed.verdict, at_least(success, MAZE_SUCCESS), at_least(returns, floor)])
+    returns = (paired_difference_interval if paired else difference_interval)(mine, theirs, level=level)
+    verdict = combine([quick.verdict, at_least(success, MAZE_SUCCESS), at_least(returns, floor)])
     rule = (
         f"the skill agent fastest to {THRESHOLD:g} (of {len(candidates)}), intervals at {level:.1%} (Bonferroni): "
         f"step ratio upper end <= {MAZE_SPEED:g}, success lower end >= {MAZE_SUCCESS:g}, return difference lower "
         f"end >= {floor:.0f} all met; any one wholly on the wrong side missed"
     )
     estimates = (
-        *speed.estimates,
+        *quick.estimates,
         Estimate(f"{chosen.label} success", success, tuple(chosen.values("success")), MAZE_SUCCESS),
         Estimate(f"{chosen.label} - ppo, return", returns, (), floor),
     )
@@ -203,10 +210,14 @@ def bipedal_goal(groups: dict[str, Group]) -> Claim:
     closed, famarl = groups.get("famarl+closed"), groups.get("famarl")
     if closed is None or famarl is None:
         return not_run(goal, measure)
-    further = difference_interval(per_seed(closed, sampled_return), per_seed(famarl, sampled_return))
+    mine, theirs, paired = aligned(by_seed(closed, sampled_return), by_seed(famarl, sampled_return))
+    further = (paired_difference_interval if paired else difference_interval)(mine, theirs)
     success = mean_interval(closed.values("success"), closed.episodes)
     verdict = combine([at_least(further, 1e-9), at_least(success, 1e-9)])
-    rule = "famarl+closed - famarl return (Welch) lower end > 0 and success lower end > 0 met; an upper end <= 0 missed"
+    how = "paired by replicate" if paired else "Welch"
+    rule = (
+        f"famarl+closed - famarl return ({how}) lower end > 0 and success lower end > 0 met; an upper end <= 0 missed"
+    )
     estimates = (
         Estimate("famarl+closed - famarl, return", further, (), 0.0),
         Estimate("famarl+closed success", success, tuple(closed.values("success")), 0.0),
