@@ -310,3 +310,14 @@ def test_skills_goals_judge_the_best_skill_agent_at_a_bonferroni_level(tmp_path,
     text = (tmp_path / "report/report.md").read_text()
     assert "at 97.5% (Bonferroni)" in text  # the best of 2 skill agents
     assert "| famarl+prior+closed |" in text and "| ppo |" in text
+
+
+def test_steps_to_0_8_count_from_where_the_curve_holds_it_to_the_end():
+    from famarl_cli.report.results import steps_to_hold
+
+    steps = np.arange(1, 8) * 100.0
+    assert steps_to_hold(steps, np.array([0, 0, 1, 1, 1, 1, 1.0]), 0.8, 1) == 300.0
+    # a curve that starts high (the quick episodes end first) and falls has not learned until it comes back
+    assert steps_to_hold(steps, np.array([1, 1, 0, 0, 1, 1, 1.0]), 0.8, 1) == 500.0
+    assert steps_to_hold(steps, np.array([1, 1, 1, 1, 1, 1, 0.0]), 0.8, 1) is None  # ends below: censored
+    assert steps_to_hold(steps, np.array([0, 1, 0, 0, 1, 1, 1.0]), 0.8, 3) == 700.0  # smoothed over 3 updates

@@ -12,7 +12,7 @@ The rules (docs/verdicts.md shows why point comparisons of a few seeds are not e
   (A is shown not to be better by that much). A minimum-effect test (Murphy & Myors 1999) with its mirror: delta
   is the one threshold on both sides, so an effect shown to be smaller than delta can never reproduce
   (docs/verdicts.md).
-- **A learns faster than B**: how many env steps sooner A's training success first reaches 0.8 than B's, as a
+- **A learns faster than B**: how many env steps sooner A's training success reaches 0.8 and holds it than B's, as a
   share of the budget; a run that never reaches it is censored (later than every run that does). The median of
   the paired differences with a bootstrap interval (:func:`~famarl_cli.core.statistics.censored_difference`);
   reproduces if its lower end >= delta, does not if its upper end < delta.

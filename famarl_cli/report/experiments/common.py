@@ -61,7 +61,8 @@ def success_measure(g: Group | None) -> str:
 
 AUC_MEASURE = "area under the training success curve, normalised to [0, 1] over the budget"
 SPEED_MEASURE = (
-    "env steps until the training success (last 100 episodes, smoothed over 5 updates) first reaches 0.8, as a "
+    "env steps from which the training success (last 100 episodes, smoothed over 5 updates) stays at or above 0.8 to "
+    "the end, as a "
     "share of the budget; a run that never does is censored"
 )
 
