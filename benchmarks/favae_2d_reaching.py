@@ -27,7 +27,7 @@ from famarl_cli.sweep.plan import parse_values
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "favae-2d-reaching"
 VALUES = [-3.0, -1.0, 1.0, 3.0]
 AUTHORS = {100: ([0.00, 0.00, 0.99], 0.5), 1000: ([1.35, 0.00, 1.29], 0.3)}
-"""The authors' best capacities per ladder for their ladder model, and the deepest share issue 28 asks of ours."""
+"""The authors' best capacities per ladder for their ladder model, and the deepest share the design asked of ours."""
 CAPTURED = 0.1
 """A factor whose MIG score reaches this is captured by some latent."""
 

@@ -34,7 +34,7 @@ from famarl_cli.sweep.plan import parse_values
 
 ROOT = Path(__file__).resolve().parents[1]
 BEFORE = "24bfea2^"
-"""The commit before the batched replicates (issue 39): the default pipeline's wall is judged against its."""
+"""The commit before the batched replicates: the default pipeline's wall is judged against its."""
 SOURCES = ("dvc.yaml", "params.yaml", ".dvcignore", "famarl_cli")
 """What a run copies into its folder: the stages declare the package's modules among their deps, so DVC must find
 them there."""

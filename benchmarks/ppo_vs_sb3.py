@@ -163,7 +163,7 @@ def records(steps: int, seeds: list[int], together: bool, ratio: float, summary:
                 f"{step_count(steps)} steps, one core",
                 "command": command,
                 "measured": f"{speed}; {learned}" + verdict(ratio >= 10),
-                "target": "10x (issue 39)",
+                "target": "10x",
             }
         }
     command = f'pip install -e ".[bench]" && {command}'

@@ -1,5 +1,5 @@
 """Beyond the paper: the hybrid agent (each decision a primitive action or a macro action) against FaMARL, PPO
-and FiGAR, judged on goals fixed before its runs (issue 19) rather than on the paper's claims.
+and FiGAR, judged on goals fixed before its runs rather than on the paper's claims.
 
 The famarl, ppo and figar runs are those of the default pipeline (Maze) and of pipelines/robothand; the hybrid
 pipeline runs only the hybrid agent and its variants, on the same seeds and budgets.

@@ -1,4 +1,4 @@
-"""Beyond the paper (issue 30): the skills of the methods after FaMARL, a state-conditioned prior p(z | s) over the
+"""Beyond the paper: the skills of the methods after FaMARL, a state-conditioned prior p(z | s) over the
 FAVAE latent and a closed-loop macro decoder pi(a | s, z), against FaMARL, PPO and FiGAR, judged on goals fixed
 before the runs.
 
