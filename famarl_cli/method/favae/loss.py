@@ -150,10 +150,6 @@ def data_information(
     return (per_dim / (n * samples)).float(), (per_group / (n * samples)).float()
 
 
-def kl_per_ladder(output: FavaeOutput) -> list[torch.Tensor]:
-    return [kl_per_dim(mu, lv).sum(dim=1).mean() for mu, lv in zip(output.mus, output.logvars, strict=True)]
-
-
 def replicate_loss(
     reconstruction: torch.Tensor,
     x: torch.Tensor,
@@ -202,7 +198,9 @@ def favae_loss(
     output: FavaeOutput, x: torch.Tensor, beta: float, capacities: list[float], measure: str = Measure.INFORMATION
 ) -> LossTerms:
     """One model's loss (:func:`replicate_loss` with K = 1), as scalars: ``x`` is the (B, D + 2, L) input the
-    output reconstructs, the whole population its information is about; ``capacities`` holds C_l for each ladder."""
+    output reconstructs, the whole population its information is about; ``capacities`` holds C_l for each ladder.
+    The one-model form ``benchmarks/favae_step.py`` times and the tests hold the batched loss to; fits train with
+    :func:`replicate_loss`."""
     terms = replicate_loss(
         output.reconstruction.transpose(1, 2)[None],
         x.transpose(1, 2)[None],

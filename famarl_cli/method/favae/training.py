@@ -212,7 +212,8 @@ def train_favae(
     on_epoch: Callable[[dict], None] | None = None,
 ) -> tuple[Favae, list[dict]]:
     """Fit a fresh FAVAE on (S, L, D + 2) padded macro actions; returns it and one log row per epoch
-    (:func:`train_replicates` with one replicate)."""
+    (:func:`train_replicates` with one replicate: the one-model form benchmarks/ calls; the stages fit replicates
+    through :func:`train_replicates`)."""
     [result] = train_replicates(
         [Replicate(padded, config, beta, c_last, params)], None if on_epoch is None else (lambda _, row: on_epoch(row))
     )
@@ -243,7 +244,8 @@ def calibrate_replicates(
 def calibrate(
     padded: np.ndarray, config: FavaeConfig, params: TrainingParams, on_epoch=None, beta: float = CALIBRATION_BETA
 ) -> tuple[list[float], list[dict]]:
-    """The C_last pre-run of one FAVAE (:func:`calibrate_replicates` with one replicate)."""
+    """The C_last pre-run of one FAVAE (:func:`calibrate_replicates` with one replicate: the one-model form
+    benchmarks/ calls)."""
     [result] = calibrate_replicates(
         [Replicate(padded, config, beta, [0.0] * config.ladders, params)],
         None if on_epoch is None else (lambda _, row: on_epoch(row)),
