@@ -571,3 +571,32 @@ def test_stages_given_no_inputs_take_the_main_jobs(favae_file, segments_file, tm
     assert "data/maze/macros/seed0/segments.h5" in result.stdout
     result = famarl("traverse", "--values=-1,1", "--out", "traverse.h5")
     assert result.exit_code == 0 and "replicate 0 of the default pipeline" in result.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "needle", "command"),
+    [
+        (["demos", "--episodes", -3], "'--episodes'", "famarl demos"),
+        (["favae", "fit", "--beta", -1], "'--beta'", "famarl favae fit"),
+        (["train", "--steps", "abc"], "'--steps'", "famarl train"),
+        (["sweep", "train", "--jobs", 0, "--out", "x", "--", "--steps", 10], "'--jobs'", "famarl sweep"),
+        (["demos", "--nope"], "--nope", "famarl demos"),
+        (["nosuch"], "nosuch", "famarl"),
+        (["sweep", "train", "--seeds", "0-x", "--out", "x", "--", "--steps", 10], "--seeds 0-x", "famarl sweep"),
+    ],
+)
+def test_every_usage_error_is_one_line_naming_what_was_typed_and_the_help(args, needle, command):
+    """The option parser's errors as famarl's own: one ``error:`` line, exit 2, the option as the user typed it and
+    the command's --help (not click's four-line usage block); a wrong file is exit 1 (the scheme of
+    famarl_cli/cli/__init__.py)."""
+    result = famarl(*args)
+    one_line_error(result, 2, needle)
+    assert f"(see `{command} --help`)" in result.stderr
+    assert "Usage:" not in result.output
+
+
+def test_a_wrong_file_is_exit_1_and_the_commands_are_listed_in_workflow_order(tmp_path):
+    one_line_error(famarl("segment", "--demos", tmp_path / "missing.h5"), 1, "missing.h5")
+    listed = [line.split()[0] for line in famarl("--help").stdout.split("Commands:")[1].splitlines() if line.strip()]
+    order = [name for name in listed if name in {"demos", "segment", "favae", "macros", "train", "evaluate", "report"}]
+    assert order == ["demos", "segment", "favae", "macros", "train", "evaluate", "report"]

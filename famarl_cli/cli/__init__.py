@@ -1,12 +1,21 @@
 """The ``famarl`` command line: thin typer commands that parse options and call the library, one module per stage.
 
-Every command turns a :class:`~famarl_cli.core.errors.FamarlError` into one line on stderr and its exit code;
-``famarl --debug ...`` shows the traceback instead.
+Every failure is one line on stderr, ``error: ...``, and an exit code (``famarl --debug ...`` shows the traceback
+instead):
+
+- **2, usage:** the command line is wrong: an unknown option or command, a value out of its bounds or of the wrong
+  kind, options that do not go together, a name famarl does not know (an env id, a script). The option parser's own
+  errors are rendered so too (:class:`Famarl`), with the command's ``--help`` named.
+- **1, input:** the command line is right but what it points at is not: a missing or malformed file, data that
+  does not fit (a FAVAE of another action size than the env's), a GPU that is not there.
+- **130:** stopped with Ctrl-C.
 """
 
 from __future__ import annotations
 
 import functools
+import importlib
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Annotated, Any
@@ -14,13 +23,59 @@ from typing import Annotated, Any
 import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+from typer import core as typer_core
+from typer.core import TyperGroup
 
 from famarl_cli import __version__
 from famarl_cli.core.declare import declared
-from famarl_cli.core.errors import FamarlError
+from famarl_cli.core.errors import FamarlError, UsageError
+
+# the click typer parses with: its own copy from typer 0.25 on, click itself before
+click = getattr(typer_core, "_click", None) or typer_core.click
+current_context = importlib.import_module(f"{click.__name__}.globals").get_current_context
+NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())
+"""click >= 8.2's "no arguments: show the help" (a usage error whose message is the help)."""
+
+
+WORKFLOW = (
+    "demos", "segment", "favae", "macros", "traverse", "prior", "train", "evaluate", "report", "sweep",
+    "sequences", "export-minari", "inspect", "docs",
+)  # fmt: skip
+"""The commands in the order a user meets them (``famarl --help``); one not named here comes last."""
+
+
+class Famarl(TyperGroup):
+    """The root command: its commands listed in workflow order (:data:`WORKFLOW`), and the option parser's usage
+    errors (a bad value, an unknown option) as famarl's one ``error:`` line naming the command's ``--help``, exit 2,
+    instead of click's four-line usage block."""
+
+    def list_commands(self, ctx) -> list[str]:
+        names = super().list_commands(ctx)
+        return sorted(names, key=lambda name: WORKFLOW.index(name) if name in WORKFLOW else len(WORKFLOW))
+
+    def main(self, *args, standalone_mode: bool = True, **kwargs):
+        if not standalone_mode:
+            return super().main(*args, standalone_mode=False, **kwargs)
+        try:
+            code = super().main(*args, standalone_mode=False, **kwargs)
+        except NO_ARGS_IS_HELP as exc:  # "famarl" alone: its help, as before
+            exc.show()
+            sys.exit(exc.exit_code)
+        except click.exceptions.ClickException as exc:
+            where = exc.ctx.command_path if getattr(exc, "ctx", None) is not None else "famarl"
+            message = " ".join(exc.format_message().split())
+            typer.echo(f"error: {message} (see `{where} --help`)", err=True)
+            sys.exit(exc.exit_code)
+        except typer.Abort:
+            typer.echo("error: aborted", err=True)
+            sys.exit(1)
+        # what click returns without standalone_mode: an Exit's code, or a command's own return value (none)
+        sys.exit(code if isinstance(code, int) else 0)
+
 
 app = typer.Typer(
     name="famarl",
+    cls=Famarl,
     help="FaMARL: macro-action RL over disentangled latents of expert action sequences, stage by stage.",
     no_args_is_help=True,
     add_completion=False,
@@ -64,7 +119,7 @@ def reports_errors(command):
         except FamarlError as exc:
             if _debug:
                 raise
-            typer.echo(f"error: {exc}", err=True)
+            typer.echo(f"error: {exc}{_help_hint(exc)}", err=True)
             raise typer.Exit(exc.exit_code) from None
         except KeyboardInterrupt:
             if _debug:
@@ -79,6 +134,15 @@ def reports_errors(command):
             raise typer.Exit(INTERRUPTED) from None
 
     return wrapper
+
+
+def _help_hint(exc: FamarlError) -> str:
+    """For a usage error (the command line is wrong), where the right one is described, as the option parser's own
+    errors say it (:class:`Famarl`)."""
+    context = current_context(silent=True)
+    if not isinstance(exc, UsageError) or context is None:
+        return ""
+    return f" (see `{context.command_path} --help`)"
 
 
 def torch_on_one_thread() -> None:

@@ -158,7 +158,10 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
     for option, why in sweepable.refused.items():
         if _given(option, options):
             raise UsageError(f"{option} is not available in a sweep: {why}")
-    axes = [Axis("seed", parse_values(seeds)), *(Axis.parse(text) for text in over)]
+    seed_values = parse_values(seeds)
+    if bad := [value for value in seed_values if not value.isdigit()]:
+        raise UsageError(f"--seeds {seeds}: {bad[0]!r} is not a seed (a whole number >= 0: a range 0-9, a list 0,3,7)")
+    axes = [Axis("seed", seed_values), *(Axis.parse(text) for text in over)]
     jobs = []
     for point in expand(axes):
         argv = [fill(option, point) for option in options]
