@@ -125,10 +125,17 @@ def test_learning_faster_is_judged_on_censored_steps_to_the_threshold():
     assert faster("b", slow, "a", quick, 0.05, paired=True).verdict == Verdict.DOES_NOT
     # a head start does not count: the same steps to the threshold is no faster, whatever the start
     assert faster("a", quick, "c", quick, 0.05, paired=True).verdict == Verdict.DOES_NOT
-    # every run of one arm censored: it is slower than any arm that got there; when neither did, neither is faster
+    # every run of one arm censored: it is slower than any arm that got there (by at least the budget less the
+    # other's time); when neither got there within the budget, which gets there first is unknown: inconclusive
     never = [INF] * 10
     assert faster("a", quick, "n", never, 0.05, paired=True).verdict == Verdict.REPRODUCES
-    assert faster("n", never, "m", never, 0.05, paired=True).verdict == Verdict.DOES_NOT
+    judgement = faster("n", never, "m", never, 0.05, paired=True)
+    assert judgement.verdict == Verdict.INCONCLUSIVE
+    assert (judgement.estimates[0].interval.low, judgement.estimates[0].interval.high) == (-INF, INF)
+    # a run censored at the budget may have got there just after it: a censored rival at the budget's end is not
+    # counted faster than delta when the other arm got there within delta of the budget
+    late = [0.97] * 10
+    assert faster("l", late, "n", never, 0.05, paired=True).verdict == Verdict.INCONCLUSIVE
     assert fastest("a", {"b": (quick, slow, True), "n": (quick, never, True)}, 0.05).verdict == Verdict.REPRODUCES
 
 

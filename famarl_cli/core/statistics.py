@@ -9,8 +9,8 @@ judged on.
   their replicates (the same seed's runs, evaluated on the same layouts); its variance floored, for rates, at the
   two arms' binomial noise together.
 - :func:`censored_difference` and :func:`censored_ratio`: how much sooner one arm reaches a threshold than another
-  (or how many times as long it takes), where a run that never reaches it is censored (counted as later than every
-  run that does), by medians with a bootstrap interval.
+  (or how many times as long it takes), where a run that has not reached it by the budget is censored (its time is
+  known only to be the budget or more), by medians with a bootstrap interval bounded both ways.
   :func:`ratio_interval`: a bootstrap interval of a ratio of means (one agent's cost or speed over another's).
 - :func:`aggregate_interval`, :func:`iqm`, :func:`probability_of_improvement`, :func:`performance_profile`:
   aggregates over several tasks as rliable computes them (Agarwal et al. 2021), with the stratified bootstrap
@@ -133,64 +133,72 @@ def _binomial(values: np.ndarray, episodes: int) -> float:
 
 
 def censored_difference(
-    a: Sequence[float], b: Sequence[float], paired: bool, level: float = LEVEL, seed: int = 0
+    a: Sequence[float], b: Sequence[float], paired: bool, level: float = LEVEL, seed: int = 0, budget: float = 1.0
 ) -> Interval:
-    """How much sooner arm ``a`` reaches a threshold than arm ``b``: values are the times at which each run
-    reached it, ``inf`` for a run that never did (censored: it is later than every run that did, by how much
-    nobody knows). Paired: the median over replicates of b_i - a_i, where two censored runs tie (0) and one
-    censored run is +-inf; unpaired, median(b) - median(a). Either way a percentile bootstrap over replicates
-    (pairs resampled together), whose ends may be infinite: where most runs are censored nothing finite is known.
-    Medians, because a mean of censored times is not defined."""
+    """How much sooner arm ``a`` reaches a threshold than arm ``b``: values are the times at which each run reached
+    it, ``inf`` for a run that had not by ``budget`` (censored: it reaches it at ``budget`` or later, if ever). A
+    censored time is known only to lie in [budget, inf), so the interval is bounded both ways: its lower end is that
+    of the difference with every censored time of ``b`` at the budget and of ``a`` at infinity, its upper end the
+    reverse (a partial-identification bound); where most runs are censored it is infinite and says nothing. The
+    estimate takes each censored difference at its bound nearest 0 (two censored runs: 0). Paired, the median over
+    replicates of b_i - a_i; unpaired, median(b) - median(a); either way a percentile bootstrap over replicates (pairs
+    resampled together). Medians, because a mean of censored times is not defined."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    a_early, b_early = np.where(np.isinf(a), budget, a), np.where(np.isinf(b), budget, b)
     if paired:
         if a.shape != b.shape:
             raise ValueError(f"paired values need one value per replicate on each side, got {len(a)} and {len(b)}")
-        differences = _censored_differences(b, a)
-        estimate = _median(differences)
-        if len(differences) < 2:
+        with np.errstate(invalid="ignore"):
+            low, high = b_early - a, b - a_early  # each pair's least and greatest possible difference
+            nearest = np.where(np.isinf(a) & np.isinf(b), 0.0, np.where(low > 0, low, np.where(high < 0, high, 0.0)))
+        estimate = _median(nearest)
+        if len(a) < 2:
             return Interval(estimate, -np.inf, np.inf, level)
-        draws = _resamples(len(differences), seed)
-        return _percentiles([_median(differences[d]) for d in draws], estimate, level)
-    estimate = _censored_difference_of_medians(b, a)
+        draws = _resamples(len(a), seed)
+        return _bounded([_median(low[d]) for d in draws], [_median(high[d]) for d in draws], estimate, level)
+
+    def ends(x: np.ndarray, y: np.ndarray, x_early: np.ndarray, y_early: np.ndarray) -> tuple[float, float]:
+        with np.errstate(invalid="ignore"):
+            return _median(y_early) - _median(x), _median(y) - _median(x_early)
+
+    low, high = ends(a, b, a_early, b_early)
+    estimate = float(low if low > 0 else high if high < 0 else 0.0)
     if len(a) < 2 or len(b) < 2:
         return Interval(estimate, -np.inf, np.inf, level)
     draws_a, draws_b = _resamples(len(a), seed), _resamples(len(b), seed + 1)
-    resampled = [_censored_difference_of_medians(b[db], a[da]) for da, db in zip(draws_a, draws_b, strict=True)]
-    return _percentiles(resampled, estimate, level)
+    resampled = [ends(a[da], b[db], a_early[da], b_early[db]) for da, db in zip(draws_a, draws_b, strict=True)]
+    return _bounded([r[0] for r in resampled], [r[1] for r in resampled], estimate, level)
 
 
 def censored_ratio(
-    a: Sequence[float], b: Sequence[float], paired: bool, level: float = LEVEL, seed: int = 0
+    a: Sequence[float], b: Sequence[float], paired: bool, level: float = LEVEL, seed: int = 0, budget: float = 1.0
 ) -> Interval:
-    """median(a) / median(b) of times to a threshold, ``inf`` for a censored run (see :func:`censored_difference`),
-    with a percentile bootstrap over replicates (pairs resampled together where ``paired``): how many times one
-    arm's typical time another's. Infinite where more than half of ``a``'s runs never got there; 0 where ``b``'s."""
+    """median(a) / median(b) of times to a threshold, ``inf`` for a run censored at ``budget`` (see
+    :func:`censored_difference`: a censored time lies in [budget, inf), and the interval's ends are the ratio's least
+    and greatest possible), with a percentile bootstrap over replicates (pairs resampled together where ``paired``):
+    how many times one arm's typical time another's. The estimate takes censored times at the budget."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    a_early, b_early = np.where(np.isinf(a), budget, a), np.where(np.isinf(b), budget, b)
 
-    def ratio(x: np.ndarray, y: np.ndarray) -> float:
-        top, bottom = _median(x), _median(y)
-        if np.isinf(top) and np.isinf(bottom):
-            return 1.0  # neither arm's typical run got there: nothing tells them apart
-        with np.errstate(divide="ignore"):
-            return float(top / bottom) if bottom > 0 else np.inf
+    def ratio(top: float, bottom: float) -> float:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            value = top / bottom
+        return float(np.inf if np.isnan(value) else value)
 
-    estimate = ratio(a, b)
+    def ends(i: np.ndarray, j: np.ndarray) -> tuple[float, float]:
+        return ratio(_median(a_early[i]), _median(b[j])), ratio(_median(a[i]), _median(b_early[j]))
+
+    estimate = ratio(_median(a_early), _median(b_early))
     if len(a) < 2 or len(b) < 2:
         return Interval(estimate, 0.0, np.inf, level)
     if paired:
         if a.shape != b.shape:
             raise ValueError(f"paired values need one value per replicate on each side, got {len(a)} and {len(b)}")
-        draws = _resamples(len(a), seed)
-        return _percentiles([ratio(a[d], b[d]) for d in draws], estimate, level)
-    draws_a, draws_b = _resamples(len(a), seed), _resamples(len(b), seed + 1)
-    return _percentiles([ratio(a[da], b[db]) for da, db in zip(draws_a, draws_b, strict=True)], estimate, level)
-
-
-def _censored_differences(later: np.ndarray, sooner: np.ndarray) -> np.ndarray:
-    """later - sooner per pair, two censored (inf) runs tying at 0."""
-    both = np.isinf(later) & np.isinf(sooner)
-    with np.errstate(invalid="ignore"):
-        return np.where(both, 0.0, later - sooner)
+        resampled = [ends(d, d) for d in _resamples(len(a), seed)]
+    else:
+        draws = zip(_resamples(len(a), seed), _resamples(len(b), seed + 1), strict=True)
+        resampled = [ends(da, db) for da, db in draws]
+    return _bounded([r[0] for r in resampled], [r[1] for r in resampled], estimate, level)
 
 
 def _median(values: np.ndarray) -> float:
@@ -201,23 +209,17 @@ def _median(values: np.ndarray) -> float:
     return 0.0 if np.isnan(median) else median
 
 
-def _censored_difference_of_medians(later: np.ndarray, sooner: np.ndarray) -> float:
-    m_later, m_sooner = _median(later), _median(sooner)
-    if np.isinf(m_later) and np.isinf(m_sooner):
-        return 0.0
-    return float(m_later - m_sooner)
-
-
 def _resamples(n: int, seed: int) -> np.ndarray:
     return np.random.default_rng(seed).integers(0, n, (BOOTSTRAP_RESAMPLES, n))
 
 
-def _percentiles(values: list[float], estimate: float, level: float) -> Interval:
-    """The percentile interval of bootstrap ``values`` (nearest rank: infinite values stay what they are)."""
+def _bounded(lows: list[float], highs: list[float], estimate: float, level: float) -> Interval:
+    """The lower percentile of the bootstrap's lower bounds and the upper percentile of its upper bounds (nearest
+    rank: infinite values stay what they are)."""
     tail = (1 - level) / 2
-    ordered = np.sort(np.asarray(values, dtype=float))
-    low = ordered[int(np.floor(tail * (len(ordered) - 1)))]
-    high = ordered[int(np.ceil((1 - tail) * (len(ordered) - 1)))]
+    lows, highs = np.sort(np.asarray(lows, dtype=float)), np.sort(np.asarray(highs, dtype=float))
+    low = lows[int(np.floor(tail * (len(lows) - 1)))]
+    high = highs[int(np.ceil((1 - tail) * (len(highs) - 1)))]
     return Interval(estimate, float(low), float(high), level)
 
 

@@ -10,7 +10,7 @@ A pipeline leaves, per run, a run folder (``run.json``, ``train.csv``) and an ev
 - **AUC**: the area under the training success curve (mean over the last 100 episodes, from ``train.csv``) on a
   common grid of env steps up to the budget, normalised to [0, 1]: sample efficiency.
 - **steps to 0.8**: env steps from which the training success, smoothed over 5 updates, stays at or above 0.8 to
-  the end (:func:`steps_to_hold`). Runs that end below it are censored (later than every run that does): tables
+  the end (:func:`steps_to_hold`). Runs that end below it are censored (they get there at the budget or later): tables
   give how many held it and the median over all, and drop none; "learns faster" is judged on it
   (:func:`famarl_cli.report.verdicts.faster`).
 """

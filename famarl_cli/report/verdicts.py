@@ -13,9 +13,10 @@ The rules (docs/verdicts.md shows why point comparisons of a few seeds are not e
   is the one threshold on both sides, so an effect shown to be smaller than delta can never reproduce
   (docs/verdicts.md).
 - **A learns faster than B**: how many env steps sooner A's training success reaches 0.8 and holds it than B's, as a
-  share of the budget; a run that never reaches it is censored (later than every run that does). The median of
-  the paired differences with a bootstrap interval (:func:`~famarl_cli.core.statistics.censored_difference`);
-  reproduces if its lower end >= delta, does not if its upper end < delta.
+  share of the budget; a run that has not by the budget is censored (it gets there at the budget or later, if
+  ever). The median of the paired differences with a bootstrap interval bounded both ways by what the censored runs
+  leave possible (:func:`~famarl_cli.core.statistics.censored_difference`); reproduces if its lower end >= delta,
+  does not if its upper end < delta; where most runs of both arms are censored it is inconclusive.
 - **A performs best (learns fastest)** among m agents: "beats" ("learns faster") against every rival at level
   alpha / (m - 1) (Bonferroni); reproduces if every comparison does, does not if any does not.
 - **The groups do not differ** (equivalence): every pairwise Welch interval, Bonferroni-adjusted; reproduces if
@@ -144,7 +145,7 @@ def faster(
     how = "median of paired differences" if paired else "difference of medians"
     return Judgement(
         three_way(interval.low >= delta, interval.high < delta),
-        f"{b_name} - {a_name}, steps to the threshold over the budget ({how}, censored runs last; bootstrap, "
+        f"{b_name} - {a_name}, steps to the threshold over the budget ({how}, censored runs bounded; bootstrap, "
         f"{level:.1%}): lower end >= {delta:g} reproduces, upper end < {delta:g} does not",
         (Estimate(f"{b_name} - {a_name}", interval, (), delta),),
     )

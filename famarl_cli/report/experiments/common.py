@@ -308,7 +308,7 @@ def speed_ratio_goal(
     interval = censored_ratio(a, b, paired, level)
     how = "paired" if paired else "unpaired"
     rule = (
-        f"median over median (censored runs last; bootstrap over replicates, {how}); upper end <= {bound:g} met, "
+        f"median over median (censored runs bounded; bootstrap over replicates, {how}); upper end <= {bound:g} met, "
         f"lower end > {bound:g} missed"
     )
     return Claim(goal, measure, Judgement(at_most(interval, bound), rule, (Estimate(name, interval, (), bound),)))
