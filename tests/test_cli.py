@@ -319,12 +319,16 @@ def test_robot_hand_trains_and_evaluates_through_the_gymnasium_loop(tmp_path):
     assert mismatched.exit_code != 0 and "Traceback" not in mismatched.output
 
 
-def test_train_same_seed_same_log_and_resume_extends_a_finished_run(tmp_path):
+def test_train_same_seed_same_log_and_resume_extends_a_finished_run_or_leaves_it(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     for out in (a, b):
         assert famarl("train", "--agent", "ppo", *TINY_TRAINING, "--out", out).exit_code == 0
     assert (a / "train.csv").read_text() == (b / "train.csv").read_text()
     updates = len((a / "train.csv").read_text().splitlines())
+    written = {path.name: path.stat().st_mtime_ns for path in a.iterdir()}
+    complete = famarl("train", "--out", a, "--resume")
+    assert complete.exit_code == 0 and "holds a complete run" in complete.output and "nothing to do" in complete.output
+    assert {path.name: path.stat().st_mtime_ns for path in a.iterdir()} == written
     assert famarl("train", "--out", a, "--resume", "--steps", 3000).exit_code == 0
     assert len((a / "train.csv").read_text().splitlines()) > updates
     assert json.loads((a / "run.json").read_text())["env_steps"] >= 3000

@@ -342,7 +342,7 @@ def test_every_pipeline_writes_its_report(project):
         text = (project / "data/report" / name / "report.md").read_text()
         assert text.startswith("# famarl report")
         first = "goal" if name in GOALS else "the paper says"
-        assert f"| {first} | per seed we measure | rule (95% intervals) |" in text
+        assert f"| {first} | per seed we measure | rule | per-seed values; estimate [95% CI unless marked] |" in text
         assert "Not run yet" not in text
         summary = json.loads((project / "pipelines" / name / "summary.json").read_text())
         assert set(summary) == {name}
