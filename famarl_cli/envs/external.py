@@ -25,6 +25,7 @@ import gymnasium as gym
 
 from famarl_cli.core.declare import option
 from famarl_cli.core.errors import FamarlError, ForeignError, UsageError, foreign
+from famarl_cli.core.user_code import importable_from_here
 
 EXTRAS = {
     "box2d": "Box2D (BipedalWalker, LunarLander, CarRacing)",
@@ -61,7 +62,9 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **make_kwargs) -> gym.
     steps = kwargs.get("max_episode_steps")
     if steps is not None and (isinstance(steps, bool) or not isinstance(steps, int) or steps < 1):
         raise UsageError(f"{env_id}: max_episode_steps must be a positive integer, got {steps!r}")
-    if ":" not in env_id and env_id not in gym.registry:
+    if ":" in env_id:
+        importable_from_here()
+    elif env_id not in gym.registry:
         _register_robotics()
     try:
         with foreign(f"env {env_id}"):
