@@ -360,7 +360,9 @@ def test_every_pipeline_writes_its_report(project):
     assert "PointMaze Medium, sparse reward:" in pointmaze and "| hybrid |" in pointmaze
     for figure in ("bipedal/bipedal-traversal.png", "pointmaze/pointmaze-demos.png", "traversal/traversal.png"):
         assert (project / "data/report" / figure).stat().st_size > 1000
-    assert "summary.json" in dvc(project, "metrics", "show")
+    shown = dvc(project, "metrics", "show")
+    assert "metrics.json" in shown and "summary.json" not in shown
+    assert len(shown.splitlines()) < 100 and max(map(len, shown.splitlines())) < 200, shown
     made = json.loads((project / "summary.json").read_text())["maze"]["made"]
     assert made["famarl"] and made["machine"].endswith("cores") and made["revision"] is None  # no git there
     # Each replicate's macro actions: segments, C_last, FAVAE and traversal, all from its own seed.
@@ -379,7 +381,7 @@ def test_every_pipeline_writes_its_report(project):
 
 
 @pytest.mark.slow  # DVC repro of real pipelines
-def test_learning_curves_are_dvc_plots_and_headline_numbers_are_metrics(project):
+def test_learning_curves_are_dvc_plots_and_the_verdicts_counts_are_metrics(project):
     shown = dvc_json(project, "plots", "show")
     assert not shown.get("errors"), shown.get("errors")
     maze = shown["data"]["Maze, training success (last 100 episodes)"][0]["content"]
@@ -395,9 +397,13 @@ def test_learning_curves_are_dvc_plots_and_headline_numbers_are_metrics(project)
         assert f"{title}, training success" in titles
     assert "BipedalWalker, training return" in titles
     metrics = dvc_json(project, "metrics", "show")[""]["data"]
-    famarl = metrics["summary.json"]["data"]["maze"]["headline"]["famarl"]
-    assert famarl["n"] == 2 and famarl["success_low"] <= famarl["success"] <= famarl["success_high"]
-    assert "headline" in metrics["pipelines/pointmaze/summary.json"]["data"]["pointmaze"]
+    maze = metrics["metrics.json"]["data"]
+    famarl = json.loads((project / "summary.json").read_text())["maze"]["headline"]["famarl"]
+    assert famarl["n"] == 2 and maze["success"]["famarl"] == famarl["success"]
+    assert maze["claims"] == maze["reproduce"] + maze["do_not"] + maze["inconclusive"] > 0
+    for name in ("pointmaze", "skills", "traversal"):
+        counts = metrics[f"pipelines/{name}/metrics.json"]["data"]
+        assert counts["claims"] == counts["reproduce"] + counts["do_not"] + counts["inconclusive"] > 0
 
 
 @pytest.mark.slow  # DVC repro of real pipelines

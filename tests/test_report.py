@@ -101,6 +101,14 @@ def test_the_papers_maze_result_reproduces_when_only_famarl_solves_it(tmp_path):
     famarl = summary["headline"]["famarl"]
     assert famarl["n"] == 5 and famarl["success"] == pytest.approx(0.95, abs=1e-3)
     assert famarl["success_low"] < 0.95 < famarl["success_high"] and famarl["auc"] > summary["headline"]["ppo"]["auc"]
+    metrics = json.loads((tmp_path / "report/metrics.json").read_text())
+    assert metrics == {
+        "claims": 5,
+        "reproduce": 5,
+        "do_not": 0,
+        "inconclusive": 0,
+        "success": {agent: summary["headline"][agent]["success"] for agent in ("famarl", "ppo", "figar")},
+    }
     with open(tmp_path / "report/maze-curves.csv", newline="") as handle:
         rows = list(csv.DictReader(handle))
     assert len(rows) == 15 * 20 and {row["series"] for row in rows} == {"famarl", "ppo", "figar"}
