@@ -219,9 +219,11 @@ def test_every_stage_parses_reads_only_its_deps_and_a_parameter_reaches_only_wha
         ]
         if values.get("out") is not None:  # what it writes: the outs, or a file and its picture beside it
             out = Path(values["out"])
-            summary = str(values.get("summary"))  # a report's summary: the pipeline's committed metric
+            # a report's summary and metrics beside it, committed with the pipeline
+            summary = Path(str(values.get("summary")))
+            beside = {str(summary), str(summary.with_name("metrics.json"))}
             if not all(
-                _under(o, str(out)) or Path(o).with_suffix("") == out.with_suffix("") or o == summary for o in outs
+                _under(o, str(out)) or Path(o).with_suffix("") == out.with_suffix("") or o in beside for o in outs
             ):
                 faults.append(f"{where} writes {out}, its outs are {outs}")
     assert not faults, "\n".join(sorted(set(faults)))

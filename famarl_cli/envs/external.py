@@ -18,6 +18,8 @@ from __future__ import annotations
 import contextlib
 import importlib.util
 import io
+import os
+import sys
 import warnings
 from dataclasses import dataclass
 
@@ -25,7 +27,6 @@ import gymnasium as gym
 
 from famarl_cli.core.declare import option
 from famarl_cli.core.errors import FamarlError, ForeignError, UsageError, foreign
-from famarl_cli.core.user_code import importable_from_here
 
 EXTRAS = {
     "box2d": "Box2D (BipedalWalker, LunarLander, CarRacing)",
@@ -77,6 +78,16 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **make_kwargs) -> gym.
     if type(env.unwrapped).__name__ == "BipedalWalker":
         env = ReportsBipedalSuccess(env)
     return env
+
+
+def importable_from_here() -> None:
+    """Users' own modules, named ``module:attribute`` (an env here, an expert in famarl_cli.experts.external), are
+    found in the current folder too, as ``python -m`` finds them: an installed command such as ``famarl`` starts
+    without it on ``sys.path``. The folder goes last, so a module of the user's does not shadow an installed
+    package of the same name."""
+    here = os.getcwd()
+    if here not in sys.path and "" not in sys.path:
+        sys.path.append(here)
 
 
 def _make_error(env_id: str, kwargs: dict, exc: BaseException) -> FamarlError | None:

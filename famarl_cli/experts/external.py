@@ -24,7 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 from famarl_cli.core.errors import UsageError, foreign, one_line
-from famarl_cli.core.user_code import importable_from_here
+from famarl_cli.envs.external import importable_from_here
 
 
 def resolve(path: str) -> Any:
