@@ -319,15 +319,39 @@ def test_robot_hand_trains_and_evaluates_through_the_gymnasium_loop(tmp_path):
     assert mismatched.exit_code != 0 and "Traceback" not in mismatched.output
 
 
-def test_train_same_seed_same_log_and_resume_extends_a_finished_run(tmp_path):
+def test_train_same_seed_same_log_and_resume_extends_a_finished_run_or_leaves_it(tmp_path):
     a, b = tmp_path / "a", tmp_path / "b"
     for out in (a, b):
         assert famarl("train", "--agent", "ppo", *TINY_TRAINING, "--out", out).exit_code == 0
     assert (a / "train.csv").read_text() == (b / "train.csv").read_text()
     updates = len((a / "train.csv").read_text().splitlines())
+    written = {path.name: path.stat().st_mtime_ns for path in a.iterdir()}
+    complete = famarl("train", "--out", a, "--resume")
+    assert complete.exit_code == 0 and "holds a complete run" in complete.output and "nothing to do" in complete.output
+    assert {path.name: path.stat().st_mtime_ns for path in a.iterdir()} == written
     assert famarl("train", "--out", a, "--resume", "--steps", 3000).exit_code == 0
     assert len((a / "train.csv").read_text().splitlines()) > updates
     assert json.loads((a / "run.json").read_text())["env_steps"] >= 3000
+
+
+def test_an_env_that_cannot_render_is_evaluated_and_not_filmed_with_one_note(tmp_path, monkeypatch):
+    import gymnasium as gym
+
+    import famarl_cli.rl.evaluation
+    from famarl_cli.stages.evaluate import evaluate_run
+
+    run = tmp_path / "run"
+    assert famarl("train", "--agent", "ppo", *TINY_TRAINING, "--out", run).exit_code == 0
+
+    def no_pygame(*_):
+        raise gym.error.DependencyNotInstalled("pygame is not installed")
+
+    monkeypatch.setattr(famarl_cli.rl.evaluation, "film_episode", no_pygame)
+    evaluation = evaluate_run(str(run), str(tmp_path / "eval"), 2, 100, 0, film=True)
+    assert "pygame is not installed" in evaluation["not_filmed"] and "--no-film" in evaluation["not_filmed"]
+    written = json.loads((tmp_path / "eval" / "eval.json").read_text())
+    assert written["not_filmed"] == evaluation["not_filmed"] and 0 <= written["success_rate"] <= 1
+    assert not (tmp_path / "eval" / "episode.gif").exists()
 
 
 def test_train_and_evaluate_bad_inputs(tmp_path, favae_file, segments_file):

@@ -74,3 +74,14 @@ def test_ground_truth_matches_what_the_episode_did(demos):
             assert second[names.index("distance")] > 1.0
             # The vertical phase begins where the horizontal one arrived at the goal's column.
             assert abs(obs[start, 0] - obs[0, 4]) < 0.05
+
+
+@pytest.mark.parametrize(("script", "phases"), [(Script.REACHING, 1), (Script.BALL_PLACING, 5)])
+def test_robothand_controls_solve_their_tasks_in_the_pegging_experts_moves(script, phases):
+    """The positive controls of RobotHand's target tasks: each task can be solved in its own world and time limit,
+    by straight moves and grasps like the pegging demos' (all their phases begun)."""
+    demos = record_demos(script, n_episodes=40, seed=11)
+    assert demos.env_id.endswith(("Reaching-v0", "BallPlacing-v0")) and script.environment == Environment.ROBOT_HAND
+    assert demos.success_rate >= 0.95
+    begun = [len(e.segment_starts) for e in demos.episodes]
+    assert max(begun) == phases and demos.factor_names == ("dx", "dy", "grasp")

@@ -367,3 +367,25 @@ def test_demos_without_ground_truth_get_no_boundary_scores(tmp_path):
     assert "not measured (the demos have no ground-truth phases)" in " ".join(result.output.split())
     metrics = json.loads(out.with_suffix(".metrics.json").read_text())
     assert metrics["boundaries_exact"] is None and metrics["boundaries_within_2"] is None
+
+
+def test_the_documented_pendulum_expert_imports_from_the_current_folder(tmp_path):
+    """docs/external.md's own my_experts.py and famarl demos line, run by the installed ``famarl`` command (which,
+    unlike ``python -m``, does not start with the current folder on sys.path) in the folder that holds the expert."""
+    import re
+    import shlex
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    page = (Path(__file__).parents[1] / "docs/external.md").read_text()
+    [expert] = re.findall(r"```python\n(# my_experts\.py\n.*?)```", page, re.S)
+    line = next(line for line in page.splitlines() if line.startswith("famarl demos --env Pendulum-v1 --expert"))
+    (tmp_path / "my_experts.py").write_text(expert)
+    command = Path(sys.executable).with_name("famarl")
+    assert command.is_file(), "the package's console script is installed with it"
+    argv = [str(command), *shlex.split(line)[1:]]
+    argv[argv.index("--episodes") + 1] = "2"
+    done = subprocess.run([*argv, "--no-plot"], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert len(read_demos(tmp_path / "data/demos/pendulum.h5").episodes) == 2

@@ -219,9 +219,11 @@ def test_every_stage_parses_reads_only_its_deps_and_a_parameter_reaches_only_wha
         ]
         if values.get("out") is not None:  # what it writes: the outs, or a file and its picture beside it
             out = Path(values["out"])
-            summary = str(values.get("summary"))  # a report's summary: the pipeline's committed metric
+            # a report's summary and metrics beside it, committed with the pipeline
+            summary = Path(str(values.get("summary")))
+            beside = {str(summary), str(summary.with_name("metrics.json"))}
             if not all(
-                _under(o, str(out)) or Path(o).with_suffix("") == out.with_suffix("") or o == summary for o in outs
+                _under(o, str(out)) or Path(o).with_suffix("") == out.with_suffix("") or o in beside for o in outs
             ):
                 faults.append(f"{where} writes {out}, its outs are {outs}")
     assert not faults, "\n".join(sorted(set(faults)))
@@ -342,7 +344,7 @@ def test_every_pipeline_writes_its_report(project):
         text = (project / "data/report" / name / "report.md").read_text()
         assert text.startswith("# famarl report")
         first = "goal" if name in GOALS else "the paper says"
-        assert f"| {first} | per seed we measure | rule (95% intervals) |" in text
+        assert f"| {first} | per seed we measure | rule | per-seed values; estimate [95% CI unless marked] |" in text
         assert "Not run yet" not in text
         summary = json.loads((project / "pipelines" / name / "summary.json").read_text())
         assert set(summary) == {name}
@@ -360,7 +362,9 @@ def test_every_pipeline_writes_its_report(project):
     assert "PointMaze Medium, sparse reward:" in pointmaze and "| hybrid |" in pointmaze
     for figure in ("bipedal/bipedal-traversal.png", "pointmaze/pointmaze-demos.png", "traversal/traversal.png"):
         assert (project / "data/report" / figure).stat().st_size > 1000
-    assert "summary.json" in dvc(project, "metrics", "show")
+    shown = dvc(project, "metrics", "show")
+    assert "metrics.json" in shown and "summary.json" not in shown
+    assert len(shown.splitlines()) < 100 and max(map(len, shown.splitlines())) < 200, shown
     made = json.loads((project / "summary.json").read_text())["maze"]["made"]
     assert made["famarl"] and made["machine"].endswith("cores") and made["revision"] is None  # no git there
     # Each replicate's macro actions: segments, C_last, FAVAE and traversal, all from its own seed.
@@ -379,7 +383,7 @@ def test_every_pipeline_writes_its_report(project):
 
 
 @pytest.mark.slow  # DVC repro of real pipelines
-def test_learning_curves_are_dvc_plots_and_headline_numbers_are_metrics(project):
+def test_learning_curves_are_dvc_plots_and_the_verdicts_counts_are_metrics(project):
     shown = dvc_json(project, "plots", "show")
     assert not shown.get("errors"), shown.get("errors")
     maze = shown["data"]["Maze, training success (last 100 episodes)"][0]["content"]
@@ -395,9 +399,13 @@ def test_learning_curves_are_dvc_plots_and_headline_numbers_are_metrics(project)
         assert f"{title}, training success" in titles
     assert "BipedalWalker, training return" in titles
     metrics = dvc_json(project, "metrics", "show")[""]["data"]
-    famarl = metrics["summary.json"]["data"]["maze"]["headline"]["famarl"]
-    assert famarl["n"] == 2 and famarl["success_low"] <= famarl["success"] <= famarl["success_high"]
-    assert "headline" in metrics["pipelines/pointmaze/summary.json"]["data"]["pointmaze"]
+    maze = metrics["metrics.json"]["data"]
+    famarl = json.loads((project / "summary.json").read_text())["maze"]["headline"]["famarl"]
+    assert famarl["n"] == 2 and maze["success"]["famarl"] == famarl["success"]
+    assert maze["claims"] == maze["reproduce"] + maze["do_not"] + maze["inconclusive"] > 0
+    for name in ("pointmaze", "skills", "traversal"):
+        counts = metrics[f"pipelines/{name}/metrics.json"]["data"]
+        assert counts["claims"] == counts["reproduce"] + counts["do_not"] + counts["inconclusive"] > 0
 
 
 @pytest.mark.slow  # DVC repro of real pipelines

@@ -101,6 +101,14 @@ def test_the_papers_maze_result_reproduces_when_only_famarl_solves_it(tmp_path):
     famarl = summary["headline"]["famarl"]
     assert famarl["n"] == 5 and famarl["success"] == pytest.approx(0.95, abs=1e-3)
     assert famarl["success_low"] < 0.95 < famarl["success_high"] and famarl["auc"] > summary["headline"]["ppo"]["auc"]
+    metrics = json.loads((tmp_path / "report/metrics.json").read_text())
+    assert metrics == {
+        "claims": 5,
+        "reproduce": 5,
+        "do_not": 0,
+        "inconclusive": 0,
+        "success": {agent: summary["headline"][agent]["success"] for agent in ("famarl", "ppo", "figar")},
+    }
     with open(tmp_path / "report/maze-curves.csv", newline="") as handle:
         rows = list(csv.DictReader(handle))
     assert len(rows) == 15 * 20 and {row["series"] for row in rows} == {"famarl", "ppo", "figar"}
@@ -185,6 +193,28 @@ def test_robothand_aggregates_both_tasks(tmp_path):
     headline = json.loads((tmp_path / "report/summary.json").read_text())["robothand"]["headline"]
     assert headline["famarl (RobotHand-Reaching-v0)"]["n"] == headline["ppo (RobotHand-BallPlacing-v0)"]["n"] == 5
     assert len(headline) == 6
+    assert "Positive controls" not in text  # none has run
+
+
+def test_robothand_shows_each_tasks_positive_control_and_keeps_it_in_the_summary(tmp_path):
+    from famarl_cli.artifacts import write_demos
+    from famarl_cli.experts import Script
+    from famarl_cli.report.experiments.robothand import controls_table
+    from famarl_cli.stages.demos import record_demos
+
+    data = tmp_path / "data"
+    for seed, jitter in zip(SEEDS, JITTER, strict=True):
+        make_run(data, "robothand", f"reaching-famarl-seed{seed}", "famarl", "famarl", 0.5 + jitter, REACHING)
+    write_demos(data / "robothand/controls/reaching.h5", record_demos(Script.REACHING, n_episodes=4, seed=100))
+    write_report(["robothand"], data, tmp_path / "report", "test")
+    text = (tmp_path / "report/report.md").read_text()
+    assert "| reaching | 1.00 [0.51, 1.00] | 4 |" in text and "| yes |" in text
+    summary = json.loads((tmp_path / "report/summary.json").read_text())["robothand"]
+    assert summary["controls"]["reaching"]["success"] == 1.0 and "ballplacing" not in summary["controls"]
+    failing = {"success": 0.5, "success_low": 0.3, "success_high": 0.7, "episodes": 20, "steps": 300.0}
+    assert "| ballplacing | 0.50 [0.30, 0.70] | 20 | 300 | **no**: no controller solves it here |" in controls_table(
+        {"ballplacing": failing}
+    )
 
 
 def test_traversal_claims_are_over_favae_seeds(tmp_path):

@@ -133,3 +133,21 @@ def test_the_reported_intervals_cover_at_their_level_when_each_replicate_meets_i
                 assert abs(r["coverage"] - 0.95) <= 3 * r["standard_error"] + 1e-9, (setting, name, r)
     assert results["success, layout sd 2"]["one set of layouts"]["coverage"] < 0.9
     assert results["difference, layout sd 1.5, correlation 0.5"]["Welch, one set of layouts"]["coverage"] < 0.9
+
+
+def test_a_controllers_success_interval_is_wilsons_over_its_episodes():
+    from famarl_cli.core.statistics import proportion_interval
+
+    # 95 of 100: Wilson's score interval, by hand
+    z = 1.959964
+    centre, half = (
+        (0.95 + z**2 / 200) / (1 + z**2 / 100),
+        z / (1 + z**2 / 100) * np.sqrt(0.95 * 0.05 / 100 + z**2 / 40000),
+    )
+    interval = proportion_interval(95, 100)
+    assert interval.estimate == 0.95
+    assert (interval.low, interval.high) == pytest.approx((centre - half, centre + half), abs=1e-6)
+    every, none = proportion_interval(100, 100), proportion_interval(0, 100)
+    assert every.high == 1.0 and 0.96 < every.low < 0.97 and none.low == 0.0 and 0.03 < none.high < 0.04
+    with pytest.raises(ValueError):
+        proportion_interval(5, 4)

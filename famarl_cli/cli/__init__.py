@@ -38,7 +38,7 @@ NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())
 
 
 WORKFLOW = (
-    "demos", "segment", "favae", "macros", "traverse", "prior", "train", "evaluate", "report", "sweep",
+    "demos", "segment", "favae", "macros", "traverse", "prior", "train", "evaluate", "oracle", "report", "sweep",
     "sequences", "export-minari", "inspect", "docs",
 )  # fmt: skip
 """The commands in the order a user meets them (``famarl --help``); one not named here comes last."""
@@ -236,6 +236,7 @@ from famarl_cli.cli import (  # noqa: E402, F401
     inspect,
     macros,
     minari,
+    oracle,
     prior,
     report,
     segment,

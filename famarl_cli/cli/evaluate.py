@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import typer
 from rich.console import Console
 from rich.table import Table
 
@@ -111,9 +112,13 @@ def evaluate(options: EvaluateOptions) -> None:
         ]
         by_label.add_row(label, str(values["runs"]), *cells)
     console.print(by_label)
+    unfilmed = sorted({e["not_filmed"] for e in evaluations if "not_filmed" in e})
+    for note in unfilmed:
+        typer.echo(f"note: not filmed: {note}", err=True)
+    filmed = film and not unfilmed
     console.print(
         f"written {EVAL_FILE}, {ROLLOUTS_FILE} (ContinuousWorld)"
-        f"{f', {FILM_FILE}, {STILLS_FILE}' if film else ''} in {out or 'each run folder'}, {curves}, "
+        f"{f', {FILM_FILE}, {STILLS_FILE}' if filmed else ''} in {out or 'each run folder'}, {curves}, "
         f"{curves.with_suffix('.json')}"
     )
 

@@ -2,16 +2,18 @@
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
+import typer
 from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.cli import JobRecipe, app, progress_bar, sweepable, torch_on_one_thread
 from famarl_cli.cli.derived import command
 from famarl_cli.core.declare import option, pick, to_json
-from famarl_cli.stages.macros import MacrosConfig
+from famarl_cli.stages.macros import FAVAE, MacrosConfig
 
 
 @dataclass(frozen=True)
@@ -19,6 +21,7 @@ class MacrosOptions(MacrosConfig):
     """``famarl macros``: a replicate's options and the folder it goes into."""
 
     out: Path | None = option(None, "Folder.  [default: data/macros/<demos or segments name>/seed<S>]", path="dir")
+    overwrite: bool = option(False, "Replace what --out holds (made from other inputs or options) and start over.")
 
 
 @command(app, MacrosOptions, "macros")
@@ -26,28 +29,51 @@ def macros(options: MacrosOptions) -> None:
     """Everything the method learns before RL, for one seed, into one folder: segments, C_last, FAVAE, traversal.
 
     The folder's files are those of famarl segment, favae calibrate, favae fit and traverse (the prior is famarl
-    prior fit's, on the folder's segments and FAVAE). An interrupted folder continues at the step it was in. famarl
+    prior fit's, on the folder's segments and FAVAE), and job.json: what the folder is made from (options, the
+    inputs' contents, famarl's version and source). A folder stopped part-way continues at the step it was in; a
+    complete one is left as it is; one made from other inputs or options is refused unless --overwrite. famarl
     sweep macros runs this for many seeds (independent replicates).
 
     Time with the defaults (100 demos): about 45 s on one core of a 2-core AMD EPYC VM; 10 replicates with famarl
     sweep macros, about 2.5 minutes on 2 cores (docs/performance.md, docs/pipelines.md).
     """
+    import shutil
+
+    from famarl_cli.artifacts.base import write_json
     from famarl_cli.artifacts.lock import claim_folder
     from famarl_cli.stages.macros import learn_macros
+    from famarl_cli.sweep.plan import JOB_FILE, Action, Job, folder_action, job_record, made_from
+    from famarl_cli.sweep.worker import name_of
 
     torch_on_one_thread()
     config, seed = pick(MacrosConfig, options), options.seed
     source = config.demos or config.segments
     out = options.out or Path("data/macros") / source.stem / f"seed{seed}"
-    with claim_folder(out), progress_bar() as progress:
-        tasks: dict[str, int] = {}
+    recipe = macros_job(options)
+    job = Job("macros", name_of(recipe.runner), recipe.config, recipe.inputs, recipe.resumable)
+    with claim_folder(out):
+        action = folder_action(out, job, options.overwrite)
+        if action == Action.SKIP:
+            typer.echo(f"note: {out} already holds these macros, complete; nothing to do", err=True)
+            metrics = json.loads((out / FAVAE).with_suffix(".metrics.json").read_text())
+        else:
+            if action == Action.RUN:
+                # Under the folder's lock, whose file stays: only what an earlier run wrote goes.
+                for entry in out.iterdir():
+                    if not entry.name.startswith("."):
+                        shutil.rmtree(entry) if entry.is_dir() else entry.unlink()
+            made = made_from(job)
+            write_json(out / JOB_FILE, job_record(job, complete=False, made=made))
+            with progress_bar() as progress:
+                tasks: dict[str, int] = {}
 
-        def show(phase: str, done: int, total: int) -> None:
-            if phase not in tasks:
-                tasks[phase] = progress.add_task(phase, total=total)
-            progress.update(tasks[phase], completed=done)
+                def show(phase: str, done: int, total: int) -> None:
+                    if phase not in tasks:
+                        tasks[phase] = progress.add_task(phase, total=total)
+                    progress.update(tasks[phase], completed=done)
 
-        metrics = learn_macros(config, out, show)
+                metrics = learn_macros(config, out, show)
+            write_json(out / JOB_FILE, job_record(job, complete=True, made=made))
     table = Table(title=f"macro actions of {source}, seed {seed}", show_header=False)
     table.add_row("KL per ladder", ", ".join(f"{k:.3f}" for k in metrics["kl_per_ladder"]))
     table.add_row("information per ladder", ", ".join(f"{k:.3f}" for k in metrics["information_per_ladder"]))
@@ -59,7 +85,7 @@ def macros(options: MacrosOptions) -> None:
     Console().print(table)
 
 
-@sweepable("macros", MacrosOptions, owned=("--out",))
+@sweepable("macros", MacrosOptions, owned=("--out", "--overwrite"))
 def macros_job(options: MacrosOptions) -> JobRecipe:
     """``famarl sweep macros``: each replicate is what ``famarl macros`` with the same options would make; the
     replicates of one setting are fitted in batches (famarl sweep --batch)."""

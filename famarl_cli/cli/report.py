@@ -32,8 +32,9 @@ def report(
     summary: Annotated[
         Path | None,
         typer.Option(
-            help="Where to write summary.json (verdicts, intervals, headline numbers): a pipeline's committed DVC "
-            "metric.  [default: OUT/summary.json]",
+            help="Where to write summary.json (verdicts, intervals, headline numbers; famarl docs reads it), and "
+            "beside it metrics.json (the verdicts' counts and the agents' success: a pipeline's DVC metric).  "
+            "[default: OUT/summary.json]",
             dir_okay=False,
         ),
     ] = None,

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import typer
 from rich.console import Console
 from rich.table import Table
 
@@ -36,6 +37,14 @@ def train(options: TrainOptions) -> None:
     with claim_folder(out):
         if fresh is None:
             run = Run.resume(out, options.steps)
+            if run.trainer.member_done(run.member):
+                typer.echo(
+                    f"note: {out} holds a complete run ({run.trainer.env_steps:,} of "
+                    f"{run.trainer.config.total_steps:,} env steps); nothing to do (--steps with a larger budget "
+                    "continues it)",
+                    err=True,
+                )
+                return
         else:
             if (out / RUN_FILE).exists() and not options.overwrite:
                 raise UsageError(f"{out} already holds a run; add --resume to continue it or --overwrite to replace it")

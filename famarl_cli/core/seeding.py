@@ -38,6 +38,8 @@ class Stream(IntEnum):
     """The evaluation episodes' layouts (with the evaluation's seed)."""
     EVALUATION_ACTIONS = 5
     """The evaluation's action noise, where the policy samples (with the evaluation's seed)."""
+    ORACLE = 6
+    """The action-space oracle's search (with the evaluation's seed): :mod:`famarl_cli.rl.oracle`."""
 
 
 def sequence(seed: int, stream: Stream, *more: int) -> np.random.SeedSequence:

@@ -52,6 +52,16 @@ class Interval:
         return f"{fmt.format(self.estimate)} [{fmt.format(self.low)}, {fmt.format(self.high)}]{level}"
 
 
+def proportion_interval(successes: int, episodes: int, level: float = LEVEL) -> Interval:
+    """Wilson score interval of a success rate over ``episodes`` independent episodes of one fixed policy (a
+    scripted controller): the episodes, not seeds, are its replicates. Unlike the normal approximation it stays
+    inside [0, 1] and is not empty at 0 or ``episodes`` successes."""
+    if episodes < 1 or not 0 <= successes <= episodes:
+        raise ValueError(f"{successes} successes in {episodes} episodes")
+    ci = stats.binomtest(successes, episodes).proportion_ci(confidence_level=level, method="wilson")
+    return Interval(successes / episodes, float(ci.low), float(ci.high), level)
+
+
 def floored_variance(values: Sequence[float], episodes: int | None = None) -> float:
     """Sample variance of per-seed values; for success rates over ``episodes`` evaluation episodes each, at least
     the binomial variance of one seed's rate."""

@@ -18,6 +18,8 @@ from __future__ import annotations
 import contextlib
 import importlib.util
 import io
+import os
+import sys
 import warnings
 from dataclasses import dataclass
 
@@ -61,7 +63,9 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **make_kwargs) -> gym.
     steps = kwargs.get("max_episode_steps")
     if steps is not None and (isinstance(steps, bool) or not isinstance(steps, int) or steps < 1):
         raise UsageError(f"{env_id}: max_episode_steps must be a positive integer, got {steps!r}")
-    if ":" not in env_id and env_id not in gym.registry:
+    if ":" in env_id:
+        importable_from_here()
+    elif env_id not in gym.registry:
         _register_robotics()
     try:
         with foreign(f"env {env_id}"):
@@ -74,6 +78,16 @@ def make_env(env_id: str, env_kwargs: dict | None = None, **make_kwargs) -> gym.
     if type(env.unwrapped).__name__ == "BipedalWalker":
         env = ReportsBipedalSuccess(env)
     return env
+
+
+def importable_from_here() -> None:
+    """Users' own modules, named ``module:attribute`` (an env here, an expert in famarl_cli.experts.external), are
+    found in the current folder too, as ``python -m`` finds them: an installed command such as ``famarl`` starts
+    without it on ``sys.path``. The folder goes last, so a module of the user's does not shadow an installed
+    package of the same name."""
+    here = os.getcwd()
+    if here not in sys.path and "" not in sys.path:
+        sys.path.append(here)
 
 
 def _make_error(env_id: str, kwargs: dict, exc: BaseException) -> FamarlError | None:

@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 from famarl_cli.envs import ENV_IDS
 from famarl_cli.experts import continuous_world, pegging
 from famarl_cli.experts.continuous_world import ContinuousWorldExpert
-from famarl_cli.experts.pegging import PeggingExpert
+from famarl_cli.experts.pegging import PeggingExpert, PhasedHand
+from famarl_cli.experts.robot_hand_tasks import BallPlacingControl, ReachingControl
 from famarl_cli.experts.scripts import Script
 
 
@@ -23,16 +24,34 @@ class Demonstration:
     factor_names: tuple[str, ...] = ()
 
 
+ROBOT_HAND_TASKS = {Script.PEGGING: "base", Script.REACHING: "reaching", Script.BALL_PLACING: "ball-placing"}
+"""The RobotHand task each RobotHand script acts in."""
+
+
 def demonstration(script: Script) -> Demonstration:
     script = Script(script)
-    if script is Script.PEGGING:
-        return Demonstration(ENV_IDS["robot-hand-base"], {}, pegging.FACTOR_NAMES)
+    if script in ROBOT_HAND_TASKS:
+        return Demonstration(ENV_IDS[f"robot-hand-{ROBOT_HAND_TASKS[script]}"], {}, pegging.FACTOR_NAMES)
     return Demonstration(ENV_IDS["base"], {"goal_rows": list(script.goal_rows)}, continuous_world.FACTOR_NAMES)
 
 
-def make_expert(script: Script) -> ContinuousWorldExpert | PeggingExpert:
+def make_expert(script: Script) -> ContinuousWorldExpert | PhasedHand:
     script = Script(script)
-    return PeggingExpert() if script is Script.PEGGING else ContinuousWorldExpert(script)
+    controllers = {
+        Script.PEGGING: PeggingExpert,
+        Script.REACHING: ReachingControl,
+        Script.BALL_PLACING: BallPlacingControl,
+    }
+    return controllers[script]() if script in controllers else ContinuousWorldExpert(script)
 
 
-__all__ = ["ContinuousWorldExpert", "Demonstration", "PeggingExpert", "Script", "demonstration", "make_expert"]
+__all__ = [
+    "BallPlacingControl",
+    "ContinuousWorldExpert",
+    "Demonstration",
+    "PeggingExpert",
+    "ReachingControl",
+    "Script",
+    "demonstration",
+    "make_expert",
+]

@@ -24,6 +24,7 @@ import gymnasium as gym
 import numpy as np
 
 from famarl_cli.core.errors import UsageError, foreign, one_line
+from famarl_cli.envs.external import importable_from_here
 
 
 def resolve(path: str) -> Any:
@@ -31,6 +32,7 @@ def resolve(path: str) -> Any:
     module_name, _, attribute = path.partition(":")
     if not module_name or not attribute:
         raise UsageError(f"--expert must be module:attribute (like mypackage.experts:policy), got {path!r}")
+    importable_from_here()
     try:
         module = importlib.import_module(module_name)
     except Exception as exc:  # the user's module may fail in any way on import

@@ -76,8 +76,9 @@ def phases(rod_x: float, basket_x: float) -> list[Phase]:
     ]
 
 
-class PeggingExpert:
-    """Acts in RobotHand Base from observations; call :meth:`reset` then :meth:`act` once per step."""
+class PhasedHand:
+    """A RobotHand controller that follows a plan of :class:`Phase` moves, drawn up from the first observation by
+    :meth:`plan_for`; call :meth:`reset` then :meth:`act` once per step."""
 
     def __init__(self) -> None:
         self.plan: list[Phase] = []
@@ -86,8 +87,11 @@ class PeggingExpert:
         self._phase_start_grip = np.zeros(2)
         self.steps = 0
 
+    def plan_for(self, observation: np.ndarray) -> list[Phase]:
+        raise NotImplementedError
+
     def reset(self, observation: np.ndarray) -> None:
-        self.plan = phases(rod_x=float(observation[8]), basket_x=float(observation[14]))
+        self.plan = self.plan_for(observation)
         self.phase_starts, self._factors, self.steps = [], [], 0
         self._begin(0, observation)
 
@@ -129,3 +133,10 @@ class PeggingExpert:
         action[2] = np.clip(-ANGLE_GAIN * tilt / TURN_SPEED, -1.0, 1.0)
         action[3] = phase.grasp
         return action
+
+
+class PeggingExpert(PhasedHand):
+    """Acts in RobotHand Base: the seven phases above, from the rod's and the red basket's places."""
+
+    def plan_for(self, observation: np.ndarray) -> list[Phase]:
+        return phases(rod_x=float(observation[8]), basket_x=float(observation[14]))

@@ -11,17 +11,21 @@ class Environment(StrEnum):
 
 
 class Script(StrEnum):
-    """The paper's four ContinuousWorld scripts (its Figure 3) and RobotHand's pegging script."""
+    """The paper's four ContinuousWorld scripts (its Figure 3), RobotHand's pegging script, and the scripted
+    controllers of RobotHand's two target tasks (positive controls, :mod:`famarl_cli.experts.robot_hand_tasks`)."""
 
     DOWN_ONLY = "down-only"
     DOWN_AND_UP = "down-and-up"
     PUSHED_DOWN_ONLY = "pushed-down-only"
     PUSHED_DOWN_AND_UP = "pushed-down-and-up"
     PEGGING = "pegging"
+    REACHING = "reaching"
+    BALL_PLACING = "ball-placing"
 
     @property
     def environment(self) -> Environment:
-        return Environment.ROBOT_HAND if self is Script.PEGGING else Environment.CONTINUOUS_WORLD
+        robot_hand = (Script.PEGGING, Script.REACHING, Script.BALL_PLACING)
+        return Environment.ROBOT_HAND if self in robot_hand else Environment.CONTINUOUS_WORLD
 
     @property
     def goal_rows(self) -> tuple[str, ...]:

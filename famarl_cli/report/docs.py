@@ -206,8 +206,9 @@ def claims_table(found: list[Pipeline]) -> str:
 
 
 def headline_table(found: list[Pipeline], name: str = "default") -> str:
-    """Pipeline ``name``'s agents (n, success, AUC, return; from the first experiment of its summary) and its
-    claims: the README's headline for the default pipeline, ``headline-NAME`` in a page about pipeline NAME."""
+    """Pipeline ``name``'s agents (n, success, AUC, return; from the first experiment of its summary), its claims
+    and its positive controls where it has them: the README's headline for the default pipeline,
+    ``headline-NAME`` in a page about pipeline NAME."""
     pipeline = next(p for p in found if p.name == name)
     title = "the default pipeline" if name == "default" else pipeline.link
     sections = _experiments(pipeline)
@@ -230,6 +231,12 @@ def headline_table(found: list[Pipeline], name: str = "default") -> str:
         )
     lines += ["", "| claim | estimate [95% CI unless marked] | verdict |", "|---|---|---|"]
     lines += [f"| {c['claim']} | {_estimates(c)} | {c['verdict']} |" for c in section.get("judged", [])]
+    if section.get("controls"):
+        lines += ["", "| task | scripted controller's success [95% Wilson CI over episodes] | episodes |"]
+        lines.append("|---|---|---|")
+        for task, c in section["controls"].items():
+            interval = Interval(c["success"], c["success_low"], c["success_high"]).text()
+            lines.append(f"| {task} | {interval} | {c['episodes']} |")
     return "\n".join(lines) + "\n"
 
 

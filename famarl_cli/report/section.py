@@ -27,6 +27,9 @@ class Section:
     """The runs behind it: their learning curves go to ``<name>-curves.csv``, their numbers to summary.json."""
     goals: bool = False
     """Its claims are our goals beyond the paper (met, missed, inconclusive) rather than the paper's claims."""
+    controls: dict[str, dict] = field(default_factory=dict)
+    """Per task, what a scripted controller reaches there (a positive control: the task can be solved in its own
+    physics and time limit); no verdict, but summary.json keeps it beside the claims."""
 
     def word(self, verdict: Verdict) -> str:
         return GOAL_WORDS[verdict] if self.goals else verdict.value
@@ -101,4 +104,5 @@ class Section:
                 for c in self.claims
             ],
             **({"headline": headline(self.groups), "scores": scores(self.groups)} if self.groups else {}),
+            **({"controls": self.controls} if self.controls else {}),
         }

@@ -1,4 +1,5 @@
-"""report.md, summary.json, the interval figures and the learning curves' CSV of the named experiments."""
+"""report.md, summary.json, metrics.json, the interval figures and the learning curves' CSV of the named
+experiments."""
 
 from __future__ import annotations
 
@@ -20,10 +21,10 @@ def write_report(
 ) -> dict[str, Section]:
     """Build the named experiments' sections from ``data`` into ``out``: report.md, the figures, the summary
     (``summary``, else ``out/summary.json``: each claim's verdict, estimates, intervals and rule, the headline
-    numbers, and where and when they were made, for ``dvc metrics show``, ``dvc exp show`` and ``famarl
-    docs``) and, for experiments with runs, ``<name>-curves.csv`` (their learning curves, for ``dvc plots show``).
-    Experiments without data are listed with the command that makes them; it is an error when none of them has
-    data."""
+    numbers, and where and when they were made, for ``famarl docs``), beside it :data:`METRICS_FILE`
+    (:func:`compared`, for ``dvc metrics show`` and ``dvc metrics diff``) and, for experiments with runs,
+    ``<name>-curves.csv`` (their learning curves, for ``dvc plots show``). Experiments without data are listed
+    with the command that makes them; it is an error when none of them has data."""
     known = experiments()
     # No mkdir: each file makes its folder as it is written (atomic_path), so a report of nothing leaves nothing.
     sections = {name: known[name].build(data, out) for name in names}
@@ -57,5 +58,31 @@ def write_report(
         "machine": machine(),
         "famarl": version,
     }
-    write_json(summary or out / "summary.json", {name: {**s.summary(), "made": made} for name, s in built.items()})
+    summary = summary or out / "summary.json"
+    write_json(summary, {name: {**s.summary(), "made": made} for name, s in built.items()})
+    write_json(summary.with_name(METRICS_FILE), compared(list(built.values())))
     return built
+
+
+METRICS_FILE = "metrics.json"
+COMPARED_AGENTS = ("famarl", "ppo", "figar")
+
+
+def compared(sections: list[Section]) -> dict:
+    """The few numbers a user compares across pipelines and revisions: the claims and their verdicts' counts
+    (summed over the experiments) and, for a report of one experiment, the sampled success of the paper's three
+    agents where it runs them. The same keys in every pipeline, so ``dvc metrics show`` of all of them is one
+    narrow table; everything else is in the summary."""
+    counts = [section.summary() for section in sections]
+    metrics = {
+        key: sum(count[name] for count in counts)
+        for key, name in (
+            ("claims", "claims"),
+            ("reproduce", "claims_reproduced"),
+            ("do_not", "claims_not_reproduced"),
+            ("inconclusive", "claims_inconclusive"),
+        )
+    }
+    headline = counts[0].get("headline", {}) if len(counts) == 1 else {}
+    success = {agent: headline[agent]["success"] for agent in COMPARED_AGENTS if agent in headline}
+    return {**metrics, **({"success": success} if success else {})}

@@ -28,7 +28,8 @@ class DemosOptions:
 
     script: Script | None = option(
         None,
-        "famarl's expert script: the paper's four act in ContinuousWorld Base, pegging in RobotHand.  [default: "
+        "famarl's expert script: the paper's four act in ContinuousWorld Base, pegging in RobotHand Base; reaching "
+        "and ball-placing are scripted controllers of RobotHand's tasks (positive controls).  [default: "
         "pushed-down-only, unless --expert or --from-minari]",
         flags=("--script", "-s"),
     )

@@ -65,7 +65,8 @@ def evaluate_run(
 ) -> dict:
     """Evaluate the run folder ``run`` into the folder ``into``: ``eval.json`` (the policy acting with its mode,
     and under ``sampled`` the same numbers for the policy drawing its actions as in training), ``rollouts.png``
-    (ContinuousWorld) and, with ``film``, one rendered episode. Success follows :mod:`famarl_cli.envs.success`
+    (ContinuousWorld) and, with ``film``, one rendered episode (where the env cannot render for want of its extra,
+    eval.json's ``not_filmed`` says why and the rest is written). Success follows :mod:`famarl_cli.envs.success`
     (``success_return`` overrides the run's); ``success_rule`` says which rule judged it. Returns what eval.json
     holds, less provenance."""
     from famarl_cli.artifacts.runs import (
@@ -97,6 +98,14 @@ def evaluate_run(
         "env_steps": agent.env_steps,
         "train_wall_s": read_run_file(run_folder)["wall_s"],
     }
+    filmed = None
+    if film:
+        import gymnasium as gym
+
+        try:
+            filmed = film_episode(agent, seed)
+        except gym.error.DependencyNotInstalled as exc:  # rendering's own extra (pygame): the numbers do not need it
+            evaluation["not_filmed"] = f"{agent.spec.env_id} cannot render here ({exc}); --no-film skips filming"
     into_folder.mkdir(parents=True, exist_ok=True)
     params = {
         "episodes": episodes,
@@ -111,6 +120,6 @@ def evaluate_run(
             "(black dots: single primitive steps)"
         )
         plot_rollouts(result.traces, into_folder / ROLLOUTS_FILE, title)
-    if film:
-        save_film(film_episode(agent, seed), into_folder / FILM_FILE, into_folder / STILLS_FILE)
+    if filmed is not None:
+        save_film(filmed, into_folder / FILM_FILE, into_folder / STILLS_FILE)
     return evaluation

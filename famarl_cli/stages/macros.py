@@ -15,7 +15,9 @@ The state-conditioned prior is a step of its own (``famarl prior fit``, ``famarl
 and this folder's segments and FAVAE.
 
 Given segments (and a calibration) instead of demos, the first steps are skipped and those files are read in
-place. Each step's last file marks it done, so an interrupted folder continues at the step it was in.
+place. Each step's last file marks it done, so an interrupted folder continues at the step it was in; whether the
+folder was made from the same inputs and options at all is the caller's to check (``famarl macros`` and the sweep
+keep ``job.json``, famarl_cli.sweep.plan).
 """
 
 from __future__ import annotations

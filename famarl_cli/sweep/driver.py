@@ -26,12 +26,13 @@ from famarl_cli.artifacts.lock import claim_folder
 from famarl_cli.sweep.executors import Executor
 from famarl_cli.sweep.plan import (
     JOB_FILE,
-    JOB_SCHEMA,
-    JOB_SCHEMA_VERSION,
     MANIFEST,
     Action,
     Job,
     batches,
+    job_key,
+    job_record,
+    made_from,
     reconcile,
 )
 from famarl_cli.sweep.worker import (
@@ -82,28 +83,17 @@ class SweepState:
         return [state for state in self.jobs if state.status == "failed"]
 
 
-def _record(job: Job, key: str, complete: bool) -> dict:
-    return {
-        "schema": JOB_SCHEMA,
-        "schema_version": JOB_SCHEMA_VERSION,
-        "name": job.name,
-        "key": key,
-        "runner": job.runner,
-        "config": job.config,
-        "point": job.point,
-        "complete": complete,
-    }
-
-
 def prepare(out: Path, jobs: list[Job]) -> tuple[SweepState, dict[str, str]]:
     """Reconcile ``out`` with the plan: delete what is not in it, wipe what must run afresh, and write each
-    pending job's record and the manifest. Returns the state and every job's key."""
+    pending job's record and the manifest. Returns the state and what each job is made from (by name), which its
+    record says again when it completes."""
     out.mkdir(parents=True, exist_ok=True)
     names = [job.name for job in jobs]
     if len(set(names)) < len(names):
         duplicate = next(name for name in names if names.count(name) > 1)
         raise ValueError(f"two jobs of the sweep are named {duplicate!r}")
-    keys = {job.name: job.key for job in jobs}
+    made = {job.name: made_from(job) for job in jobs}
+    keys = {job.name: job_key(job, made[job.name]) for job in jobs}
     plan = reconcile(out, jobs, keys)
     for folder in plan.delete:
         shutil.rmtree(folder)
@@ -115,7 +105,7 @@ def prepare(out: Path, jobs: list[Job]) -> tuple[SweepState, dict[str, str]]:
             shutil.rmtree(folder)
         if action != Action.SKIP:
             folder.mkdir(parents=True, exist_ok=True)
-            write_json(folder / JOB_FILE, _record(job, keys[job.name], complete=False))
+            write_json(folder / JOB_FILE, job_record(job, complete=False, made=made[job.name]))
         states.append(JobState(job, action, status="skipped" if action == Action.SKIP else "queued"))
     manifest = {
         "schema": "famarl.sweep",
@@ -123,7 +113,7 @@ def prepare(out: Path, jobs: list[Job]) -> tuple[SweepState, dict[str, str]]:
         "jobs": {j.name: {"key": keys[j.name], **j.point} for j in jobs},
     }
     write_json(out / MANIFEST, manifest)
-    return SweepState(states, [folder.name for folder in plan.delete]), keys
+    return SweepState(states, [folder.name for folder in plan.delete]), made
 
 
 def run_sweep(
@@ -145,7 +135,7 @@ def run_sweep(
 
 def _run(out: Path, jobs: list[Job], executor: Executor, max_attempts: int, on_update, batch) -> SweepState:
     cwd = os.getcwd()
-    state, keys = prepare(out, jobs)
+    state, made = prepare(out, jobs)
     running: dict[Future, list[JobState]] = {}
 
     def submit(group: list[JobState]) -> None:
@@ -197,7 +187,7 @@ def _run(out: Path, jobs: list[Job], executor: Executor, max_attempts: int, on_u
                     _fail(job_state, result.error)
                     continue
                 job_state.result = result
-                _complete(out, job_state, keys)
+                _complete(out, job_state, made)
         if died:
             if executor.breaks_as_a_whole:
                 executor.restart()
@@ -238,10 +228,10 @@ def _exception(future: Future) -> BaseException | None:
     return future.exception() if future.done() else None
 
 
-def _complete(out: Path, job_state: JobState, keys: dict[str, str]) -> None:
+def _complete(out: Path, job_state: JobState, made: dict[str, dict]) -> None:
     folder = out / job_state.job.name
     (folder / LEASE_FILE).unlink(missing_ok=True)
     (folder / PROGRESS_FILE).unlink(missing_ok=True)
-    write_json(folder / JOB_FILE, _record(job_state.job, keys[job_state.job.name], complete=True))
+    write_json(folder / JOB_FILE, job_record(job_state.job, complete=True, made=made[job_state.job.name]))
     job_state.status, job_state.finished = "done", time.monotonic()
     job_state.done = job_state.total = max(job_state.total, 1.0)

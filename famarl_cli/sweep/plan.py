@@ -33,7 +33,8 @@ from famarl_cli.artifacts.base import sha256
 from famarl_cli.core.errors import ArtifactError, UsageError
 
 JOB_FILE = "job.json"
-"""In every job folder, written by the driver only: the job's key, config and whether it is complete."""
+"""In every job folder (and a ``famarl macros`` folder), :func:`job_record`: the job's key, what it hashes and whether
+the job is complete. In a sweep, the driver alone writes it."""
 JOB_SCHEMA, JOB_SCHEMA_VERSION = "famarl.job", 1
 MANIFEST = "sweep.json"
 """In the sweep's output folder: the plan (each job's name, axis values and key)."""
@@ -171,18 +172,62 @@ def code_fingerprint() -> str:
     return digest.hexdigest()
 
 
-def job_key(job: Job) -> str:
+def made_from(job: Job) -> dict:
+    """Everything a job's key hashes: the function that runs it, its config, famarl's version and source, and its
+    input files' content hashes."""
     missing = [p for p in job.inputs if not Path(p).is_file()]
     if missing:
         raise ArtifactError(f"{missing[0]}: no such file (an input of job {job.name})")
-    payload = {
+    return {
         "runner": job.runner,
         "config": job.config,
         "famarl_version": __version__,
         "code": code_fingerprint(),
         "inputs": {p: sha256(p) for p in job.inputs},
     }
+
+
+def job_key(job: Job, made: dict | None = None) -> str:
+    """The hash of :func:`made_from` (given, when the caller has it already)."""
+    payload = made_from(job) if made is None else made
     return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+
+
+def job_record(job: Job, complete: bool, made: dict | None = None) -> dict:
+    """What :data:`JOB_FILE` holds: the job's name, key, axis values and whether it is complete, and what the key
+    hashes, so that a folder made from other inputs can say which (:func:`what_changed`)."""
+    made = made_from(job) if made is None else made
+    return {
+        "schema": JOB_SCHEMA,
+        "schema_version": JOB_SCHEMA_VERSION,
+        "name": job.name,
+        "key": job_key(job, made),
+        "point": job.point,
+        "complete": complete,
+        **made,
+    }
+
+
+def what_changed(record: dict, job: Job) -> list[str]:
+    """How ``job`` differs from the one a folder's record was made from, in words: the options (as the config
+    names them), the input files whose content changed, famarl's version or source."""
+    made = made_from(job)
+    changes = [] if record.get("runner") == job.runner else [f"the command ({record.get('runner')})"]
+    before = record.get("config") or {}
+    for name in sorted(set(before) | set(job.config)):
+        if before.get(name) != job.config.get(name):
+            was, now = (json.dumps(config.get(name)) for config in (before, job.config))
+            changes.append(f"{name} {was} -> {now}")
+    inputs = record.get("inputs")
+    if inputs is None:
+        changes.append("its inputs (the folder does not record their contents)")
+    else:
+        changes += [f"the content of {path}" for path, digest in made["inputs"].items() if inputs.get(path) != digest]
+    if record.get("famarl_version") != made["famarl_version"]:
+        changes.append(f"famarl {record.get('famarl_version')} -> {made['famarl_version']}")
+    elif record.get("code") != made["code"]:
+        changes.append("famarl's source")
+    return changes
 
 
 class Action(StrEnum):
@@ -233,3 +278,36 @@ def reconcile(out: Path, jobs: list[Job], keys: dict[str, str]) -> Reconciliatio
             "a sweep deletes what is not in its plan, so give it a folder of its own"
         )
     return Reconciliation(actions, delete)
+
+
+def folder_action(folder: Path, job: Job, overwrite: bool) -> Action:
+    """What a command that makes one job in ``folder`` (``famarl macros --out``) does with what the folder holds:
+    the sweep's rule for one folder, except that work made from other inputs is never replaced unasked.
+
+    =======================================================  ==========================================
+    the folder                                               becomes
+    =======================================================  ==========================================
+    missing or empty                                         run
+    complete, same key                                       skipped: already complete, nothing to do
+    started, same key                                        resumed from where it stopped
+    any other key, or files no famarl job recorded           refused, unless ``overwrite``: run afresh
+    =======================================================  ==========================================
+    """
+    record = read_job_record(folder)
+    if record is None:
+        held = [e for e in folder.iterdir() if not e.name.startswith(".")] if folder.is_dir() else []
+        if held and not overwrite:
+            raise UsageError(
+                f"{folder} holds files no famarl job recorded ({held[0].name}, ...); give an empty --out, or add "
+                "--overwrite to replace them"
+            )
+        return Action.RUN
+    if overwrite:
+        return Action.RUN
+    if record.get("key") != job_key(job):
+        changes = what_changed(record, job) or ["its key"]
+        raise UsageError(
+            f"{folder} was made from other inputs: {'; '.join(changes)}; add --overwrite to start over in it, or "
+            "give another --out"
+        )
+    return Action.SKIP if record.get("complete") else Action.RESUME

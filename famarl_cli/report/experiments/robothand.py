@@ -12,6 +12,49 @@ from famarl_cli.report.verdicts import Claim, improves
 
 REACHING, BALL_PLACING = "famarl/RobotHand-Reaching-v0", "famarl/RobotHand-BallPlacing-v0"
 TASKS = {"reaching": REACHING, "ballplacing": BALL_PLACING}
+CONTROLS = {"reaching": "reaching.h5", "ballplacing": "ball-placing.h5"}
+"""Each task's scripted controller's episodes, in ``data/robothand/controls`` (``famarl demos --script reaching``,
+``--script ball-placing``: :mod:`famarl_cli.experts.robot_hand_tasks`)."""
+CONTROL_BAR = 0.95
+"""A task is a test of the agents where its controller succeeds in at least this share of the episodes."""
+
+
+def controls(folder: Path) -> dict[str, dict]:
+    """Per task whose controller has run: its success over its episodes with a 95% Wilson interval (the episodes are
+    the replicates of one fixed policy), the episodes and their mean length."""
+    from famarl_cli.artifacts.demos import read_demos
+    from famarl_cli.core.statistics import proportion_interval
+
+    found = {}
+    for task, name in CONTROLS.items():
+        if not (folder / name).is_file():
+            continue
+        episodes = read_demos(folder / name).episodes
+        interval = proportion_interval(sum(bool(e.success) for e in episodes), len(episodes))
+        found[task] = {
+            "success": interval.estimate,
+            "success_low": round(interval.low, 4),
+            "success_high": round(interval.high, 4),
+            "episodes": len(episodes),
+            "steps": round(sum(e.length for e in episodes) / len(episodes), 1),
+        }
+    return found
+
+
+def controls_table(found: dict[str, dict]) -> str:
+    rows = [
+        "Positive controls: a scripted controller per task (`famarl demos --script reaching`, `--script "
+        "ball-placing`), on episodes drawn from the evaluation's seed, in the pipeline's own world and time limit. "
+        f"A task whose controller succeeds in less than {CONTROL_BAR:.0%} of them is no test of the agents.",
+        "",
+        "| task | controller's success [95% Wilson CI over episodes] | episodes | mean steps | a test of the agents |",
+        "|---|---|---|---|---|",
+    ]
+    for task, c in found.items():
+        test = "yes" if c["success"] >= CONTROL_BAR else "**no**: no controller solves it here"
+        interval = f"{c['success']:.2f} [{c['success_low']:.2f}, {c['success_high']:.2f}]"
+        rows.append(f"| {task} | {interval} | {c['episodes']} | {c['steps']:.0f} | {test} |")
+    return "\n".join(rows)
 
 
 @experiment("robothand", "pipelines/robothand/dvc.yaml", order=6)
@@ -32,6 +75,9 @@ def robothand(data: Path, out: Path):
         fails_claim("FiGAR fails BallPlacing (no precise control)", ball.get("figar")),
     ]
     tables, figures = [], []
+    found = controls(data / "robothand" / "controls")
+    if found:
+        tables.append(controls_table(found))
     agents = sorted({agent for by in tasks.values() for agent in by}, key=["famarl", "ppo", "figar"].index)
     complete = [agent for agent in agents if all(agent in by for by in tasks.values())]
     if "famarl" in complete and len(complete) > 1:
@@ -61,4 +107,4 @@ def robothand(data: Path, out: Path):
             figures += [still] if still else []
             copy_figure(g.runs[0].folder / FILM_FILE, out / f"{name}.gif")
     every = [g for by in tasks.values() for g in by.values()]
-    return Section("RobotHand Reaching and BallPlacing (paper Fig. 7)", claims, tables, figures, every)
+    return Section("RobotHand Reaching and BallPlacing (paper Fig. 7)", claims, tables, figures, every, controls=found)

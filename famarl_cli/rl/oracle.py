@@ -1,0 +1,152 @@
+"""The action-space oracle: the best an agent's action space can do on a task at all, found by search with the
+environment's own resets, not learnt.
+
+An agent that fails a task has either an action space that cannot express a solution or a learner that does not
+find one. The oracle separates the two. For each of ``episodes`` layouts it searches open-loop plans, a sequence of
+decisions in the agent's own action space (a FAVAE latent per macro action for FaMARL, an action and a repeat
+count for FiGAR, an action per step for PPO), each decoded as the agent's decisions are
+(:mod:`famarl_cli.rl.action_modes`) and run from the layout's reset, by the cross-entropy method: ``candidates``
+plans drawn from a Gaussian per iteration (FaMARL's starts at its latent prior N(0, 1), the others' at the middle
+of the action box), the best tenth (by success, then return) refitting it, for at most ``iterations`` iterations or
+until a plan succeeds. An episode the search solves is one the space can solve; one it does not may still be
+solvable (the search is finite): the oracle's rate is a lower bound of what the space can reach.
+
+Plans are open loop, as FaMARL's macros are: each decision is fixed before the episode. Every plan of a layout
+starts from the same reset (the env is reset with the same seed for each), so the env must be deterministic given
+its seed, as famarl's are.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from famarl_cli.core.errors import UsageError
+from famarl_cli.core.seeding import Stream, generator, seed_of
+from famarl_cli.rl.action_modes import ActionMode, LatentMacroActions, PrimitiveActions
+from famarl_cli.rl.executor import run_sequences
+from famarl_cli.rl.vector import GymBatch
+
+ELITE_SHARE = 0.1
+"""The share of a CEM iteration's plans that refit its Gaussian."""
+MIN_STD = 0.05
+"""The Gaussian's spread never shrinks below this (in the policy output's units): the search keeps exploring."""
+
+
+@dataclass(frozen=True)
+class OracleOptions:
+    episodes: int = 20
+    """Layouts searched, each drawn from ``seed`` as an evaluation draws its layouts."""
+    seed: int = 100
+    candidates: int = 64
+    """Plans per CEM iteration (the batch of envs)."""
+    iterations: int = 4
+    decisions: int = 32
+    """Decisions per plan; a plan's episode ends earlier where the env ends it."""
+
+
+@dataclass(frozen=True)
+class Searched:
+    """One layout's search: whether a plan succeeded, the best return, the plans it took, and the best plan (the
+    one that succeeded, else the one of the best return): its outputs (decisions, outputs) and choices
+    (decisions,), which :func:`rollout` runs again to the same end."""
+
+    success: bool
+    best_return: float
+    plans: int
+    u: np.ndarray
+    index: np.ndarray
+
+
+def search(
+    batch: GymBatch,
+    mode: ActionMode,
+    start: tuple[np.ndarray, np.ndarray],
+    layout_seed: int,
+    options: OracleOptions,
+    rng: np.random.Generator,
+) -> Searched:
+    """CEM over open-loop plans on the layout of ``layout_seed`` (module doc). ``start`` is the Gaussian's initial
+    mean and spread per policy output; a mode with a categorical head (FiGAR's repeat count) searches its choice as
+    a continuous value in [0, choices), floored."""
+    mean = np.broadcast_to(start[0], (options.decisions, len(start[0]))).copy()
+    std = np.broadcast_to(start[1], mean.shape).copy()
+    choices = mode.choices
+    choice_mean = np.full(options.decisions, choices / 2.0)
+    choice_std = np.full(options.decisions, choices / 2.0)
+    best, plans = None, 0
+    elites = max(2, int(round(ELITE_SHARE * options.candidates)))
+    for _ in range(options.iterations):
+        u = mean + std * rng.standard_normal((options.candidates, *mean.shape))
+        picked = choice_mean + choice_std * rng.standard_normal((options.candidates, options.decisions))
+        index = np.clip(np.floor(picked), 0, max(choices - 1, 0)).astype(np.int64)
+        success, returns = rollout(batch, mode, u, index, layout_seed)
+        plans += options.candidates
+        # a success first, then the best return
+        top = int(np.flatnonzero(success)[0]) if success.any() else int(np.argmax(returns))
+        if best is None or success[top] or returns[top] > best.best_return:
+            best = Searched(bool(success[top]), float(returns[top]), plans, u[top], index[top])
+        if best.success:
+            break
+        order = np.argsort(-returns)[:elites]
+        mean, std = u[order].mean(axis=0), np.maximum(u[order].std(axis=0), MIN_STD)
+        if choices:
+            choice_mean, choice_std = picked[order].mean(axis=0), np.maximum(picked[order].std(axis=0), MIN_STD)
+    return Searched(best.success, best.best_return, plans, best.u, best.index)
+
+
+def rollout(
+    batch: GymBatch, mode: ActionMode, u: np.ndarray, index: np.ndarray, layout_seed: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Run plan i (``u[i]`` (decisions, outputs), ``index[i]`` (decisions,)) in env i, every env reset to the
+    layout of ``layout_seed``; (success (N,) bool, return (N,))."""
+    n = batch.n_envs
+    for i in range(n):
+        batch.reset_one(i, seed=layout_seed)
+    obs, alive = batch.obs.copy(), np.ones(n, dtype=bool)
+    success, returns = np.zeros(n, dtype=bool), np.zeros(n)
+    for k in range(u.shape[1]):
+        actions, lengths = mode.to_sequences(u[:, k], index[:, k])
+        result = run_sequences(batch, obs, actions, np.where(alive, lengths, 0))
+        returns += np.where(alive, result.reward, 0.0)
+        ended = alive & (result.terminated | result.truncated)
+        success |= ended & (result.success > 0)
+        alive &= ~ended
+        obs = result.obs
+        if not alive.any():
+            break
+    return success, returns
+
+
+def start_of(mode: ActionMode) -> tuple[np.ndarray, np.ndarray]:
+    """Where the search starts in ``mode``'s policy outputs: FaMARL's latents at their prior N(0, 1), an action
+    (PPO, FiGAR) uniform-ish over its box (mean its middle, spread half its width)."""
+    if isinstance(mode, LatentMacroActions):
+        size = mode.policy_action_size
+        return np.zeros(size), np.ones(size)
+    if isinstance(mode, PrimitiveActions):
+        return (mode.low + mode.high) / 2, (mode.high - mode.low) / 2
+    raise UsageError("the oracle searches the action spaces of famarl, ppo and figar runs")
+
+
+def oracle(
+    batch: GymBatch,
+    mode: ActionMode,
+    start: tuple[np.ndarray, np.ndarray],
+    options: OracleOptions,
+    replicate: int = 0,
+    on_episode: Callable[[int, Searched], None] | None = None,
+) -> list[Searched]:
+    """Search each of ``options.episodes`` layouts (reset seeds from ``options.seed`` and ``replicate``, as an
+    evaluation of that replicate in a gymnasium batch draws them); the CEM draws from the oracle's own stream."""
+    first = seed_of(replicate, Stream.EVALUATION_LAYOUTS, options.seed)
+    rng = generator(replicate, Stream.ORACLE, options.seed)
+    found = []
+    for episode in range(options.episodes):
+        searched = search(batch, mode, start, first + episode, options, rng)
+        found.append(searched)
+        if on_episode is not None:
+            on_episode(episode, searched)
+    return found

@@ -1,0 +1,83 @@
+"""``famarl oracle``'s options, declared once, and the search of one run's action space (what each worker runs)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from famarl_cli.artifacts import provenance, write_json
+from famarl_cli.core.declare import option
+from famarl_cli.core.errors import UsageError
+
+ORACLE_FILE = "oracle.json"
+ORACLE_SCHEMA, ORACLE_SCHEMA_VERSION = "famarl.oracle", 1
+
+
+@dataclass(frozen=True)
+class OracleStageOptions:
+    """``famarl oracle``: the best success each run's action space reaches at all, by search with the env's resets."""
+
+    run: list[Path] = option(
+        factory=list,
+        help="Run folder (from famarl train), or a folder of run folders; repeat for several. Only its action space "
+        "is used (its agent, FAVAE, bounds and env), not its policy.",
+        flags=("--run",),
+        path="dir",
+    )
+    episodes: int = option(20, "Layouts searched per run, drawn as the evaluation draws its layouts.", min=1)
+    seed: int = option(100, "Seed of the layouts (as famarl evaluate's --seed, with each run's own seed).", min=0)
+    candidates: int = option(64, "Plans per iteration of the cross-entropy method.", min=2)
+    iterations: int = option(4, "Iterations of the cross-entropy method per layout, at most.", min=1)
+    decisions: int | None = option(
+        None,
+        "Decisions per plan; an episode ends earlier where the env ends it.  [default: the env's time limit, so that "
+        "a plan of single steps can fill an episode]",
+        min=1,
+    )
+    jobs: int | None = option(None, "Runs searched at once.  [default: $FAMARL_JOBS, else one per usable core]", min=1)
+    out: Path = option(Path("data/oracle"), "Folder for OUT/<run folder name>/oracle.json.", path="dir")
+
+
+def oracle_run(
+    run: str, into: str, episodes: int, seed: int, candidates: int, iterations: int, decisions: int | None
+) -> dict:
+    """Search the action space of the run folder ``run`` (:mod:`famarl_cli.rl.oracle`) on ``episodes`` layouts of
+    its replicate, and write ``into/oracle.json``: the share of layouts a plan solved, with its 95% Wilson interval
+    over the layouts, and each layout's result. Returns what it holds, less provenance."""
+    from famarl_cli.artifacts.runs import CHECKPOINT_FILE
+    from famarl_cli.core.statistics import proportion_interval
+    from famarl_cli.rl.oracle import OracleOptions, oracle, start_of
+    from famarl_cli.rl.training import build_mode, load_agent
+    from famarl_cli.rl.vector import GymBatch
+
+    agent = load_agent(run)
+    spec = agent.spec
+    batch = GymBatch.make(spec.env_id, candidates, seed, spec.env_kwargs, spec.success_return)
+    batch.autoreset = False
+    mode = build_mode(spec, batch, agent.favae, agent.skills)
+    limit = batch.envs[0].spec.max_episode_steps if batch.envs[0].spec is not None else None
+    if decisions is None and limit is None:
+        raise UsageError(f"{spec.env_id} has no time limit: give --decisions")
+    decisions = decisions or limit
+    options = OracleOptions(episodes, seed, candidates, iterations, decisions)
+    found = oracle(batch, mode, start_of(mode), options, spec.seed)
+    solved = sum(s.success for s in found)
+    interval = proportion_interval(solved, episodes)
+    result = {
+        "schema": ORACLE_SCHEMA,
+        "schema_version": ORACLE_SCHEMA_VERSION,
+        "run": str(run),
+        "label": spec.label,
+        "agent": str(spec.agent),
+        "env": spec.env_id,
+        "seed": spec.seed,
+        "success_rate": interval.estimate,
+        "success_low": round(interval.low, 4),
+        "success_high": round(interval.high, 4),
+        "success_rule": batch.success_rule,
+        "episodes": [{"success": s.success, "best_return": round(s.best_return, 3), "plans": s.plans} for s in found],
+    }
+    params = {"episodes": episodes, "seed": seed, "candidates": candidates, "iterations": iterations}
+    prov = provenance("famarl oracle", {**params, "decisions": decisions}, seed, [Path(run) / CHECKPOINT_FILE])
+    write_json(Path(into) / ORACLE_FILE, {**result, "provenance": prov})
+    return result

@@ -1,0 +1,68 @@
+"""The action-space oracle: a search in an agent's own action space with the env's resets."""
+
+import json
+
+import numpy as np
+import pytest
+from cli_helpers import famarl, one_line_error
+
+from famarl_cli.core.errors import UsageError
+from famarl_cli.rl.action_modes import HybridActions, LatentMacroActions, PrimitiveActions, RepeatedActions
+from famarl_cli.rl.oracle import OracleOptions, rollout, search, start_of
+from famarl_cli.rl.vector import GymBatch
+
+REACHING = "famarl/RobotHand-Reaching-v0"
+
+
+def _batch(n: int) -> GymBatch:
+    batch = GymBatch.make(REACHING, n, 0)
+    batch.autoreset = False
+    return batch
+
+
+def test_a_plan_the_search_reports_runs_again_to_the_same_end():
+    """CEM over PPO's space (an action per step) on one Reaching layout: the best plan it reports, run alone from
+    the same reset, reaches the same return and success; the search is the same again from the same draws."""
+    batch = _batch(16)
+    mode = PrimitiveActions(*batch.action_bounds)
+    options = OracleOptions(episodes=1, candidates=16, iterations=3, decisions=60)
+    found = search(batch, mode, start_of(mode), 7, options, np.random.default_rng(0))
+    again = search(batch, mode, start_of(mode), 7, options, np.random.default_rng(0))
+    assert (found.success, found.best_return, found.plans) == (again.success, again.best_return, again.plans)
+    assert found.plans in (16, 32, 48) and found.u.shape == (60, 4)
+    success, returns = rollout(_batch(1), mode, found.u[None], found.index[None], 7)
+    assert bool(success[0]) == found.success and returns[0] == pytest.approx(found.best_return)
+
+
+def test_the_search_starts_in_each_spaces_middle_and_refuses_the_hybrid():
+    low, high = np.array([-1.0, 0.0]), np.array([1.0, 2.0])
+    mean, spread = start_of(RepeatedActions(low, high, 4))
+    np.testing.assert_array_equal(mean, [0.0, 1.0])
+    np.testing.assert_array_equal(spread, [1.0, 1.0])
+
+    class Latents(LatentMacroActions):
+        def __init__(self):  # only the size matters here
+            self.policy_action_size = 6
+
+    assert [a.tolist() for a in start_of(Latents())] == [[0.0] * 6, [1.0] * 6]
+    with pytest.raises(UsageError, match="famarl, ppo and figar"):
+        start_of(HybridActions.__new__(HybridActions))
+
+
+@pytest.mark.slow
+def test_famarl_oracle_writes_each_runs_share_of_solved_layouts(tmp_path):
+    run = tmp_path / "run"
+    tiny = ("--steps", 600, "--n-envs", 2, "--n-steps", 8, "--epochs", 1, "--minibatches", 2)
+    assert famarl("train", "--env", REACHING, "--agent", "figar", *tiny, "--out", run).exit_code == 0
+    out = tmp_path / "oracle"
+    options = ("--episodes", 3, "--candidates", 8, "--iterations", 2, "--decisions", 40, "--jobs", 1)
+    result = famarl("oracle", "--run", run, *options, "--out", out)
+    assert result.exit_code == 0, result.output
+    found = json.loads((out / "run" / "oracle.json").read_text())
+    assert found["schema"] == "famarl.oracle" and found["agent"] == "figar" and len(found["episodes"]) == 3
+    solved = [e["success"] for e in found["episodes"]]
+    assert found["success_rate"] == pytest.approx(np.mean(solved))
+    assert found["success_low"] <= found["success_rate"] <= found["success_high"]
+    assert all(e["plans"] in (8, 16) for e in found["episodes"])
+    assert found["provenance"]["params"]["candidates"] == 8
+    one_line_error(famarl("oracle", "--out", out), 2, "give --run")
