@@ -82,10 +82,21 @@ def project(tmp_path: Path, monkeypatch) -> Path:
     (tmp_path / "docs" / "skills.md").write_text("# Skills\n")
     (tmp_path / "docs" / "favae.md").write_text("# FAVAE\n")
     (tmp_path / "docs" / "verdicts.md").write_text("# Verdicts\n")
+    for page in ("robothand", "external", "hybrid"):
+        (tmp_path / "docs" / f"{page}.md").write_text(f"# {page}\n")
     (tmp_path / "docs" / "aggregate.md").write_text(
         f"{docs.BEGIN.format(name='aggregate')}\n{docs.END.format(name='aggregate')}\n"
     )
     return tmp_path
+
+
+def test_every_page_with_a_generated_table_is_one_famarl_docs_fills():
+    marked = {
+        str(page.relative_to(ROOT))
+        for page in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+        if "<!-- famarl docs: " in page.read_text()
+    }
+    assert marked <= set(docs.FILES), f"famarl docs never fills {sorted(marked - set(docs.FILES))}"
 
 
 def test_the_committed_docs_are_what_the_committed_metrics_give():
