@@ -403,7 +403,7 @@ def test_learning_curves_are_dvc_plots_and_the_verdicts_counts_are_metrics(proje
     famarl = json.loads((project / "summary.json").read_text())["maze"]["headline"]["famarl"]
     assert famarl["n"] == 2 and maze["success"]["famarl"] == famarl["success"]
     assert maze["claims"] == maze["reproduce"] + maze["do_not"] + maze["inconclusive"] > 0
-    for name in ("pointmaze", "skills", "traversal"):
+    for name in RUN:
         counts = metrics[f"pipelines/{name}/metrics.json"]["data"]
         assert counts["claims"] == counts["reproduce"] + counts["do_not"] + counts["inconclusive"] > 0
 

@@ -72,7 +72,13 @@ def macros(options: MacrosOptions) -> None:
                         tasks[phase] = progress.add_task(phase, total=total)
                     progress.update(tasks[phase], completed=done)
 
-                metrics = learn_macros(config, out, show)
+                try:
+                    metrics = learn_macros(config, out, show)
+                except BaseException:
+                    # A record of work that wrote nothing is none: the folder is left as empty as it was.
+                    if not [e for e in out.iterdir() if not e.name.startswith(".") and e.name != JOB_FILE]:
+                        (out / JOB_FILE).unlink(missing_ok=True)
+                    raise
             write_json(out / JOB_FILE, job_record(job, complete=True, made=made))
     table = Table(title=f"macro actions of {source}, seed {seed}", show_header=False)
     table.add_row("KL per ladder", ", ".join(f"{k:.3f}" for k in metrics["kl_per_ladder"]))

@@ -21,8 +21,8 @@ def oracle(options: OracleStageOptions) -> None:
     reach, with a 95% Wilson interval over the layouts). The run's policy is not used: an agent that fails where
     its space's oracle succeeds has a learner that did not find the solution, not a space without one.
 
-    Time with the defaults: up to 20 x 4 x 64 episodes per run; on one core of a 2-core AMD EPYC VM about 1 s per
-    layout that the first iteration solves in RobotHand, and up to half a minute per layout no plan solves."""
+    Time: at most episodes x iterations x candidates episodes per run, fewer where a plan succeeds early; on one
+    core of a 2-core AMD EPYC VM, RobotHand runs took about 5 s per layout on average (docs/robothand.md)."""
     from famarl_cli.artifacts.runs import expand_run_folders, read_run_file
     from famarl_cli.cli.evaluate import evaluation_names
     from famarl_cli.stages.oracle import oracle_run

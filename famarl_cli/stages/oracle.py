@@ -6,8 +6,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from famarl_cli.artifacts import provenance, write_json
-from famarl_cli.core.declare import option
+from famarl_cli.core.declare import option, same_as
 from famarl_cli.core.errors import UsageError
+from famarl_cli.stages.evaluate import EvaluateOptions
 
 ORACLE_FILE = "oracle.json"
 ORACLE_SCHEMA, ORACLE_SCHEMA_VERSION = "famarl.oracle", 1
@@ -17,15 +18,14 @@ ORACLE_SCHEMA, ORACLE_SCHEMA_VERSION = "famarl.oracle", 1
 class OracleStageOptions:
     """``famarl oracle``: the best success each run's action space reaches at all, by search with the env's resets."""
 
-    run: list[Path] = option(
-        factory=list,
+    run: list[Path] = same_as(
+        EvaluateOptions,
+        "run",
         help="Run folder (from famarl train), or a folder of run folders; repeat for several. Only its action space "
         "is used (its agent, FAVAE, bounds and env), not its policy.",
-        flags=("--run",),
-        path="dir",
     )
     episodes: int = option(20, "Layouts searched per run, drawn as the evaluation draws its layouts.", min=1)
-    seed: int = option(100, "Seed of the layouts (as famarl evaluate's --seed, with each run's own seed).", min=0)
+    seed: int = same_as(EvaluateOptions, "seed", help="Seed of the layouts (famarl evaluate's, with each run's own).")
     candidates: int = option(64, "Plans per iteration of the cross-entropy method.", min=2)
     iterations: int = option(4, "Iterations of the cross-entropy method per layout, at most.", min=1)
     decisions: int | None = option(
@@ -34,7 +34,9 @@ class OracleStageOptions:
         "a plan of single steps can fill an episode]",
         min=1,
     )
-    jobs: int | None = option(None, "Runs searched at once.  [default: $FAMARL_JOBS, else one per usable core]", min=1)
+    jobs: int | None = same_as(
+        EvaluateOptions, "jobs", help="Runs searched at once.  [default: $FAMARL_JOBS, else one per usable core]"
+    )
     out: Path = option(Path("data/oracle"), "Folder for OUT/<run folder name>/oracle.json.", path="dir")
 
 
