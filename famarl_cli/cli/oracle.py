@@ -22,7 +22,8 @@ def oracle(options: OracleStageOptions) -> None:
     its space's oracle succeeds has a learner that did not find the solution, not a space without one.
 
     Time: at most episodes x iterations x candidates episodes per run, fewer where a plan succeeds early; on one
-    core of a 2-core AMD EPYC VM, RobotHand runs took about 5 s per layout on average (docs/robothand.md)."""
+    core of a 2-core AMD EPYC VM, RobotHand runs took a few seconds per layout on average (the record in
+    docs/robothand.md)."""
     from famarl_cli.artifacts.runs import expand_run_folders, read_run_file
     from famarl_cli.cli.evaluate import evaluation_names
     from famarl_cli.stages.oracle import oracle_run
