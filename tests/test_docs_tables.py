@@ -117,14 +117,17 @@ def test_tables_carry_each_claim_with_its_interval_n_rule_and_where_it_was_made(
     assert docs.write_docs(project) == [] and docs.write_docs(project, check=True) == []  # a second run: nothing
 
 
-def test_a_pipelines_positive_controls_are_shown_under_its_claims(project):
+def test_a_pipelines_positive_controls_and_oracle_are_shown_under_its_claims(project):
     summary = _summary()
     control = {"success": 0.97, "success_low": 0.92, "success_high": 0.99, "episodes": 100, "steps": 140.0}
     summary["maze"]["controls"] = {"ballplacing": control}
+    searched = {"n": 10, "layouts": 10, "share": 0.8, "share_low": 0.7, "share_high": 0.9}
+    summary["maze"]["oracle"] = {"ballplacing": {"figar": searched}}
     (project / "summary.json").write_text(json.dumps(summary))
     docs.write_docs(project)
     pipelines = (project / "docs/pipelines.md").read_text()
     assert "| ballplacing | 0.97 [0.92, 0.99] | 100 |" in pipelines
+    assert "| ballplacing | figar | 10 | 0.80 [0.70, 0.90] |" in pipelines
 
 
 def test_changed_code_or_params_mark_the_pipeline_stale_and_missing_data_does_not(project):

@@ -253,6 +253,7 @@ packages whose ``__init__`` is only a docstring count as plumbing too."""
 ENTRIES = {
     ("demos",): ["famarl_cli.stages.demos"],
     ("evaluate",): ["famarl_cli.stages.evaluate"],
+    ("oracle",): ["famarl_cli.stages.oracle"],
     ("report",): ["famarl_cli.report.writer"]
     + [f"famarl_cli.report.experiments.{p.stem}" for p in (ROOT / "famarl_cli/report/experiments").glob("[!_]*.py")],
 }

@@ -196,7 +196,7 @@ def test_robothand_aggregates_both_tasks(tmp_path):
     assert "Positive controls" not in text  # none has run
 
 
-def test_robothand_shows_each_tasks_positive_control_and_keeps_it_in_the_summary(tmp_path):
+def test_robothand_shows_each_tasks_positive_control_and_oracle_and_keeps_them_in_the_summary(tmp_path):
     from famarl_cli.artifacts import write_demos
     from famarl_cli.experts import Script
     from famarl_cli.report.experiments.robothand import controls_table
@@ -206,11 +206,19 @@ def test_robothand_shows_each_tasks_positive_control_and_keeps_it_in_the_summary
     for seed, jitter in zip(SEEDS, JITTER, strict=True):
         make_run(data, "robothand", f"reaching-famarl-seed{seed}", "famarl", "famarl", 0.5 + jitter, REACHING)
     write_demos(data / "robothand/controls/reaching.h5", record_demos(Script.REACHING, n_episodes=4, seed=100))
+    for seed, solved in ((0, [True, True, False, True]), (1, [True, False, False, False])):
+        searched = {"env": REACHING, "agent": "famarl", "success_rate": sum(solved) / 4, "episodes": solved}
+        (data / f"robothand/oracle/reaching-famarl-seed{seed}").mkdir(parents=True)
+        (data / f"robothand/oracle/reaching-famarl-seed{seed}/oracle.json").write_text(json.dumps(searched))
     write_report(["robothand"], data, tmp_path / "report", "test")
     text = (tmp_path / "report/report.md").read_text()
     assert "| reaching | 1.00 [0.51, 1.00] | 4 |" in text and "| yes |" in text
     summary = json.loads((tmp_path / "report/summary.json").read_text())["robothand"]
     assert summary["controls"]["reaching"]["success"] == 1.0 and "ballplacing" not in summary["controls"]
+    # the oracle's shares, 0.75 and 0.25 of 4 layouts: their mean over the two replicates
+    searched = summary["oracle"]["reaching"]["famarl"]
+    assert searched["n"] == 2 and searched["layouts"] == 4 and searched["share"] == 0.5
+    assert searched["share_low"] < 0.5 < searched["share_high"] and "| reaching | famarl | 2 | 4 | 0.50 [" in text
     failing = {"success": 0.5, "success_low": 0.3, "success_high": 0.7, "episodes": 20, "steps": 300.0}
     assert "| ballplacing | 0.50 [0.30, 0.70] | 20 | 300 | **no**: no controller solves it here |" in controls_table(
         {"ballplacing": failing}

@@ -210,7 +210,8 @@ def claims_table(found: list[Pipeline]) -> str:
 
 def headline_table(found: list[Pipeline], name: str = "default") -> str:
     """Pipeline ``name``'s agents (n, success, AUC, return; from the first experiment of its summary), its claims
-    and its positive controls where it has them: the README's headline for the default pipeline,
+    and its instruments where it has them (positive controls, the action-space oracle): the README's headline for
+    the default pipeline,
     ``headline-NAME`` in a page about pipeline NAME."""
     pipeline = next(p for p in found if p.name == name)
     title = "the default pipeline" if name == "default" else pipeline.link
@@ -240,6 +241,13 @@ def headline_table(found: list[Pipeline], name: str = "default") -> str:
         for task, c in section["controls"].items():
             interval = Interval(c["success"], c["success_low"], c["success_high"]).text()
             lines.append(f"| {task} | {interval} | {c['episodes']} |")
+    if section.get("oracle"):
+        lines += ["", "| task | action space | n | share of layouts the oracle solved [95% CI over replicates] |"]
+        lines.append("|---|---|---|---|")
+        for task, agents in section["oracle"].items():
+            for agent, o in sorted(agents.items()):
+                interval = Interval(o["share"], o["share_low"], o["share_high"]).text()
+                lines.append(f"| {task} | {agent} | {o['n']} | {interval} |")
     return "\n".join(lines) + "\n"
 
 

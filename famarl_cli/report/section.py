@@ -27,9 +27,11 @@ class Section:
     """The runs behind it: their learning curves go to ``<name>-curves.csv``, their numbers to summary.json."""
     goals: bool = False
     """Its claims are our goals beyond the paper (met, missed, inconclusive) rather than the paper's claims."""
-    controls: dict[str, dict] = field(default_factory=dict)
-    """Per task, what a scripted controller reaches there (a positive control: the task can be solved in its own
-    physics and time limit); no verdict, but summary.json keeps it beside the claims."""
+    instruments: dict[str, dict] = field(default_factory=dict)
+    """What the experiment's instruments measured, by name: ``controls`` (per task, what a scripted controller
+    reaches there: the task can be solved in its own physics and time limit), ``oracle`` (per task and agent, the
+    share of layouts a search in the agent's action space solved). No verdicts; summary.json keeps each beside the
+    claims."""
 
     def word(self, verdict: Verdict) -> str:
         return GOAL_WORDS[verdict] if self.goals else verdict.value
@@ -104,5 +106,5 @@ class Section:
                 for c in self.claims
             ],
             **({"headline": headline(self.groups), "scores": scores(self.groups)} if self.groups else {}),
-            **({"controls": self.controls} if self.controls else {}),
+            **self.instruments,
         }

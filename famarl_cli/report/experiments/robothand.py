@@ -41,6 +41,52 @@ def controls(folder: Path) -> dict[str, dict]:
     return found
 
 
+def oracle(folder: Path) -> dict[str, dict]:
+    """Per task and agent whose runs ``famarl oracle`` searched (``data/robothand/oracle/<run>/oracle.json``): the
+    share of layouts a plan in the agent's action space solved, its mean over replicates with the 95% interval
+    (the variance floored at the layouts' binomial noise), n and the layouts per run."""
+    import json
+
+    from famarl_cli.core.statistics import mean_interval
+
+    shares: dict[tuple[str, str], list[float]] = {}
+    layouts = 0
+    for path in sorted(folder.glob("*/oracle.json")):
+        found = json.loads(path.read_text())
+        task = next((name for name, env in TASKS.items() if env == found["env"]), None)
+        if task is not None:
+            shares.setdefault((task, found["agent"]), []).append(found["success_rate"])
+            layouts = len(found["episodes"])
+    result: dict[str, dict] = {}
+    for (task, agent), values in shares.items():
+        interval = mean_interval(values, layouts)
+        result.setdefault(task, {})[agent] = {
+            "n": len(values),
+            "layouts": layouts,
+            "share": round(interval.estimate, 4),
+            "share_low": round(interval.low, 4),
+            "share_high": round(interval.high, 4),
+        }
+    return result
+
+
+def oracle_table(found: dict[str, dict]) -> str:
+    rows = [
+        "The action-space oracle (`famarl oracle`, stage `oracle`): per run, the share of its evaluation layouts an "
+        "open-loop plan in the agent's own action space solved (the cross-entropy method with the env's resets; a "
+        "lower bound of what the space can reach). An agent that fails where its space's share is high has a "
+        "learner that did not find the solution.",
+        "",
+        "| task | action space | n | layouts per run | share solved [95% CI over replicates] |",
+        "|---|---|---|---|---|",
+    ]
+    for task, agents in found.items():
+        for agent, o in sorted(agents.items()):
+            interval = f"{o['share']:.2f} [{o['share_low']:.2f}, {o['share_high']:.2f}]"
+            rows.append(f"| {task} | {agent} | {o['n']} | {o['layouts']} | {interval} |")
+    return "\n".join(rows)
+
+
 def controls_table(found: dict[str, dict]) -> str:
     rows = [
         "Positive controls: a scripted controller per task (`famarl demos --script reaching`, `--script "
@@ -78,6 +124,9 @@ def robothand(data: Path, out: Path):
     found = controls(data / "robothand" / "controls")
     if found:
         tables.append(controls_table(found))
+    searched = oracle(data / "robothand" / "oracle")
+    if searched:
+        tables.append(oracle_table(searched))
     agents = sorted({agent for by in tasks.values() for agent in by}, key=["famarl", "ppo", "figar"].index)
     complete = [agent for agent in agents if all(agent in by for by in tasks.values())]
     if "famarl" in complete and len(complete) > 1:
@@ -107,4 +156,6 @@ def robothand(data: Path, out: Path):
             figures += [still] if still else []
             copy_figure(g.runs[0].folder / FILM_FILE, out / f"{name}.gif")
     every = [g for by in tasks.values() for g in by.values()]
-    return Section("RobotHand Reaching and BallPlacing (paper Fig. 7)", claims, tables, figures, every, controls=found)
+    instruments = {"controls": found, "oracle": searched}
+    title = "RobotHand Reaching and BallPlacing (paper Fig. 7)"
+    return Section(title, claims, tables, figures, every, instruments={k: v for k, v in instruments.items() if v})
