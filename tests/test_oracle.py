@@ -1,6 +1,7 @@
 """The action-space oracle: a search in an agent's own action space with the env's resets."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -66,3 +67,34 @@ def test_famarl_oracle_writes_each_runs_share_of_solved_layouts(tmp_path):
     assert all(e["plans"] in (8, 16) for e in found["episodes"])
     assert found["provenance"]["params"]["candidates"] == 8
     one_line_error(famarl("oracle", "--out", out), 2, "give --run")
+
+
+@pytest.mark.parametrize(
+    ("content", "needle"),
+    [
+        ("{not json", "oracle.json"),
+        (json.dumps({"schema": "famarl.run"}), "is not a famarl.oracle file"),
+        (json.dumps({"schema": "famarl.oracle", "env": "x", "agent": "ppo", "success_rate": "NaN"}), "has no"),
+        (
+            json.dumps({"schema": "famarl.oracle", "env": "x", "agent": "ppo", "success_rate": 2.0, "episodes": [1]}),
+            "has no share in [0, 1]",
+        ),
+    ],
+)
+def test_an_oracle_file_that_is_not_one_is_one_error_naming_it(tmp_path, content, needle):
+    from famarl_cli.artifacts.runs import read_oracle
+    from famarl_cli.core.errors import ArtifactError
+
+    path = tmp_path / "oracle.json"
+    path.write_text(content)
+    with pytest.raises(ArtifactError, match=re.escape(needle)):
+        read_oracle(path)
+
+
+def test_bad_oracle_options_are_one_line_and_write_nothing(tmp_path):
+    out = tmp_path / "oracle"
+    (tmp_path / "empty").mkdir()
+    one_line_error(famarl("oracle", "--run", tmp_path / "empty", "--out", out), 1, "not a run folder")
+    one_line_error(famarl("oracle", "--run", tmp_path / "empty", "--candidates", 1, "--out", out), 2, "--candidates")
+    one_line_error(famarl("oracle", "--run", tmp_path / "empty", "--episodes", "many", "--out", out), 2, "--episodes")
+    assert not out.exists()

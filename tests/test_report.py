@@ -207,7 +207,8 @@ def test_robothand_shows_each_tasks_positive_control_and_oracle_and_keeps_them_i
         make_run(data, "robothand", f"reaching-famarl-seed{seed}", "famarl", "famarl", 0.5 + jitter, REACHING)
     write_demos(data / "robothand/controls/reaching.h5", record_demos(Script.REACHING, n_episodes=4, seed=100))
     for seed, solved in ((0, [True, True, False, True]), (1, [True, False, False, False])):
-        searched = {"env": REACHING, "agent": "famarl", "success_rate": sum(solved) / 4, "episodes": solved}
+        searched = {"schema": "famarl.oracle", "schema_version": 1, "env": REACHING, "agent": "famarl"}
+        searched |= {"success_rate": sum(solved) / 4, "episodes": solved}
         (data / f"robothand/oracle/reaching-famarl-seed{seed}").mkdir(parents=True)
         (data / f"robothand/oracle/reaching-famarl-seed{seed}/oracle.json").write_text(json.dumps(searched))
     write_report(["robothand"], data, tmp_path / "report", "test")

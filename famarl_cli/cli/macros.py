@@ -37,12 +37,10 @@ def macros(options: MacrosOptions) -> None:
     Time with the defaults (100 demos): about 45 s on one core of a 2-core AMD EPYC VM; 10 replicates with famarl
     sweep macros, about 2.5 minutes on 2 cores (docs/performance.md, docs/pipelines.md).
     """
-    import shutil
-
-    from famarl_cli.artifacts.base import write_json
     from famarl_cli.artifacts.lock import claim_folder
     from famarl_cli.stages.macros import learn_macros
-    from famarl_cli.sweep.plan import JOB_FILE, Action, Job, folder_action, job_record, made_from
+    from famarl_cli.sweep.driver import make_in_folder
+    from famarl_cli.sweep.plan import Job
     from famarl_cli.sweep.worker import name_of
 
     torch_on_one_thread()
@@ -51,35 +49,22 @@ def macros(options: MacrosOptions) -> None:
     out = options.out or Path("data/macros") / source.stem / f"seed{seed}"
     recipe = macros_job(options)
     job = Job("macros", name_of(recipe.runner), recipe.config, recipe.inputs, recipe.resumable)
+
+    def work() -> None:
+        with progress_bar() as progress:
+            tasks: dict[str, int] = {}
+
+            def show(phase: str, done: int, total: int) -> None:
+                if phase not in tasks:
+                    tasks[phase] = progress.add_task(phase, total=total)
+                progress.update(tasks[phase], completed=done)
+
+            learn_macros(config, out, show)
+
     with claim_folder(out):
-        action = folder_action(out, job, options.overwrite)
-        if action == Action.SKIP:
+        if not make_in_folder(out, job, options.overwrite, work):
             typer.echo(f"note: {out} already holds these macros, complete; nothing to do", err=True)
-            metrics = json.loads((out / FAVAE).with_suffix(".metrics.json").read_text())
-        else:
-            if action == Action.RUN:
-                # Under the folder's lock, whose file stays: only what an earlier run wrote goes.
-                for entry in out.iterdir():
-                    if not entry.name.startswith("."):
-                        shutil.rmtree(entry) if entry.is_dir() else entry.unlink()
-            made = made_from(job)
-            write_json(out / JOB_FILE, job_record(job, complete=False, made=made))
-            with progress_bar() as progress:
-                tasks: dict[str, int] = {}
-
-                def show(phase: str, done: int, total: int) -> None:
-                    if phase not in tasks:
-                        tasks[phase] = progress.add_task(phase, total=total)
-                    progress.update(tasks[phase], completed=done)
-
-                try:
-                    metrics = learn_macros(config, out, show)
-                except BaseException:
-                    # A record of work that wrote nothing is none: the folder is left as empty as it was.
-                    if not [e for e in out.iterdir() if not e.name.startswith(".") and e.name != JOB_FILE]:
-                        (out / JOB_FILE).unlink(missing_ok=True)
-                    raise
-            write_json(out / JOB_FILE, job_record(job, complete=True, made=made))
+    metrics = json.loads((out / FAVAE).with_suffix(".metrics.json").read_text())
     table = Table(title=f"macro actions of {source}, seed {seed}", show_header=False)
     table.add_row("KL per ladder", ", ".join(f"{k:.3f}" for k in metrics["kl_per_ladder"]))
     table.add_row("information per ladder", ", ".join(f"{k:.3f}" for k in metrics["information_per_ladder"]))

@@ -6,10 +6,11 @@ from __future__ import annotations
 from rich.console import Console
 from rich.table import Table
 
+from famarl_cli.artifacts.runs import ORACLE_FILE
 from famarl_cli.cli import app, progress_bar, torch_on_one_thread
 from famarl_cli.cli.derived import command
 from famarl_cli.core.errors import FamarlError, UsageError
-from famarl_cli.stages.oracle import ORACLE_FILE, OracleStageOptions
+from famarl_cli.stages.oracle import OracleStageOptions
 from famarl_cli.sweep.executors import default_jobs
 
 

@@ -10,9 +10,6 @@ from famarl_cli.core.declare import option, same_as
 from famarl_cli.core.errors import UsageError
 from famarl_cli.stages.evaluate import EvaluateOptions
 
-ORACLE_FILE = "oracle.json"
-ORACLE_SCHEMA, ORACLE_SCHEMA_VERSION = "famarl.oracle", 1
-
 
 @dataclass(frozen=True)
 class OracleStageOptions:
@@ -46,7 +43,7 @@ def oracle_run(
     """Search the action space of the run folder ``run`` (:mod:`famarl_cli.rl.oracle`) on ``episodes`` layouts of
     its replicate, and write ``into/oracle.json``: the share of layouts a plan solved, with its 95% Wilson interval
     over the layouts, and each layout's result. Returns what it holds, less provenance."""
-    from famarl_cli.artifacts.runs import CHECKPOINT_FILE
+    from famarl_cli.artifacts.runs import CHECKPOINT_FILE, ORACLE_FILE, ORACLE_SCHEMA, ORACLE_SCHEMA_VERSION
     from famarl_cli.core.statistics import proportion_interval
     from famarl_cli.rl.oracle import OracleOptions, oracle, start_of
     from famarl_cli.rl.training import build_mode, load_agent

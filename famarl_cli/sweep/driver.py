@@ -30,6 +30,8 @@ from famarl_cli.sweep.plan import (
     Action,
     Job,
     batches,
+    folder_action,
+    held,
     job_key,
     job_record,
     made_from,
@@ -114,6 +116,30 @@ def prepare(out: Path, jobs: list[Job]) -> tuple[SweepState, dict[str, str]]:
     }
     write_json(out / MANIFEST, manifest)
     return SweepState(states, [folder.name for folder in plan.delete]), made
+
+
+def make_in_folder(folder: Path, job: Job, overwrite: bool, work: Callable[[], object]) -> bool:
+    """Make the one job ``job`` in ``folder`` (held by the caller, :func:`~famarl_cli.artifacts.lock.claim_folder`)
+    by :func:`~famarl_cli.sweep.plan.folder_action`'s rule: ``work()`` afresh (what the folder held goes first, but
+    for its hidden files) or continued, with the job's record written before it (incomplete) and after (complete).
+    Returns False where the folder holds the job complete and nothing ran. A ``work`` that fails having written
+    nothing leaves no record either."""
+    made = made_from(job)
+    action = folder_action(folder, job, overwrite, made)
+    if action == Action.SKIP:
+        return False
+    if action == Action.RUN:
+        for entry in held(folder):
+            shutil.rmtree(entry) if entry.is_dir() else entry.unlink()
+    write_json(folder / JOB_FILE, job_record(job, complete=False, made=made))
+    try:
+        work()
+    except BaseException:
+        if held(folder) == [folder / JOB_FILE]:  # a record of work that wrote nothing is none
+            (folder / JOB_FILE).unlink()
+        raise
+    write_json(folder / JOB_FILE, job_record(job, complete=True, made=made))
+    return True
 
 
 def run_sweep(

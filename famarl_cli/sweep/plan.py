@@ -208,10 +208,11 @@ def job_record(job: Job, complete: bool, made: dict | None = None) -> dict:
     }
 
 
-def what_changed(record: dict, job: Job) -> list[str]:
-    """How ``job`` differs from the one a folder's record was made from, in words: the options (as the config
-    names them), the input files whose content changed, famarl's version or source."""
-    made = made_from(job)
+def what_changed(record: dict, job: Job, made: dict | None = None) -> list[str]:
+    """How ``job`` (made from ``made``, when the caller has it) differs from the one a folder's record was made
+    from, in words: the options (as the config names them), the input files whose content changed, famarl's
+    version or source."""
+    made = made_from(job) if made is None else made
     changes = [] if record.get("runner") == job.runner else [f"the command ({record.get('runner')})"]
     before = record.get("config") or {}
     for name in sorted(set(before) | set(job.config)):
@@ -280,7 +281,12 @@ def reconcile(out: Path, jobs: list[Job], keys: dict[str, str]) -> Reconciliatio
     return Reconciliation(actions, delete)
 
 
-def folder_action(folder: Path, job: Job, overwrite: bool) -> Action:
+def held(folder: Path) -> list[Path]:
+    """What a job wrote in ``folder``: its entries but the hidden ones (the lock a command holds it by)."""
+    return sorted(e for e in folder.iterdir() if not e.name.startswith(".")) if folder.is_dir() else []
+
+
+def folder_action(folder: Path, job: Job, overwrite: bool, made: dict | None = None) -> Action:
     """What a command that makes one job in ``folder`` (``famarl macros --out``) does with what the folder holds:
     the sweep's rule for one folder, except that work made from other inputs is never replaced unasked.
 
@@ -292,20 +298,23 @@ def folder_action(folder: Path, job: Job, overwrite: bool) -> Action:
     started, same key                                        resumed from where it stopped
     any other key, or files no famarl job recorded           refused, unless ``overwrite``: run afresh
     =======================================================  ==========================================
+
+    ``made``: what the job is made from (:func:`made_from`), when the caller has it already.
     """
     record = read_job_record(folder)
     if record is None:
-        held = [e for e in folder.iterdir() if not e.name.startswith(".")] if folder.is_dir() else []
-        if held and not overwrite:
+        found = held(folder)
+        if found and not overwrite:
             raise UsageError(
-                f"{folder} holds files no famarl job recorded ({held[0].name}, ...); give an empty --out, or add "
+                f"{folder} holds files no famarl job recorded ({found[0].name}, ...); give an empty --out, or add "
                 "--overwrite to replace them"
             )
         return Action.RUN
     if overwrite:
         return Action.RUN
-    if record.get("key") != job_key(job):
-        changes = what_changed(record, job) or ["its key"]
+    made = made_from(job) if made is None else made
+    if record.get("key") != job_key(job, made):
+        changes = what_changed(record, job, made) or ["its key"]
         raise UsageError(
             f"{folder} was made from other inputs: {'; '.join(changes)}; add --overwrite to start over in it, or "
             "give another --out"

@@ -45,14 +45,13 @@ def oracle(folder: Path) -> dict[str, dict]:
     """Per task and agent whose runs ``famarl oracle`` searched (``data/robothand/oracle/<run>/oracle.json``): the
     share of layouts a plan in the agent's action space solved, its mean over replicates with the 95% interval
     (the variance floored at the layouts' binomial noise), n and the layouts per run."""
-    import json
-
+    from famarl_cli.artifacts.runs import ORACLE_FILE, read_oracle
     from famarl_cli.core.statistics import mean_interval
 
     shares: dict[tuple[str, str], list[float]] = {}
     layouts = 0
-    for path in sorted(folder.glob("*/oracle.json")):
-        found = json.loads(path.read_text())
+    for path in sorted(folder.glob(f"*/{ORACLE_FILE}")):
+        found = read_oracle(path)
         task = next((name for name, env in TASKS.items() if env == found["env"]), None)
         if task is not None:
             shares.setdefault((task, found["agent"]), []).append(found["success_rate"])
