@@ -6,7 +6,6 @@ from __future__ import annotations
 from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.artifacts.runs import ORACLE_FILE
 from famarl_cli.cli import app, progress_bar, torch_on_one_thread
 from famarl_cli.cli.derived import command
 from famarl_cli.core.errors import FamarlError, UsageError
@@ -25,7 +24,7 @@ def oracle(options: OracleStageOptions) -> None:
     Time: at most episodes x iterations x candidates episodes per run, fewer where a plan succeeds early; on one
     core of a 2-core AMD EPYC VM, RobotHand runs took a few seconds per layout on average (the record in
     docs/robothand.md)."""
-    from famarl_cli.artifacts.runs import expand_run_folders, read_run_file
+    from famarl_cli.artifacts.runs import ORACLE_FILE, expand_run_folders, read_run_file
     from famarl_cli.cli.evaluate import evaluation_names
     from famarl_cli.stages.oracle import oracle_run
     from famarl_cli.sweep.executors import make_executor
