@@ -35,7 +35,7 @@ def demos_file(tmp_path_factory):
 @pytest.fixture(scope="session")
 def segments_file(demos_file, tmp_path_factory):
     out = tmp_path_factory.mktemp("segments") / "seg.h5"
-    result = famarl("segment", "--demos", demos_file, "--out", out, "--epochs", 5, "--length", 48, "--no-plot")
+    result = famarl("segment", "--demos", demos_file, "--out", out, "--segment-epochs", 5, "--length", 48, "--no-plot")
     assert result.exit_code == 0, result.output
     return out
 

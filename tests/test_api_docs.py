@@ -18,7 +18,7 @@ def examples() -> list[str]:
 def test_the_page_has_an_example_for_every_step():
     code = "\n".join(examples())
     for call in ("record_demos(", "record_expert_demos(", "export_minari(", "learn_macros(", "decode_macro_actions(",
-                 "MacroActionWrapper(", "Run.start(", "evaluate(", "mean_interval("):  # fmt: skip
+                 "MacroActionWrapper(", "Run.start(", "evaluate(", ".act(", "mean_interval("):  # fmt: skip
         assert call in code
 
 
@@ -33,6 +33,6 @@ def test_every_example_on_the_api_page_runs(tmp_path, monkeypatch, capsys):
         except Exception as exc:  # the example that failed, not only the line
             pytest.fail(f"docs/api.md example {number} failed: {exc!r}\n{example}")
     printed = capsys.readouterr().out
-    assert "one decision:" in printed and "MIG" in printed
+    assert "one decision:" in printed and "MIG" in printed and "rollout:" in printed
     assert (tmp_path / "runs/famarl-seed0/train.csv").is_file() and (tmp_path / "macros/favae.pt").is_file()
     assert (tmp_path / "minari/famarl/umaze-expert-v0/data/metadata.json").is_file()

@@ -27,9 +27,10 @@ def test_demos_end_to_end(tmp_path):
     assert demos.script == "down-and-up" and len(demos.episodes) == 4
     assert out.with_suffix(".png").read_bytes()[:4] == b"\x89PNG"
 
-    shown = famarl("inspect", out, "--plot", tmp_path / "again.png")
+    out.with_suffix(".png").unlink()
+    shown = famarl("inspect", out, "--plot")
     assert shown.exit_code == 0 and "down-and-up" in shown.stdout
-    assert (tmp_path / "again.png").exists()
+    assert out.with_suffix(".png").exists()
 
 
 def test_same_seed_gives_a_byte_identical_file_and_another_seed_does_not(tmp_path):
@@ -74,8 +75,8 @@ def test_reading_a_broken_file_is_a_one_line_error(tmp_path):
     with h5py.File(not_ours, "w") as f:
         f.attrs["schema"] = "someone.else"
         f.attrs["schema_version"] = 1
-    one_line_error(famarl("inspect", not_ours), 1, "famarl inspect reads 'famarl.demos' and 'famarl.segments'")
-    one_line_error(famarl("inspect", tmp_path), 1, "is a directory")
+    one_line_error(famarl("inspect", not_ours), 1, "of schema 'someone.else', which famarl inspect does not read")
+    one_line_error(famarl("inspect", tmp_path), 1, "not a run folder")
 
 
 def test_debug_flag_shows_the_traceback(tmp_path):
@@ -85,7 +86,7 @@ def test_debug_flag_shows_the_traceback(tmp_path):
 
 def test_segment_end_to_end_and_reuse_of_the_segmenter(demos_file, tmp_path):
     out = tmp_path / "seg.h5"
-    result = famarl("segment", "--demos", demos_file, "--out", out, "--epochs", 5, "--margin", 0.3)
+    result = famarl("segment", "--demos", demos_file, "--out", out, "--segment-epochs", 5, "--margin", 0.3)
     assert result.exit_code == 0, result.output
     assert "boundary F1 (±2)" in result.stdout
     metrics = json.loads(out.with_suffix(".metrics.json").read_text())
@@ -110,7 +111,7 @@ def test_segment_end_to_end_and_reuse_of_the_segmenter(demos_file, tmp_path):
 def test_segment_same_seed_same_segments(demos_file, tmp_path):
     outs = [tmp_path / f"{name}.h5" for name in "abc"]
     for out, seed in zip(outs, (4, 4, 5), strict=True):
-        famarl("segment", "--demos", demos_file, "--out", out, "--epochs", 3, "--seed", seed, "--no-plot")
+        famarl("segment", "--demos", demos_file, "--out", out, "--segment-epochs", 3, "--seed", seed, "--no-plot")
     a, b, c = (read_segments(o) for o in outs)
     np.testing.assert_array_equal(a.padded, b.padded)
     assert [x.tolist() for x in a.distance] == [x.tolist() for x in b.distance]
@@ -119,7 +120,7 @@ def test_segment_same_seed_same_segments(demos_file, tmp_path):
 
 def test_segment_bad_inputs(demos_file, tmp_path):
     seg = tmp_path / "seg.h5"
-    famarl("segment", "--demos", demos_file, "--out", seg, "--epochs", 2, "--no-plot")
+    famarl("segment", "--demos", demos_file, "--out", seg, "--segment-epochs", 2, "--no-plot")
     one_line_error(famarl("segment", "--demos", seg, "--out", tmp_path / "x.h5"), 1, "expected 'famarl.demos'")
     one_line_error(famarl("segment", "--demos", tmp_path / "none.h5"), 1, "no such file")
     one_line_error(
@@ -153,7 +154,7 @@ def test_segment_bad_inputs(demos_file, tmp_path):
         demos_file,
         "--out",
         tmp_path / "x.h5",
-        "--epochs",
+        "--segment-epochs",
         1,
         "--length",
         4,
@@ -184,7 +185,7 @@ def test_favae_fit_with_its_own_pre_run_then_traverse(segments_file, tmp_path):
     assert {line.split(",")[0] for line in log[1:]} == {"calibrate", "fit"}
 
     traversed = tmp_path / "trav.h5"
-    result = famarl("traverse", "--model", out, "--ladder", 3, "--values", "-3,-1,1,3", "--out", traversed)
+    result = famarl("traverse", "--favae", out, "--ladder", 3, "--values", "-3,-1,1,3", "--out", traversed)
     assert result.exit_code == 0, result.output
     assert "(3,1)" in result.stdout and "(3,2)" in result.stdout and "(1,1)" not in result.stdout
     effects = json.loads(traversed.with_suffix(".json").read_text())["effects_m"]
@@ -233,19 +234,19 @@ def test_favae_and_traverse_bad_inputs(demos_file, segments_file, tmp_path):
     )
     assert "greater than or equal to 0" in usage_error(famarl("favae", "fit", "--beta", -1))
     one_line_error(
-        famarl("traverse", "--model", segments_file),
+        famarl("traverse", "--favae", segments_file),
         1,
         f"{segments_file}: is an HDF5 file of schema famarl.segments, expected a famarl.favae checkpoint",
     )
 
     model = tmp_path / "m.pt"
     famarl("favae", "fit", "--segments", segments_file, "--epochs", 1, "--out", model)
-    one_line_error(famarl("traverse", "--model", model, "--ladder", 4), 2, "ladder 4 does not exist")
-    one_line_error(famarl("traverse", "--model", model, "--ladder", 1, "--index", 3), 2, "index 3 does not exist")
-    one_line_error(famarl("traverse", "--model", model, "--values", "1,x"), 2, "values must be numbers")
+    one_line_error(famarl("traverse", "--favae", model, "--ladder", 4), 2, "ladder 4 does not exist")
+    one_line_error(famarl("traverse", "--favae", model, "--ladder", 1, "--index", 3), 2, "index 3 does not exist")
+    one_line_error(famarl("traverse", "--favae", model, "--values", "1,x"), 2, "values must be numbers")
 
 
-TINY_TRAINING = ("--steps", 1500, "--n-envs", 4, "--n-steps", 8, "--epochs", 1, "--minibatches", 2)
+TINY_TRAINING = ("--steps", 1500, "--n-envs", 4, "--n-steps", 8, "--update-epochs", 1, "--minibatches", 2)
 
 
 @pytest.mark.slow
@@ -327,7 +328,9 @@ def test_train_same_seed_same_log_and_resume_extends_a_finished_run_or_leaves_it
     updates = len((a / "train.csv").read_text().splitlines())
     written = {path.name: path.stat().st_mtime_ns for path in a.iterdir()}
     complete = famarl("train", "--out", a, "--resume")
-    assert complete.exit_code == 0 and "holds a complete run" in complete.output and "nothing to do" in complete.output
+    assert (
+        complete.exit_code == 0 and "holds this run, complete" in complete.output and "nothing to do" in complete.output
+    )
     assert {path.name: path.stat().st_mtime_ns for path in a.iterdir()} == written
     assert famarl("train", "--out", a, "--resume", "--steps", 3000).exit_code == 0
     assert len((a / "train.csv").read_text().splitlines()) > updates
@@ -357,7 +360,9 @@ def test_an_env_that_cannot_render_is_evaluated_and_not_filmed_with_one_note(tmp
 def test_train_and_evaluate_bad_inputs(tmp_path, favae_file, segments_file):
     out = tmp_path / "run"
     assert famarl("train", "--agent", "ppo", *TINY_TRAINING, "--out", out).exit_code == 0
-    one_line_error(famarl("train", "--agent", "ppo", "--out", out), 2, "already holds a run")
+    one_line_error(
+        famarl("train", "--agent", "ppo", "--out", out), 2, "made from other inputs or options: ppo.epochs 1 -> 10"
+    )
     assert famarl("train", "--agent", "ppo", *TINY_TRAINING, "--out", out, "--overwrite").exit_code == 0
     kept = (out / "checkpoint.pt").read_bytes()
     one_line_error(famarl("train", "--favae", segments_file, "--out", out, "--overwrite"), 1, "is an HDF5 file")
@@ -530,8 +535,16 @@ WRONG_KIND = [
         "expected 'famarl.demos'",
     ),
     (("prior", "fit", "--demos", "{demos}", "--segments", "{segments}", "--favae", "{segments}"), 1, "{segments}: is"),
-    (("export-minari", "{segments}", "--dataset-id", "a/b-v0", "--root", "minari"), 1, "expected 'famarl.demos'"),
-    (("export-minari", "{demos}", "--dataset-id", "not an id", "--root", "minari"), 2, "'not an id' must look like"),
+    (
+        ("export-minari", "{segments}", "--dataset-id", "a/b-v0", "--datasets-path", "minari"),
+        1,
+        "expected 'famarl.demos'",
+    ),
+    (
+        ("export-minari", "{demos}", "--dataset-id", "not an id", "--datasets-path", "minari"),
+        2,
+        "'not an id' must look like",
+    ),
 ]
 """Files of the wrong kind and values famarl itself refuses: one ``error:`` line with this exit code. (A bound typer
 checks, such as ``prior fit --holdout 1.5``, is typer's usage box: the second test.)"""
@@ -545,7 +558,7 @@ def test_calibrate_prior_fit_and_export_refuse_bad_input_in_one_line_and_write_n
 ):
     monkeypatch.chdir(tmp_path)
     files = {"demos": demos_file, "segments": segments_file, "favae": favae_file}
-    result = famarl(*(arg.format(**files) for arg in args), *(() if "--root" in args else ("--out", "out")))
+    result = famarl(*(arg.format(**files) for arg in args), *(() if "--datasets-path" in args else ("--out", "out")))
     one_line_error(result, code, needle.format(**files))
     assert list(tmp_path.iterdir()) == [], "a refused command must not leave files or empty folders"
 
@@ -564,7 +577,7 @@ def test_a_file_of_the_wrong_kind_is_named_by_what_it_is(favae_file, segments_fi
         f"{favae_file}: is a torch checkpoint (.pt), expected an HDF5 famarl.segments file",
     )
     (tmp_path / "notes.json").write_text('{"a": 1}')
-    one_line_error(famarl("traverse", "--model", tmp_path / "notes.json"), 1, "is a JSON file, expected a famarl.favae")
+    one_line_error(famarl("traverse", "--favae", tmp_path / "notes.json"), 1, "is a JSON file, expected a famarl.favae")
 
 
 def test_a_sweep_says_where_a_commands_own_option_goes(tmp_path):

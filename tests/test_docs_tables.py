@@ -47,7 +47,7 @@ def _summary(verdict: str = "reproduces") -> dict:
                     "return": -300.0,
                 }
             },  # fmt: skip
-            "made": {"date": "2026-12-04", "revision": "abc1234", "machine": "CPU, AVX2, 2 cores", "famarl": "0.1.0"},
+            "made": {"machine": "CPU, AVX2, 2 cores", "famarl": "0.1.0"},
         }
     }
 
@@ -69,6 +69,9 @@ def project(tmp_path: Path, monkeypatch) -> Path:
     with Repo(str(tmp_path)) as repo:
         repo.reproduce()
     (tmp_path / "summary.json").write_text(json.dumps(_summary()))
+    timed = {"total_s": 60.0, "stages": {"report": 1.0}, "date": "2026-12-04", "revision": "abc1234"}
+    (tmp_path / "benchmarks").mkdir()
+    (tmp_path / docs.WALLS).write_text(json.dumps({"default": {**timed, "machine": "CPU, AVX2, 2 cores"}}))
     (tmp_path / "docs").mkdir()
     marked = "".join(f"{docs.BEGIN.format(name=n)}\nold\n{docs.END.format(name=n)}\n" for n in ("verdicts", "claims"))
     (tmp_path / "README.md").write_text(f"# x\n\n{marked}\ntext after\n")
@@ -82,7 +85,7 @@ def project(tmp_path: Path, monkeypatch) -> Path:
     (tmp_path / "docs" / "skills.md").write_text("# Skills\n")
     (tmp_path / "docs" / "favae.md").write_text("# FAVAE\n")
     (tmp_path / "docs" / "verdicts.md").write_text("# Verdicts\n")
-    for page in ("robothand", "external", "hybrid"):
+    for page in ("robothand", "external", "hybrid", "commands"):
         (tmp_path / "docs" / f"{page}.md").write_text(f"# {page}\n")
     (tmp_path / "docs" / "aggregate.md").write_text(
         f"{docs.BEGIN.format(name='aggregate')}\n{docs.END.format(name='aggregate')}\n"
@@ -100,7 +103,9 @@ def test_every_page_with_a_generated_table_is_one_famarl_docs_fills():
 
 
 def test_the_committed_docs_are_what_the_committed_metrics_give():
-    changed = docs.write_docs(ROOT, check=True)
+    from famarl_cli.cli.names import names_table
+
+    changed = docs.write_docs(ROOT, check=True, extra={"names": names_table()})
     assert changed == [], f"run `famarl docs`: {changed} differ from the committed metrics"
 
 
@@ -113,7 +118,7 @@ def test_tables_carry_each_claim_with_its_interval_n_rule_and_where_it_was_made(
     assert readme.startswith("# x\n") and readme.endswith("\ntext after\n") and "old" not in readme
     pipelines = (project / "docs/pipelines.md").read_text()
     assert "| famarl | 3 | 0.90 [0.85, 0.95] | 0.70 | -300.0 |" in pipelines
-    assert "| `dvc.yaml` | not measured | | |" in pipelines
+    assert "| `dvc.yaml` | 1.0 min | report 1 | 2026-12-04, `abc1234`, CPU, AVX2, 2 cores |" in pipelines
     assert docs.write_docs(project) == [] and docs.write_docs(project, check=True) == []  # a second run: nothing
 
 
@@ -151,7 +156,7 @@ def test_changed_code_or_params_mark_the_pipeline_stale_and_missing_data_does_no
 
 def test_the_performance_table_is_each_benchmark_s_recorded_result_with_where_it_ran(project):
     assert "No benchmark has recorded a result yet" in docs.tables(project)["performance"]
-    (project / "benchmarks").mkdir()
+    (project / "benchmarks").mkdir(exist_ok=True)
     entry = {
         "what": "PPO vs SB3",
         "command": "python benchmarks/ppo_vs_sb3.py",
@@ -250,7 +255,7 @@ def test_a_summary_that_is_not_a_report_s_is_one_error_line_and_nothing_is_writt
 
 
 def test_unreadable_walls_or_a_missing_project_are_one_error_line(project, tmp_path_factory):
-    (project / "benchmarks").mkdir()
+    (project / "benchmarks").mkdir(exist_ok=True)
     (project / docs.WALLS).write_text("")
     one_line_error(famarl("docs", "--root", project), 1, "pipeline walls missing or unreadable")
     one_line_error(famarl("docs", "--root", tmp_path_factory.mktemp("empty")), 1, "no dvc.yaml here")
@@ -259,7 +264,7 @@ def test_unreadable_walls_or_a_missing_project_are_one_error_line(project, tmp_p
 @pytest.mark.parametrize("which, what", [(docs.WALLS, "pipeline walls"), (docs.MEASURED, "benchmark results")])
 @pytest.mark.parametrize("content", ["[1, 2]", '"text"', "3"])
 def test_walls_or_benchmark_results_that_are_not_named_entries_are_one_error_line(project, which, what, content):
-    (project / "benchmarks").mkdir()
+    (project / "benchmarks").mkdir(exist_ok=True)
     (project / which).write_text(content)
     before = {name: (project / name).read_text() for name in docs.FILES}
     one_line_error(famarl("docs", "--root", project), 1, f"{what} must be a JSON object of named entries")
@@ -282,3 +287,14 @@ def test_an_error_in_the_second_file_leaves_the_first_as_it_was(project):
     with pytest.raises(ArtifactError, match="docs/pipelines.md: unknown generated table 'nonsense'"):
         docs.write_docs(project)
     assert (project / "README.md").read_text() == before
+
+
+def test_famarl_status_says_per_pipeline_what_is_committed_current_here_and_what_to_run(project):
+    shown = famarl("status", "--root", project)
+    assert shown.exit_code == 0, shown.output
+    assert "default" in shown.stdout and "1 claims" in shown.stdout and "current" in shown.stdout
+    assert "nothing to run" in shown.stdout
+    (project / "data" / "out.txt").unlink()
+    (project / "code" / "method.py").write_text("X = 2\n")
+    again = famarl("status", "--root", project).stdout
+    assert "stale" in again and "dvc repro" in again and "nothing to run" not in again

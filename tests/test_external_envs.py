@@ -300,13 +300,13 @@ def test_traversal_frames_are_what_the_env_renders_at_each_macros_end():
 
 def test_frames_without_an_env_or_a_renderer_are_one_line_errors(tmp_path, favae_file, monkeypatch):
     out = tmp_path / "t.h5"
-    one_line_error(famarl("traverse", "--model", favae_file, "--out", out, "--frames"), 2, "--frames goes with --env")
+    one_line_error(famarl("traverse", "--favae", favae_file, "--out", out, "--frames"), 2, "--frames goes with --env")
 
     def no_display(self):
         raise RuntimeError("no OpenGL context")
 
     monkeypatch.setattr(gym.Wrapper, "render", no_display)
-    failed = famarl("traverse", "--model", favae_file, "--out", out, "--env", "PointMaze_UMaze-v3", "--frames")
+    failed = famarl("traverse", "--favae", favae_file, "--out", out, "--env", "PointMaze_UMaze-v3", "--frames")
     one_line_error(failed, 1, "cannot render here (RuntimeError: no OpenGL context); MuJoCo envs need MUJOCO_GL")
     assert list(tmp_path.iterdir()) == []
 
@@ -314,7 +314,7 @@ def test_frames_without_an_env_or_a_renderer_are_one_line_errors(tmp_path, favae
 def test_traverse_cli_in_a_gymnasium_env(tmp_path, favae_file):
     out = tmp_path / "t.h5"
     result = famarl(
-        "traverse", "--model", favae_file, "--ladder", 1, "--out", out, "--env", "PointMaze_UMaze-v3",
+        "traverse", "--favae", favae_file, "--ladder", 1, "--out", out, "--env", "PointMaze_UMaze-v3",
         "--obs-dims", "0,1",
     )  # fmt: skip
     assert result.exit_code == 0, result.output
@@ -362,7 +362,7 @@ def test_demos_without_ground_truth_get_no_boundary_scores(tmp_path):
     )
     assert recorded.exit_code == 0, recorded.output
     out = tmp_path / "segments.h5"
-    result = famarl("segment", "--demos", demos, "--out", out, "--epochs", 1, "--length", 48, "--no-plot")
+    result = famarl("segment", "--demos", demos, "--out", out, "--segment-epochs", 1, "--length", 48, "--no-plot")
     assert result.exit_code == 0, result.output
     assert "not measured (the demos have no ground-truth phases)" in " ".join(result.output.split())
     metrics = json.loads(out.with_suffix(".metrics.json").read_text())

@@ -23,7 +23,7 @@ from famarl_cli.artifacts.base import TEMP_MARKER
 from famarl_cli.method.favae.checkpoint import save_favae
 from famarl_cli.method.favae.model import Favae, FavaeConfig
 
-TINY_TRAINING = ("--steps", 1500, "--n-envs", 4, "--n-steps", 8, "--epochs", 1, "--minibatches", 2)
+TINY_TRAINING = ("--steps", 1500, "--n-envs", 4, "--n-steps", 8, "--update-epochs", 1, "--minibatches", 2)
 
 
 @pytest.fixture(scope="module")
@@ -34,7 +34,7 @@ def artifacts(demos_file, segments_file, favae_file, tmp_path_factory):
     run = root / "run"
     assert famarl("train", "--agent", "ppo", *TINY_TRAINING, "--out", run).exit_code == 0
     traversal = root / "traversal.h5"
-    assert famarl("traverse", "--model", favae_file, "--out", traversal).exit_code == 0
+    assert famarl("traverse", "--favae", favae_file, "--out", traversal).exit_code == 0
     return {
         "traversal": traversal,
         "demos": demos_file,
@@ -49,7 +49,7 @@ def artifacts(demos_file, segments_file, favae_file, tmp_path_factory):
 # Each reader: the kind of file it reads and the command line that reads ``{path}``.
 READERS = {
     "inspect": ("demos", lambda a, p, out: ["inspect", p]),
-    "segment --demos": ("demos", lambda a, p, out: ["segment", "--demos", p, "--out", out, "--epochs", 1]),
+    "segment --demos": ("demos", lambda a, p, out: ["segment", "--demos", p, "--out", out, "--segment-epochs", 1]),
     "segment --encoder": (
         "segmenter",
         lambda a, p, out: ["segment", "--demos", a["demos"], "--encoder", p, "--out", out, "--length", 48],
@@ -73,7 +73,7 @@ READERS = {
             out,
         ],
     ),
-    "traverse --model": ("favae", lambda a, p, out: ["traverse", "--model", p, "--out", out]),
+    "traverse --favae": ("favae", lambda a, p, out: ["traverse", "--favae", p, "--out", out]),
     "train --favae": ("favae", lambda a, p, out: ["train", "--favae", p, "--out", out, *TINY_TRAINING]),
     "train --resume": ("run", lambda a, p, out: ["train", "--out", p, "--resume"]),
     "evaluate --run": ("run", lambda a, p, out: ["evaluate", "--run", p, "--episodes", 2]),
@@ -152,6 +152,8 @@ def assert_clear_failure(result, path: Path) -> None:
 @pytest.mark.parametrize("fault", ["missing", "directory", "empty", "truncated", "other kind", "newer version"])
 @pytest.mark.parametrize("reader", list(READERS))
 def test_every_reader_names_the_file_and_its_fault(reader, fault, artifacts, tmp_path):
+    if reader == "inspect" and fault == "other kind":
+        pytest.skip("famarl inspect reads every kind of famarl artifact")
     kind, command = READERS[reader]
     bad = make_bad(kind, fault, artifacts, tmp_path)
     out = tmp_path / "out" / "result.h5"
@@ -192,7 +194,7 @@ def test_checkpoints_that_do_not_fit(artifacts, tmp_path):
     payload["config"]["latent_dims"] = [3, 3, 3]
     mismatched = tmp_path / "mismatched.pt"
     torch.save(payload, mismatched)
-    one_line_error(famarl("traverse", "--model", mismatched, "--out", tmp_path / "t.h5"), 1, "weights do not fit")
+    one_line_error(famarl("traverse", "--favae", mismatched, "--out", tmp_path / "t.h5"), 1, "weights do not fit")
     # A calibration made for another latent size.
     calibration = json.loads(artifacts["calibration"].read_text())
     calibration["config"]["latent_dims"] = [4, 4, 4]
@@ -225,8 +227,8 @@ def test_bad_options_are_usage_errors(args, needle):
 
 
 def test_out_of_range_options_that_depend_on_the_model(artifacts, tmp_path):
-    one_line_error(famarl("traverse", "--model", artifacts["favae"], "--ladder", 9), 2, "ladder")
-    one_line_error(famarl("traverse", "--model", artifacts["favae"], "--values=a,b"), 2, "values")
+    one_line_error(famarl("traverse", "--favae", artifacts["favae"], "--ladder", 9), 2, "ladder")
+    one_line_error(famarl("traverse", "--favae", artifacts["favae"], "--values=a,b"), 2, "values")
     one_line_error(
         famarl("train", "--env", "famarl/NoSuchWorld-v0", "--agent", "ppo", "--out", tmp_path / "r"),
         2,
@@ -247,7 +249,7 @@ def test_a_failed_write_keeps_the_previous_artifact_and_says_so(failing, tmp_pat
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(f"famarl_cli.artifacts.base.{failing}", disk_full)
-    result = famarl("demos", "--episodes", 3, "--seed", 9, "--out", out, "--no-plot")
+    result = famarl("demos", "--episodes", 3, "--seed", 9, "--out", out, "--no-plot", "--overwrite")
     one_line_error(result, 1, "No space left on device; demos.h5 was left as it was")
     assert digest(out) == before
     assert [p.name for p in tmp_path.iterdir()] == ["demos.h5"], "no temporary file may stay behind"
@@ -297,27 +299,44 @@ def test_kill_9_during_demos_leaves_the_old_file_or_a_complete_new_one(tmp_path)
     # The kills fall between the start and the end of a whole run timed on this machine (fixed delays killed
     # nothing on a faster one): from start-up to the rename.
     started = time.perf_counter()
-    assert famarl_process("demos", "--episodes", 400, "--seed", 99, "--out", out, "--no-plot").wait() == 0
+    assert (
+        famarl_process("demos", "--episodes", 400, "--seed", 99, "--out", out, "--no-plot", "--overwrite").wait() == 0
+    )
     whole = time.perf_counter() - started
     assert len(read_demos(out).episodes) == 400
     old = digest(out)
     rng = np.random.default_rng(0)
     kills = 0
     for attempt in range(6):
-        process = famarl_process("demos", "--episodes", 400, "--seed", attempt + 1, "--out", out, "--no-plot")
+        process = famarl_process(
+            "demos", "--episodes", 400, "--seed", attempt + 1, "--out", out, "--no-plot", "--overwrite"
+        )
         kills += kill_after(process, float(rng.uniform(0.3, 0.97)) * whole)
         if digest(out) != old:  # the new file landed complete
             assert len(read_demos(out).episodes) == 400
             old = digest(out)
     assert kills >= 3, "too few kills to mean anything; the machine is faster than the delays"
     # Temporaries of killed writers are cleaned by the next write of the same file.
-    assert famarl("demos", "--episodes", 2, "--out", out, "--no-plot").exit_code == 0
+    assert famarl("demos", "--episodes", 2, "--out", out, "--no-plot", "--overwrite").exit_code == 0
     assert not [p for p in tmp_path.iterdir() if TEMP_MARKER in p.name]
 
 
 @pytest.mark.slow
 def test_kill_9_during_training_then_resume_ends_exactly_like_an_uninterrupted_run(tmp_path):
-    options = ("--agent", "ppo", "--steps", 8000, "--n-envs", 4, "--n-steps", 32, "--epochs", 2, "--minibatches", 2)
+    options = (
+        "--agent",
+        "ppo",
+        "--steps",
+        8000,
+        "--n-envs",
+        4,
+        "--n-steps",
+        32,
+        "--update-epochs",
+        2,
+        "--minibatches",
+        2,
+    )
     options += ("--checkpoint-every", 3)
     straight, killed = tmp_path / "straight", tmp_path / "killed"
     assert famarl("train", *options, "--out", straight).exit_code == 0
@@ -326,7 +345,9 @@ def test_kill_9_during_training_then_resume_ends_exactly_like_an_uninterrupted_r
     assert kill_after(process, 0.3), "training ended before it could be killed"
     status = json.loads((killed / "run.json").read_text())
     assert not status["complete"]
-    assert famarl("train", "--out", killed, "--resume").exit_code == 0
+    # The same command again continues the stopped run (made from the same inputs and options): no --resume needed.
+    again = famarl("train", *options, "--out", killed)
+    assert again.exit_code == 0 and "nothing to do" not in again.output
     # Bit-identical: the checkpoint holds every random state, so the tolerance is zero.
     assert (killed / "train.csv").read_text() == (straight / "train.csv").read_text()
     a = torch.load(straight / "checkpoint.pt", weights_only=True)["state_dict"]
@@ -344,7 +365,7 @@ def test_kill_9_during_favae_fit_leaves_no_checkpoint_or_a_complete_one(segments
     leftovers = [p for p in tmp_path.iterdir() if TEMP_MARKER in p.name]
     assert famarl("favae", "fit", "--segments", segments_file, "--epochs", 1, "--out", out).exit_code == 0
     assert all(not p.exists() for p in leftovers)
-    assert famarl("traverse", "--model", out, "--out", tmp_path / "t.h5").exit_code == 0
+    assert famarl("traverse", "--favae", out, "--out", tmp_path / "t.h5").exit_code == 0
 
 
 # --- determinism -------------------------------------------------------------------------------------------------
@@ -353,7 +374,7 @@ def test_kill_9_during_favae_fit_leaves_no_checkpoint_or_a_complete_one(segments
 @pytest.mark.slow
 def test_traverse_and_evaluate_are_deterministic(artifacts, tmp_path):
     for name in ("a", "b"):
-        assert famarl("traverse", "--model", artifacts["favae"], "--out", tmp_path / f"{name}.h5").exit_code == 0
+        assert famarl("traverse", "--favae", artifacts["favae"], "--out", tmp_path / f"{name}.h5").exit_code == 0
     with h5py.File(tmp_path / "a.h5") as a, h5py.File(tmp_path / "b.h5") as b:
         for key in a:
             np.testing.assert_array_equal(a[key][()], b[key][()])

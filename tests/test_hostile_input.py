@@ -112,7 +112,7 @@ def test_hostile_sequences_are_one_line_errors_that_keep_the_old_output(case, tm
     make(tmp_path / name)
     out = tmp_path / "segments.h5"
     out.write_bytes(OLD)
-    result = famarl("sequences", tmp_path / name, "--out", out)
+    result = famarl("sequences", tmp_path / name, "--out", out, "--overwrite")
     one_line_error(result, 1, NEEDLES[case])
     assert out.read_bytes() == OLD and sorted(p.name for p in tmp_path.iterdir()) == sorted([name, out.name])
 
@@ -128,7 +128,7 @@ def test_sizes_from_options_are_refused_before_any_allocation(case, options, nee
     source = _write(tmp_path / "x.npy", _curves())
     out = tmp_path / "segments.h5"
     out.write_bytes(OLD)
-    result = famarl("sequences", source, "--out", out, *options)
+    result = famarl("sequences", source, "--out", out, "--overwrite", *options)
     assert result.exit_code == 2 and needle in result.output and "Traceback" not in result.output
     assert out.read_bytes() == OLD
 
@@ -171,13 +171,13 @@ def test_hostile_minari_metadata_is_one_line_error(case, tmp_path, tiny_demos, m
     _edit_metadata(folder, edit)
     out = tmp_path / "demos.h5"
     out.write_bytes(OLD)
-    one_line_error(famarl("demos", "--from-minari", folder, "--out", out, "--no-plot"), 1, needle)
+    one_line_error(famarl("demos", "--from-minari", folder, "--out", out, "--no-plot", "--overwrite"), 1, needle)
     assert out.read_bytes() == OLD
 
 
 def test_a_dataset_id_too_long_for_the_file_system_is_refused(tmp_path, demos_file):
     dataset_id = "a" * 250 + "-v0"
-    result = famarl("export-minari", demos_file, "--dataset-id", dataset_id, "--root", tmp_path / "minari")
+    result = famarl("export-minari", demos_file, "--dataset-id", dataset_id, "--datasets-path", tmp_path / "minari")
     one_line_error(result, 2, "a folder name of 253 bytes")
     long_import = famarl("demos", "--from-minari", "b" * 300 + "-v0", "--out", tmp_path / "d.h5", "--no-plot")
     one_line_error(long_import, 1, "not a usable dataset folder or id")
@@ -200,7 +200,9 @@ def test_demos_whose_episodes_differ_in_width_are_refused_by_every_reader(tmp_pa
     write_demos(tmp_path / "mixed.h5", mixed)
     out = tmp_path / "segments.h5"
     out.write_bytes(OLD)
-    result = famarl("segment", "--demos", tmp_path / "mixed.h5", "--out", out, "--epochs", 1, "--no-plot")
+    result = famarl(
+        "segment", "--demos", tmp_path / "mixed.h5", "--out", out, "--segment-epochs", 1, "--no-plot", "--overwrite"
+    )
     one_line_error(result, 1, "its episodes differ in width")
     assert out.read_bytes() == OLD
 
@@ -321,7 +323,7 @@ def test_the_users_code_failing_is_one_line_naming_it(case, tmp_path):
     options, code, needle = USER_CODE[case]
     out = tmp_path / "demos.h5"
     out.write_bytes(OLD)
-    result = famarl("demos", *options, "--episodes", 2, "--out", out)
+    result = famarl("demos", *options, "--episodes", 2, "--out", out, "--overwrite")
     one_line_error(result, code, needle)
     assert out.read_bytes() == OLD and sorted(p.name for p in tmp_path.iterdir()) == ["demos.h5"]
 
@@ -403,7 +405,7 @@ def _interrupted(tmp_path_factory, *args) -> str:
 def test_ctrl_c_in_an_endless_episode_is_one_line_and_keeps_the_old_output(tmp_path, tmp_path_factory):
     out = tmp_path / "demos.h5"
     out.write_bytes(OLD)
-    _interrupted(tmp_path_factory, "demos", *ENDLESS, "--expert", "user_experts:full_push", "--out", out)
+    _interrupted(tmp_path_factory, "demos", *ENDLESS, "--expert", "user_experts:full_push", "--out", out, "--overwrite")
     assert out.read_bytes() == OLD and sorted(p.name for p in tmp_path.iterdir()) == ["demos.h5"]
 
 

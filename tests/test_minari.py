@@ -319,7 +319,7 @@ def test_cli_export_writes_a_loadable_dataset_and_refuses_an_existing_id(tmp_pat
     demos_file = tmp_path / "demos.h5"
     write_demos(demos_file, famarl_demos())
     root = tmp_path / "elsewhere"
-    args = ("export-minari", demos_file, "--dataset-id", "famarl/cli-v0", "--root", root)
+    args = ("export-minari", demos_file, "--dataset-id", "famarl/cli-v0", "--datasets-path", root)
     result = famarl(*args)
     assert result.exit_code == 0, result.output
     assert "famarl/cli-v0" in result.stdout
@@ -441,7 +441,7 @@ def test_a_goal_envs_dict_observations_are_exported_flat_with_a_note():
 def test_cli_export_says_what_it_could_not_keep_in_a_note_line(tmp_path):
     demos_file = tmp_path / "demos.h5"
     write_demos(demos_file, famarl_demos(env_id="elsewhere/Unknown-v0"))
-    result = famarl("export-minari", demos_file, "--dataset-id", "unknown-v0", "--root", tmp_path / "root")
+    result = famarl("export-minari", demos_file, "--dataset-id", "unknown-v0", "--datasets-path", tmp_path / "root")
     assert result.exit_code == 0
     lines = result.stderr.splitlines()
     assert len(lines) == 1 and lines[0].startswith("note: elsewhere/Unknown-v0 cannot be made here"), result.stderr

@@ -53,7 +53,7 @@ def test_the_search_starts_in_each_spaces_middle_and_refuses_the_hybrid():
 @pytest.mark.slow
 def test_famarl_oracle_writes_each_runs_share_of_solved_layouts(tmp_path):
     run = tmp_path / "run"
-    tiny = ("--steps", 600, "--n-envs", 2, "--n-steps", 8, "--epochs", 1, "--minibatches", 2)
+    tiny = ("--steps", 600, "--n-envs", 2, "--n-steps", 8, "--update-epochs", 1, "--minibatches", 2)
     assert famarl("train", "--env", REACHING, "--agent", "figar", *tiny, "--out", run).exit_code == 0
     out = tmp_path / "oracle"
     options = ("--episodes", 3, "--candidates", 8, "--iterations", 2, "--decisions", 40, "--jobs", 1)

@@ -219,9 +219,10 @@ def test_every_stage_parses_reads_only_its_deps_and_a_parameter_reaches_only_wha
         ]
         if values.get("out") is not None:  # what it writes: the outs, or a file and its picture beside it
             out = Path(values["out"])
-            # a report's summary and metrics beside it, committed with the pipeline
+            # a report's summary, metrics and learning curves beside it, committed with the pipeline
             summary = Path(str(values.get("summary")))
-            beside = {str(summary), str(summary.with_name("metrics.json"))}
+            curves = [str(summary.with_name(f"{name}-curves.csv")) for name in values.get("experiment") or []]
+            beside = {str(summary), str(summary.with_name("metrics.json")), *curves}
             if not all(
                 _under(o, str(out)) or Path(o).with_suffix("") == out.with_suffix("") or o in beside for o in outs
             ):

@@ -43,7 +43,7 @@ def prior_file(demos_file, segments_file, favae_file, tmp_path_factory):
         favae_file,
         "--out",
         out,
-        "--epochs",
+        "--prior-steps",
         300,
     )
     assert result.exit_code == 0, result.output
@@ -249,7 +249,7 @@ def _train(*args, favae, prior, out):
         4,
         "--minibatches",
         2,
-        "--epochs",
+        "--update-epochs",
         1,
         "--out",
         out,
@@ -291,7 +291,7 @@ def test_a_prior_that_does_not_fit_is_one_error_line_naming_both_sizes(prior_fil
     assert result.exit_code == 2 and "--prior goes with" in result.output
 
 
-@pytest.mark.parametrize("args", [(), ("--decoder", "closed", "--prior-target-kl", "1.0")])
+@pytest.mark.parametrize("args", [(), ("--loop", "closed", "--prior-target-kl", "1.0")])
 def test_a_guided_run_logs_its_kl_records_its_prior_and_evaluates(args, prior_file, favae_file, tmp_path):
     run = tmp_path / "run"
     result = _train(*args, favae=favae_file, prior=prior_file, out=run)
@@ -404,7 +404,7 @@ def test_a_prior_of_states_that_say_nothing_is_no_worse_than_the_standard_normal
 def test_famarl_sweep_prior_fits_one_prior_per_point(demos_file, segments_file, favae_file, tmp_path):
     result = famarl(
         "sweep", "prior", "--seeds", "0,1", "--name", "seed{seed}", "--out", tmp_path / "priors", "--jobs", 1, "--",
-        "--demos", demos_file, "--segments", segments_file, "--favae", favae_file, "--epochs", 20, "--no-plot",
+        "--demos", demos_file, "--segments", segments_file, "--favae", favae_file, "--prior-steps", 20, "--no-plot",
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     fitted = [load_skills(tmp_path / "priors" / f"seed{seed}" / "prior.pt") for seed in (0, 1)]

@@ -44,7 +44,8 @@ def make_run(
     run = data / experiment / "runs" / name
     run.mkdir(parents=True)
     spec = {"ppo": {"total_steps": BUDGET}, "favae": None if favae is None else str(favae)}
-    (run / "run.json").write_text(json.dumps({"schema": "famarl.run", "spec": spec, "wall_s": 10.0}))
+    (run / "run.json").write_text(json.dumps({"schema": "famarl.run", "spec": spec}))
+    (run / "timing.json").write_text(json.dumps({"wall_s": wall}))
     steps = np.linspace(BUDGET / 20, BUDGET, 20)
     lengths = np.interp(np.arange(20), np.linspace(0, 19, len(macro_lengths)), macro_lengths)
     with open(run / "train.csv", "w", newline="") as handle:
@@ -65,7 +66,6 @@ def make_run(
         "seed": int(re.search(r"(\d+)$", name)[1]),
         "run": str(run),
         "env_steps": BUDGET,
-        "train_wall_s": wall,
     }
     (data / experiment / "eval" / name).mkdir(parents=True)
     (data / experiment / "eval" / name / "eval.json").write_text(json.dumps(evaluation))
@@ -360,3 +360,22 @@ def test_steps_to_0_8_count_from_where_the_curve_holds_it_to_the_end():
     assert steps_to_hold(steps, np.array([1, 1, 0, 0, 1, 1, 1.0]), 0.8, 1) == 500.0
     assert steps_to_hold(steps, np.array([1, 1, 1, 1, 1, 1, 0.0]), 0.8, 1) is None  # ends below: censored
     assert steps_to_hold(steps, np.array([0, 1, 0, 0, 1, 1, 1.0]), 0.8, 3) == 700.0  # smoothed over 3 updates
+
+
+def test_the_plots_csv_keeps_at_most_a_hundred_evenly_spaced_points_per_run_and_the_last(tmp_path):
+    from famarl_cli.report.results import CURVE_POINTS, Group, RunResult, write_curves
+
+    updates = 257
+    log = {
+        "env_steps": np.arange(1, updates + 1) * 64.0,
+        "episode_success": np.linspace(0, 1, updates),
+        "episode_return": np.zeros(updates),
+        "macro_length": np.ones(updates),
+    }
+    run = RunResult({"run": "runs/a-seed0", "seed": 0, "label": "a", "env": "e"}, log, updates * 64, tmp_path)
+    write_curves([Group("a", [run])], tmp_path / "a-curves.csv")
+    with open(tmp_path / "a-curves.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    steps = [int(row["env_steps"]) for row in rows]
+    assert len(rows) == CURVE_POINTS and steps[0] == 64 and steps[-1] == updates * 64
+    assert float(rows[-1]["success"]) == 1 and max(np.diff(steps)) - min(np.diff(steps)) <= 64

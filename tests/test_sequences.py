@@ -80,7 +80,7 @@ def test_favae_fits_imported_sequences_and_traverses_them_as_paths(tmp_path):
     metrics = json.loads(model.with_suffix(".metrics.json").read_text())
     low, high = metrics["mig_interval"]
     assert low <= high and set(metrics["mig_per_factor_interval"]) == {"0", "1"}
-    drawn = famarl("traverse", "--model", model, "--draw", "values", "--out", tmp_path / "t.h5")
+    drawn = famarl("traverse", "--favae", model, "--draw", "values", "--out", tmp_path / "t.h5")
     assert drawn.exit_code == 0, drawn.output
     traversal = json.loads((tmp_path / "t.json").read_text())
     assert len(traversal["effects_m"]) == 6 and len(traversal["kl_nats"]) == 6
@@ -96,17 +96,17 @@ def test_traverse_says_when_the_chosen_ladder_carries_no_information(favae_file,
         "information_per_dim": [2.0, 1.5, 0.8, 0.4, 0.03, 0.02],
     }
     save_favae(informed, favae, training, payload["provenance"])
-    empty = famarl("traverse", "--model", informed, "--ladder", 3, "--out", tmp_path / "t3.h5")
+    empty = famarl("traverse", "--favae", informed, "--ladder", 3, "--out", tmp_path / "t3.h5")
     assert empty.exit_code == 0, empty.output
     assert "ladder 3 is empty: its variables carry 0.050 nats (information)" in " ".join(empty.stdout.split())
-    full = famarl("traverse", "--model", informed, "--ladder", 1, "--out", tmp_path / "t1.h5")
+    full = famarl("traverse", "--favae", informed, "--ladder", 1, "--out", tmp_path / "t1.h5")
     assert full.exit_code == 0 and "empty" not in full.stdout
     written = json.loads((tmp_path / "t3.json").read_text())
     assert written["information_nats"] == {"(3,1)": 0.03, "(3,2)": 0.02} and written["kl_nats"]["(3,1)"] == 3.0
     # a checkpoint from before the information was measured is judged by its KL, and says so
     older = tmp_path / "older.pt"
     save_favae(older, favae, {k: v for k, v in training.items() if k != "information_per_dim"}, {})
-    by_kl = famarl("traverse", "--model", older, "--ladder", 3, "--out", tmp_path / "t.h5")
+    by_kl = famarl("traverse", "--favae", older, "--ladder", 3, "--out", tmp_path / "t.h5")
     assert by_kl.exit_code == 0 and "KL (nats)" in by_kl.stdout and "empty" not in by_kl.stdout
 
 

@@ -290,9 +290,9 @@ def test_traversing_in_a_world_of_another_action_size_is_one_line_and_writes_not
 
     out = tmp_path / "traverse" / "t.h5"
     one_line_error(
-        famarl("traverse", "--model", favae_file, "--world", "robot-hand", "--out", out),
+        famarl("traverse", "--favae", favae_file, "--world", "robot-hand", "--out", out),
         2,
         "decodes 2-dimensional actions and the robot-hand world takes 4",
     )
     assert not out.parent.exists() or not list(out.parent.iterdir())
-    assert famarl("traverse", "--model", favae_file, "--world", "moon", "--out", out).exit_code == 2
+    assert famarl("traverse", "--favae", favae_file, "--world", "moon", "--out", out).exit_code == 2

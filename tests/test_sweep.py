@@ -26,7 +26,7 @@ from famarl_cli.sweep.executors import LocalExecutor, SerialExecutor, make_execu
 from famarl_cli.sweep.plan import JOB_FILE, Action, Axis, Job, default_name, expand, parse_values, reconcile
 
 TESTS = Path(__file__).resolve().parent
-TINY_PPO = ["--agent", "ppo", "--n-envs", "2", "--n-steps", "64", "--minibatches", "2", "--epochs", "2"]
+TINY_PPO = ["--agent", "ppo", "--n-envs", "2", "--n-steps", "64", "--minibatches", "2", "--update-epochs", "2"]
 """128 env steps per update."""
 
 
@@ -74,7 +74,7 @@ def test_plan_fills_templates_and_gives_each_axis_to_the_option_of_its_name(tmp_
 
 def test_job_key_is_stable_under_reordering_and_changes_with_config_code_and_inputs(tmp_path, monkeypatch):
     one = plan("train", [*TINY_PPO, "--steps", "1000"], "0", [], None)[0]
-    reordered = ["--steps", "1000", "--epochs", "2", "--minibatches", "2", "--n-steps", "64", "--n-envs", "2"]
+    reordered = ["--steps", "1000", "--update-epochs", "2", "--minibatches", "2", "--n-steps", "64", "--n-envs", "2"]
     assert plan("train", [*reordered, "--agent", "ppo"], "0", [], None)[0].key == one.key
     assert plan("train", [*TINY_PPO, "--steps", "2000"], "0", [], None)[0].key != one.key
     key = one.key

@@ -4,12 +4,12 @@ from famarl_cli.artifacts.base import (
     atomic_path,
     peek_schema,
     prepare_output,
-    provenance,
     sha256,
     write_csv,
     write_json,
 )
 from famarl_cli.artifacts.demos import Demos, Episode, read_demos, write_demos
+from famarl_cli.artifacts.made import provenance
 
 __all__ = [
     "Demos",

@@ -1,4 +1,5 @@
-"""What every artifact shares: atomic writes, schema checks, provenance, content hashes and JSON metrics.
+"""What every artifact shares: atomic writes, schema checks, content hashes and JSON metrics (provenance:
+:mod:`famarl_cli.artifacts.made`).
 
 Each artifact kind (demos, segments, models, ...) has its own module beside this one that defines its layout
 on top of these helpers.
@@ -22,7 +23,6 @@ import numpy as np
 
 from famarl_cli import __version__
 from famarl_cli.core.errors import ArtifactError
-from famarl_cli.core.reproducibility import platform_facts
 
 TEMP_MARKER = ".tmp-"
 """Part of the name of every temporary file; a name with it is never a finished artifact."""
@@ -107,19 +107,6 @@ def sha256(path: str | os.PathLike) -> str:
         for block in iter(lambda: handle.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
-
-
-def provenance(command: str, params: dict[str, Any], seed: int | None, inputs: list[Path] = ()) -> dict:
-    """What made an artifact: command, parameters, seed, package version, the inputs' content hashes, and the
-    platform facts that decide its floats (:func:`famarl_cli.core.reproducibility.platform_facts`)."""
-    return {
-        "command": command,
-        "params": params,
-        "seed": seed,
-        "famarl_version": __version__,
-        "inputs": {str(p): sha256(p) for p in inputs},
-        "platform": platform_facts(),
-    }
 
 
 def write_header(handle: h5py.File, schema: str, version: int, prov: dict, **attrs: Any) -> None:

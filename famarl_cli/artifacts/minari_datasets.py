@@ -52,8 +52,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from famarl_cli.artifacts.base import TEMP_MARKER, provenance
+from famarl_cli.artifacts.base import TEMP_MARKER
 from famarl_cli.artifacts.demos import SCHEMA, SCHEMA_VERSION, Demos, Episode, content_fault
+from famarl_cli.artifacts.made import provenance
 from famarl_cli.core.errors import ArtifactError, FamarlError, UsageError
 from famarl_cli.envs.success import SuccessRule, as_bool, reported, success_rule
 

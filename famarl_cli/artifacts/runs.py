@@ -7,6 +7,9 @@
       checkpoint.pt   schema famarl.agent: policy, optimiser, normalisers, environment and random state,
                       the frozen FAVAE decoder (FaMARL), and the log so far: everything to resume or evaluate
       train.csv       one row per PPO update (env steps, return, success, macro length, losses), for plots
+      timing.json     the wall time the run took (seconds, over all its sessions): a measurement, kept apart
+                      from the other files so that the same run made twice gives them byte for byte (DVC ignores
+                      it, .dvcignore)
       eval.json       from famarl evaluate: success rate, return, lengths, decisions, macro length
       rollouts.png    from famarl evaluate: a few deterministic episodes, each macro action in its own colour
 
@@ -42,6 +45,21 @@ RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE, FILM_FILE, STILLS
     "episode.gif",
     "episode.png",
 )
+
+
+TIMING_FILE = "timing.json"
+
+
+def write_timing(run_dir: str | os.PathLike, wall_s: float) -> None:
+    write_json(Path(run_dir) / TIMING_FILE, {"wall_s": round(wall_s, 2)})
+
+
+def read_timing(run_dir: str | os.PathLike) -> float | None:
+    """The run's wall time so far, or None where it was not recorded (a run folder restored from DVC's cache)."""
+    try:
+        return float(json.loads((Path(run_dir) / TIMING_FILE).read_text())["wall_s"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
 
 
 def write_run(

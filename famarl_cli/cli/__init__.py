@@ -39,7 +39,7 @@ NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())
 
 WORKFLOW = (
     "demos", "segment", "favae", "macros", "traverse", "prior", "train", "evaluate", "oracle", "report", "sweep",
-    "sequences", "export-minari", "inspect", "docs",
+    "sequences", "export-minari", "inspect", "status", "docs",
 )  # fmt: skip
 """The commands in the order a user meets them (``famarl --help``); one not named here comes last."""
 
@@ -145,6 +145,18 @@ def _help_hint(exc: FamarlError) -> str:
     return f" (see `{context.command_path} --help`)"
 
 
+def already_made(command: str, options: Any, outputs: list, inputs: tuple = ()) -> bool:
+    """Whether ``outputs`` are there, complete and made by ``command`` from the same inputs and options (then a
+    note says so and the command does nothing); a usage error where they were made otherwise, unless
+    ``options.overwrite`` (:func:`famarl_cli.artifacts.made.claim_output`, the rule every command follows)."""
+    from famarl_cli.artifacts.made import ALREADY_MADE, claim_output, making
+
+    if claim_output(outputs, making(command, options, inputs), options.overwrite):
+        return False
+    typer.echo(f"note: {outputs[0]} {ALREADY_MADE} (--overwrite makes it afresh)", err=True)
+    return True
+
+
 def torch_on_one_thread() -> None:
     """Small networks train fastest on one thread (measured: a second adds nothing on a 2-core laptop); the
     portable profile's backends when it is on (famarl_cli.core.reproducibility)."""
@@ -241,6 +253,7 @@ from famarl_cli.cli import (  # noqa: E402, F401
     report,
     segment,
     sequences,
+    status,
     sweep,
     train,
     traverse,

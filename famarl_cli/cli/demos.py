@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.artifacts import Demos
-from famarl_cli.cli import JobRecipe, app, progress_bar, sweepable
+from famarl_cli.cli import JobRecipe, already_made, app, progress_bar, sweepable
 from famarl_cli.cli.derived import command
 from famarl_cli.core.declare import to_json
 from famarl_cli.stages.demos import DemosOptions
@@ -18,34 +16,39 @@ from famarl_cli.stages.demos import DemosOptions
 @command(app, DemosOptions, "demos")
 def demos(options: DemosOptions) -> None:
     """Record expert demos (with their true phase boundaries and factors, where the expert knows them) to an HDF5
-    file: famarl's scripted experts, your expert in any gymnasium env, or a Minari dataset imported."""
+    file: famarl's scripted experts, your expert in any gymnasium env, or a Minari dataset imported. The default
+    100 episodes take about 1.5 s on one core of a 2-core AMD EPYC VM; your env's steps take what they take."""
+    from dataclasses import replace
+
     from famarl_cli.artifacts import prepare_output, write_demos
+    from famarl_cli.artifacts.made import making
     from famarl_cli.report.plots import plot_demos
 
     o = options
+    if already_made("famarl demos", o, o.outputs()):
+        return
     if o.from_minari is not None:
         from famarl_cli.artifacts.minari_datasets import import_minari
 
         recorded = import_minari(o.from_minari, o.success_return)
-        name = Path(o.from_minari.rstrip("/")).name
     else:
         with progress_bar() as progress:
             if o.expert is not None:
-                recorded, name = _record_expert(progress, o)
+                recorded = _record_expert(progress, o)
             else:
                 from famarl_cli.stages.demos import record_demos
 
                 task = progress.add_task(f"demos {o.script.value}", total=o.episodes)
                 recorded = record_demos(o.script, o.episodes, o.seed, on_episode=lambda _: progress.advance(task))
-                name = o.script.value
-    out = prepare_output(o.out or Path("data/demos") / f"{name}.h5")
+    recorded = replace(recorded, provenance={**recorded.provenance, "made_from": making("famarl demos", o)})
+    out = prepare_output(o.destination)
     write_demos(out, recorded)
     written = [out]
     if o.plot:
         written.append(out.with_suffix(".png"))
         plot_demos(recorded, written[-1])
 
-    table = demos_table(recorded, f"demos: {name}")
+    table = demos_table(recorded, f"demos: {o.name}")
     table.add_row("written", ", ".join(map(str, written)))
     Console().print(table)
 
@@ -76,7 +79,7 @@ def _record_expert(progress, options: DemosOptions):
     recorded = record_expert_demos(
         env, expert, episodes, o.seed, o.env_kwargs, min_return, attempts, advance, o.success_return, on_step=step
     )
-    return recorded, env.split("/")[-1].split(":")[-1].lower()
+    return recorded
 
 
 _ONE_SOURCE = "a sweep records famarl's scripts; record other demos with famarl demos, once per seed"
@@ -85,7 +88,7 @@ _ONE_SOURCE = "a sweep records famarl's scripts; record other demos with famarl 
 @sweepable(
     "demos",
     DemosOptions,
-    owned=("--out",),
+    owned=("--out", "--overwrite"),
     refused={
         option: _ONE_SOURCE
         for option in (
@@ -93,7 +96,7 @@ _ONE_SOURCE = "a sweep records famarl's scripts; record other demos with famarl 
             "--from-minari",
             "--env-kwargs",
             "--min-return",
-            "--max-attempts",
+            "--max-episodes",
             "--success-return",
         )
     },
@@ -103,7 +106,7 @@ def demos_job(options: DemosOptions) -> JobRecipe:
     ``<job folder>/demos.h5`` (and ``.png``)."""
     from famarl_cli.stages.demos import run_job
 
-    return JobRecipe(run_job, to_json(options))
+    return JobRecipe(run_job, {key: value for key, value in to_json(options).items() if key != "overwrite"})
 
 
 def demos_table(demos: Demos, title: str) -> Table:

@@ -4,6 +4,7 @@ an option with its type, default, help and bounds, and the command's function re
 from __future__ import annotations
 
 import inspect
+import typing
 from collections.abc import Callable
 from dataclasses import MISSING
 from typing import Annotated, Any
@@ -12,9 +13,27 @@ import typer
 
 from famarl_cli.core.declare import Declared, declared
 
+_ALIAS = "renamed__"
+"""The prefix of a renamed option's hidden parameter, which takes its old spelling."""
 
-def typer_option(option: Declared) -> tuple[Any, Any]:
-    """(annotation, default) of ``option`` as a typer parameter."""
+
+def _take_old_spelling(option: Declared, given: dict) -> None:
+    """Move the value given under ``option``'s old flag to the option, with a note that names the new flag; a usage
+    error where both are given."""
+    from famarl_cli.core.errors import UsageError
+
+    value = given.pop(_ALIAS + option.name)
+    if value is None:
+        return
+    old = option.renamed[0]
+    default = option.text if option.parse is not None else option.default
+    if given[option.name] != default:
+        raise UsageError(f"{old} is the old spelling of {option.flag}: give one of them")
+    typer.echo(f"note: {old} is now {option.flag}; the old spelling goes in the next release", err=True)
+    given[option.name] = value
+
+
+def _settings(option: Declared) -> dict[str, Any]:
     settings: dict[str, Any] = {"help": option.help}
     if option.min is not None:
         settings["min"] = option.min
@@ -24,6 +43,12 @@ def typer_option(option: Declared) -> tuple[Any, Any]:
         settings["dir_okay"] = False
     elif option.path == "dir":
         settings["file_okay"] = False
+    return settings
+
+
+def typer_option(option: Declared) -> tuple[Any, Any]:
+    """(annotation, default) of ``option`` as a typer parameter."""
+    settings = _settings(option)
     if option.parse is not None:  # written as text on the command line
         kind: Any = str | None if option.text is None else str
         default = option.text
@@ -57,15 +82,31 @@ def command(registrar: typer.Typer, options: type, name: str | None = None, **se
             parameters.append(
                 inspect.Parameter(option.name, inspect.Parameter.KEYWORD_ONLY, default=default, annotation=annotation)
             )
+        renamed = [option for option in shown if option.renamed]
+        for option in renamed:
+            annotation, _ = typer_option(option)
+            kind, setting = typing.get_args(annotation)
+            alias = typer.Option(*option.renamed, **{**_settings(option), "hidden": True})
+            parameters.append(
+                inspect.Parameter(
+                    _ALIAS + option.name,
+                    inspect.Parameter.KEYWORD_ONLY,
+                    default=None,
+                    annotation=Annotated[kind | None, alias],
+                )
+            )
         annotations = {parameter.name: parameter.annotation for parameter in parameters}
 
         def invoke(**given: Any) -> None:
+            for option in renamed:
+                _take_old_spelling(option, given)
             return run(options(**parsed(fields, given)))
 
         invoke.__signature__ = inspect.Signature(parameters, return_annotation=None)
         invoke.__annotations__ = {**annotations, "return": None}
         invoke.__doc__ = run.__doc__
         invoke.__name__ = run.__name__
+        invoke.declaration = options  # what famarl_cli.cli.names reads each option's origin from
         registrar.command(name, **settings)(reports_errors(invoke))
         return run
 

@@ -19,16 +19,18 @@ def docs(
     ] = False,
 ) -> None:
     """Write the result tables of README.md and docs/ (verdicts, every claim's interval and rule, each pipeline's
-    headline, pipeline walls, speed benchmarks) from each pipeline's committed summary.json,
+    headline, pipeline walls, speed benchmarks, and the options of every command by name) from each pipeline's
+    committed summary.json,
     benchmarks/pipeline_walls.json and benchmarks/measured.json, between their marker comments; a pipeline whose
     code, params or command changed since its dvc.lock is marked stale. Takes a few seconds (it asks DVC which
     stages are stale)."""
+    from famarl_cli.cli.names import names_table
     from famarl_cli.core.errors import ArtifactError
     from famarl_cli.report.docs import FILES, write_docs
 
     if not (root / "dvc.yaml").is_file():
         raise ArtifactError(f"{root}: no dvc.yaml here; run famarl docs in the project's root, or pass --root")
-    changed = write_docs(root, check=check)
+    changed = write_docs(root, check=check, extra={"names": names_table()})
     if check and changed:
         raise ArtifactError(
             f"generated tables differ from the committed metrics in {', '.join(changed)}: run famarl docs"

@@ -7,7 +7,7 @@ from rich.console import Console
 from rich.progress import Progress
 from rich.table import Table
 
-from famarl_cli.cli import app, progress_bar, torch_on_one_thread
+from famarl_cli.cli import already_made, app, progress_bar, torch_on_one_thread
 from famarl_cli.cli.derived import command
 from famarl_cli.stages.method import CalibrateOptions, FitOptions
 
@@ -40,8 +40,10 @@ def favae_calibrate(options: CalibrateOptions) -> None:
     docs/performance.md)."""
     from famarl_cli.stages import method as stages
 
-    torch_on_one_thread()
     options = stages.given_segments(options)
+    if already_made("famarl favae calibrate", options, [options.destination]):
+        return
+    torch_on_one_thread()
     with progress_bar() as progress:
         task = progress.add_task("calibrate", total=options.pre_run_window().stop)
         c_last, _ = stages.calibrate(options, _epoch_reporter(progress, task, "C_last pre-run"))
@@ -56,8 +58,10 @@ def favae_fit(options: FitOptions) -> None:
     quarters of it with --calibration: docs/performance.md)."""
     from famarl_cli.stages import method as stages
 
-    torch_on_one_thread()
     options = stages.given_segments(options)
+    if already_made("famarl favae fit", options, options.outputs()):
+        return
+    torch_on_one_thread()
     epochs = options.epochs
     with progress_bar() as progress:
         pre_run = options.pre_run_window().stop

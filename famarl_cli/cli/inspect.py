@@ -1,12 +1,14 @@
-"""``famarl inspect``: check an artifact and summarise it."""
+"""``famarl inspect``: check an artifact, summarise it, and say what made it."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.table import Table
 
 from famarl_cli.cli import app, reports_errors
 from famarl_cli.cli.demos import demos_table
@@ -16,30 +18,169 @@ from famarl_cli.cli.segment import segments_table
 @app.command()
 @reports_errors
 def inspect(
-    path: Annotated[Path, typer.Argument(help="Artifact to check: a demos or segments HDF5 file.")],
-    plot: Annotated[Path | None, typer.Option(help="Draw a demos file's trajectories to this PNG.")] = None,
+    path: Annotated[
+        Path,
+        typer.Argument(
+            help="Artifact to check: demos, segments or traversal HDF5; a FAVAE, prior or segmenter checkpoint "
+            "(.pt); a run folder (famarl train) or its checkpoint; a famarl JSON record (eval.json, oracle.json, a "
+            "calibration, job.json)."
+        ),
+    ],
+    plot: Annotated[
+        bool, typer.Option("--plot", help="Also draw a demos file's trajectories to <file>.png, beside it.")
+    ] = False,
 ) -> None:
-    """Check that a file is a valid artifact, and print what it holds and what made it."""
+    """Check that a file or folder is a valid famarl artifact, and print what it holds and what made it."""
+    from famarl_cli.artifacts.base import HDF5_SIGNATURE, ZIP_SIGNATURE
+    from famarl_cli.core.errors import ArtifactError
+
+    if path.is_dir():
+        table, made = _run_folder(path)
+    elif not path.is_file():
+        raise ArtifactError(f"{path}: no such file or folder")
+    else:
+        with open(path, "rb") as handle:
+            head = handle.read(8)
+        if head == HDF5_SIGNATURE:
+            table, made = _hdf5(path, plot)
+        elif head.startswith(ZIP_SIGNATURE):
+            table, made = _checkpoint(path)
+        else:
+            table, made = _record(path)
+    if plot and "written" not in {str(cell) for cell in table.columns[0].cells}:
+        raise ArtifactError(f"{path}: --plot draws demos files; this is not one")
+    _provenance_rows(table, made)
+    Console().print(table)
+
+
+def _hdf5(path: Path, plot: bool) -> tuple[Table, dict]:
     from famarl_cli.artifacts import peek_schema, read_demos
     from famarl_cli.artifacts.demos import SCHEMA as DEMOS
+    from famarl_cli.artifacts.made import read_provenance
     from famarl_cli.artifacts.segments import SCHEMA as SEGMENTS
     from famarl_cli.artifacts.segments import read_segments
+    from famarl_cli.artifacts.traversal import SCHEMA as TRAVERSAL
+    from famarl_cli.artifacts.traversal import read_traversal
     from famarl_cli.core.errors import ArtifactError
-    from famarl_cli.report.plots import plot_demos
 
     schema = peek_schema(path)
     if schema == DEMOS:
         loaded = read_demos(path)
         table = demos_table(loaded, str(path))
         if plot:
-            plot_demos(loaded, plot)
-            table.add_row("written", str(plot))
-    elif schema == SEGMENTS:
+            from famarl_cli.report.plots import plot_demos
+
+            plot_demos(loaded, path.with_suffix(".png"))
+            table.add_row("written", str(path.with_suffix(".png")))
+        return table, loaded.provenance
+    if schema == SEGMENTS:
         loaded = read_segments(path)
-        table = segments_table(loaded, str(path))
+        return segments_table(loaded, str(path)), loaded.provenance
+    if schema == TRAVERSAL:
+        traversal = read_traversal(path)
+        table = Table(title=str(path), show_header=False)
+        table.add_row("schema", schema)
+        table.add_row("variables (ladder, index)", ", ".join(f"({a},{b})" for a, b in traversal.variables.tolist()))
+        table.add_row("effect per variable", ", ".join(f"{e:.3f}" for e in traversal.effects))
+        return table, read_provenance(path)
+    raise ArtifactError(f"{path}: is an HDF5 file of schema {schema!r}, which famarl inspect does not read")
+
+
+def _checkpoint(path: Path) -> tuple[Table, dict]:
+    import torch
+
+    from famarl_cli.artifacts.runs import CHECKPOINT_FILE
+    from famarl_cli.core.errors import ArtifactError
+
+    try:
+        payload = torch.load(path, map_location="cpu", weights_only=True)
+        schema = payload.get("schema")
+    except Exception as exc:  # foreign bytes in a zip: any kind of failure
+        raise ArtifactError(f"{path}: not a readable torch checkpoint ({type(exc).__name__})") from exc
+    if schema == "famarl.agent" and path.name == CHECKPOINT_FILE:
+        return _run_folder(path.parent)
+    table = Table(title=str(path), show_header=False)
+    table.add_row("schema", f"{schema} (version {payload.get('schema_version')})")
+    if schema == "famarl.favae":
+        from famarl_cli.method.favae.checkpoint import load_favae
+
+        model, payload = load_favae(path)
+        config, training = model.config, payload.get("training", {})
+        table.add_row(
+            "model",
+            f"{config.ladders} ladders of {', '.join(map(str, config.latent_dims))} latents; actions of "
+            f"{config.action_dim} values, L = {config.length}",
+        )
+        for key in ("beta", "c_last", "capacities"):
+            if key in training:
+                value = training[key]
+                table.add_row(key, ", ".join(f"{v:.3f}" for v in value) if isinstance(value, list) else f"{value:g}")
+    elif schema == "famarl.prior":
+        from famarl_cli.method.prior.checkpoint import load_skills
+
+        skills = load_skills(path)
+        for key in ("held_out_prior_nll", "held_out_standard_nll", "held_out_closed_mse", "held_out_open_mse"):
+            value = skills.scores.get(key)
+            table.add_row(key.replace("_", " "), "n/a" if value is None else f"{value:.4f}")
+    elif schema == "famarl.segmenter":
+        table.add_row("config", json.dumps(payload.get("config", {})))
     else:
-        raise ArtifactError(f"{path}: is a {schema!r} file; famarl inspect reads {DEMOS!r} and {SEGMENTS!r} files")
-    made_by = loaded.provenance
-    version = made_by.get("famarl_version")
-    table.add_row("made by", f"{made_by.get('command')} {made_by.get('params')} (famarl {version})")
-    Console().print(table)
+        raise ArtifactError(f"{path}: is a torch file of schema {schema!r}, which famarl inspect does not read")
+    return table, payload.get("provenance", {})
+
+
+def _run_folder(folder: Path) -> tuple[Table, dict]:
+    from famarl_cli.artifacts.runs import EVAL_FILE, read_run_file
+
+    run = read_run_file(folder)
+    spec, ppo = run["spec"], run["spec"]["ppo"]
+    table = Table(title=f"run {folder}", show_header=False)
+    table.add_row("agent", f"{spec['agent']} ({spec['label']}), seed {spec['seed']}")
+    table.add_row("env", f"{spec['env_id']} {spec.get('env_kwargs') or ''}".strip())
+    if spec.get("favae"):
+        table.add_row("FAVAE", spec["favae"])
+    state = "complete" if run.get("complete") else "stopped (famarl train --resume continues it)"
+    table.add_row("env steps", f"{run.get('env_steps', 0):,} of {ppo['total_steps']:,}; {state}")
+    evaluation = folder / EVAL_FILE
+    if evaluation.is_file():
+        found = json.loads(evaluation.read_text())
+        table.add_row(
+            "evaluation",
+            f"success {found['success_rate']:.2f} (sampled {found['sampled']['success_rate']:.2f}) over "
+            f"{found['episodes']} episodes",
+        )
+    return table, run.get("provenance", {})
+
+
+def _record(path: Path) -> tuple[Table, dict]:
+    from famarl_cli.core.errors import ArtifactError
+
+    try:
+        record = json.loads(path.read_text())
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ArtifactError(f"{path}: not an HDF5 file, a torch checkpoint or a JSON record") from exc
+    made = record.get("provenance") if isinstance(record, dict) else None
+    schema = record.get("schema") if isinstance(record, dict) else None
+    if not str(schema).startswith("famarl.") and not str((made or {}).get("command", "")).startswith("famarl "):
+        raise ArtifactError(f"{path}: a JSON file that no famarl command recorded (no famarl schema or provenance)")
+    table = Table(title=str(path), show_header=False)
+    if schema:
+        table.add_row("schema", f"{schema} (version {record.get('schema_version')})")
+    for key, value in record.items():
+        if key not in ("schema", "schema_version", "provenance") and not isinstance(value, dict | list):
+            table.add_row(key.replace("_", " "), str(value))
+    return table, made or {}
+
+
+def _provenance_rows(table: Table, made: dict) -> None:
+    """What made the artifact: the command and its settings, its inputs, famarl's version."""
+    if not made:
+        table.add_row("made by", "not recorded")
+        return
+    seed = "" if made.get("seed") is None else f", seed {made['seed']}"
+    table.add_row("made by", f"{made.get('command')} (famarl {made.get('famarl_version')}){seed}")
+    making = made.get("made_from") or {}
+    if making.get("options"):
+        table.add_row("options", ", ".join(f"{k}={json.dumps(v)}" for k, v in making["options"].items()))
+    for name, digest in (made.get("inputs") or {}).items():
+        table.add_row("input", f"{name} (sha256 {digest[:12]})")

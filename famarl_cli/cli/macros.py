@@ -10,9 +10,10 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from famarl_cli.artifacts.made import Replaceable
 from famarl_cli.cli import JobRecipe, app, progress_bar, sweepable, torch_on_one_thread
 from famarl_cli.cli.derived import command
-from famarl_cli.core.declare import option, pick, to_json
+from famarl_cli.core.declare import option, pick, same_as, to_json
 from famarl_cli.stages.macros import FAVAE, MacrosConfig
 
 
@@ -20,8 +21,15 @@ from famarl_cli.stages.macros import FAVAE, MacrosConfig
 class MacrosOptions(MacrosConfig):
     """``famarl macros``: a replicate's options and the folder it goes into."""
 
-    out: Path | None = option(None, "Folder.  [default: data/macros/<demos or segments name>/seed<S>]", path="dir")
-    overwrite: bool = option(False, "Replace what --out holds (made from other inputs or options) and start over.")
+    out: Path | None = option(
+        None, "Folder.  [default: data/macros/<demos or segments name>/seed<S>]", path="dir", affects=False
+    )
+    overwrite: bool = same_as(
+        Replaceable,
+        "overwrite",
+        help="Start afresh where --out holds what other inputs or options made (or files by hand); without it, a "
+        "folder made from the same inputs and options continues, or is left as it is where it is complete.",
+    )
 
 
 @command(app, MacrosOptions, "macros")

@@ -19,19 +19,28 @@ def export_minari(
     dataset_id: Annotated[
         str, typer.Option(help="Minari dataset id, [namespace/]name-v<version>, e.g. famarl/pushed-down-v0.")
     ],
-    root: Annotated[
+    datasets_path: Annotated[
         Path | None,
         typer.Option(
             help="Folder of Minari datasets to write into.  [default: $MINARI_DATASETS_PATH, else ~/.minari/datasets]",
             file_okay=False,
         ),
     ] = None,
+    root: Annotated[Path | None, typer.Option("--root", hidden=True, file_okay=False)] = None,
     overwrite: Annotated[bool, typer.Option(help="Replace a dataset of the same id.")] = False,
 ) -> None:
     """Export demos as a Minari dataset that minari.load_dataset(ID) opens, ground truth included (see
     famarl_cli.artifacts.minari_datasets), so that importing it gives back the same demos."""
     from famarl_cli.artifacts import read_demos
     from famarl_cli.artifacts.minari_datasets import export_minari as write_dataset
+    from famarl_cli.core.errors import UsageError
+
+    if root is not None:  # the old spelling (famarl docs --root is the project's root)
+        if datasets_path is not None:
+            raise UsageError("--root is the old spelling of --datasets-path: give one of them")
+        typer.echo("note: --root is now --datasets-path; the old spelling goes in the next release", err=True)
+        datasets_path = root
+    root = datasets_path
 
     recorded = read_demos(demos)
     folder = write_dataset(

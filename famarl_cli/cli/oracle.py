@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import typer
 from rich.console import Console
 from rich.table import Table
 
@@ -38,12 +39,13 @@ def oracle(options: OracleStageOptions) -> None:
     for folder in runs:
         read_run_file(folder)
     into = {folder: o.out / name for folder, name in zip(runs, evaluation_names(runs), strict=True)}
+    reused = 0
     table = Table(title=f"oracle: {o.episodes} layouts per run, seed {o.seed}; {o.candidates} plans x {o.iterations}")
     for column in ("run", "agent", "env", "layouts solved [95% CI]", "plans per layout"):
         table.add_column(column, justify="left" if column in ("run", "agent", "env") else "right")
     with make_executor(min(o.jobs or default_jobs(), len(runs))) as executor, progress_bar() as progress:
         task = progress.add_task("oracle", total=len(runs))
-        args = (o.episodes, o.seed, o.candidates, o.iterations, o.decisions)
+        args = (o.episodes, o.seed, o.candidates, o.iterations, o.decisions, o.overwrite)
         futures = [executor.submit(name_of(oracle_run), str(f), str(into[f]), *args) for f in runs]
         for folder, future in zip(runs, futures, strict=True):
             try:
@@ -53,6 +55,7 @@ def oracle(options: OracleStageOptions) -> None:
             except Exception as exc:  # a worker that died: say which run, not the pool's internals
                 raise FamarlError(f"{folder}: oracle failed ({type(exc).__name__}: {exc})") from exc
             progress.advance(task)
+            reused += found.pop("reused", False)
             plans = sum(e["plans"] for e in found["episodes"]) / len(found["episodes"])
             table.add_row(
                 folder.name,
@@ -62,4 +65,10 @@ def oracle(options: OracleStageOptions) -> None:
                 f"{plans:.0f}",
             )
     Console().print(table)
+    if reused:
+        typer.echo(
+            f"note: {reused} of {len(runs)} runs already held this search, made from the same checkpoint and "
+            "options; read, not made again (--overwrite makes them afresh)",
+            err=True,
+        )
     Console().print(f"written {ORACLE_FILE} in {o.out}/<run>")

@@ -6,7 +6,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import JobRecipe, app, progress_bar, sweepable, torch_on_one_thread
+from famarl_cli.cli import JobRecipe, already_made, app, progress_bar, sweepable, torch_on_one_thread
 from famarl_cli.cli.derived import command
 from famarl_cli.core.declare import to_json
 from famarl_cli.stages.prior import PriorFitOptions
@@ -21,11 +21,14 @@ app.add_typer(prior_app, name="prior")
 @command(prior_app, PriorFitOptions, "fit")
 def prior_fit(options: PriorFitOptions) -> None:
     """Fit p(z | s) (which latent the expert used where) and pi(a | s, z) (a macro that looks at the state) on the
-    demos' segments, and score both on held-out episodes."""
+    demos' segments, and score both on held-out episodes. With the defaults (400 steps on 100 demos' segments),
+    about 5 s on one core of a 2-core AMD EPYC VM."""
     from famarl_cli.stages.prior import fit_prior
 
-    torch_on_one_thread()
     options = options.given()
+    if already_made("famarl prior fit", options, options.outputs()):
+        return
+    torch_on_one_thread()
     with progress_bar() as progress:
         task = progress.add_task("fit", total=options.epochs)
 
@@ -59,12 +62,12 @@ def prior_fit(options: PriorFitOptions) -> None:
     Console().print(table)
 
 
-@sweepable("prior", PriorFitOptions, owned=("--out",), runs="prior fit")
+@sweepable("prior", PriorFitOptions, owned=("--out", "--overwrite"), runs="prior fit")
 def prior_job(options: PriorFitOptions) -> JobRecipe:
     """``famarl sweep prior``: each point is what ``famarl prior fit`` with the same options would write, into the
     point's folder (prior.pt)."""
     from famarl_cli.stages.prior import run_job
 
-    config = {key: value for key, value in to_json(options).items() if key != "out"}
+    config = {key: value for key, value in to_json(options).items() if key not in ("out", "overwrite")}
     given = (options.demos, options.segments, options.favae)  # a default one is found when the point runs
     return JobRecipe(run_job, config, tuple(str(path) for path in given if path is not None))

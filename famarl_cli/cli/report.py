@@ -41,7 +41,8 @@ def report(
 ) -> None:
     """Gather the evaluations, training logs, FAVAE metrics and traversals of whatever runs exist into report.md:
     a table per experiment of the paper, our numbers beside the paper's claims, and a three-way verdict per claim
-    (reproduces, does not reproduce, inconclusive) from 95% intervals over seeds."""
+    (reproduces, does not reproduce, inconclusive) from 95% intervals over seeds. A pipeline's report takes
+    3-10 s on one core of a 2-core AMD EPYC VM (its bootstraps and figures; docs/pipelines.md has each stage's)."""
     from famarl_cli import __version__
     from famarl_cli.report.experiments import experiments
     from famarl_cli.report.writer import write_report

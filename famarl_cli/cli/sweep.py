@@ -117,7 +117,7 @@ def sweep(
     deleted. A run whose worker dies is resubmitted; a run that fails does not stop the others, and the command
     exits non-zero at the end. It takes about what its runs take one after another, divided by the workers
     (one per core; the default pipeline's 10 replicates of macros about 3 minutes and its 30 Maze runs of 500k
-    steps about 2 minutes on 2 cores: docs/pipelines.md).
+    steps about 2 minutes on a 2-core AMD EPYC VM: docs/pipelines.md).
     """
     from famarl_cli.sweep.driver import run_sweep
     from famarl_cli.sweep.executors import make_executor

@@ -29,34 +29,56 @@ def train(options: TrainOptions) -> None:
     # A new run is built (its options and files checked) before the folder is claimed, so bad input writes nothing.
     with console.status(f"making {options.env} and the agent"):  # a user's env may take long to construct
         fresh = None if options.resume else Run.start(run_spec(options))
-    board = None
-    if options.tensorboard is not None:
-        from famarl_cli.rl.tensorboard import TensorBoardLog
-
-        board = TensorBoardLog(options.tensorboard)
     with claim_folder(out):
         if fresh is None:
             run = Run.resume(out, options.steps)
-            if run.trainer.member_done(run.member):
-                typer.echo(
-                    f"note: {out} holds a complete run ({run.trainer.env_steps:,} of "
-                    f"{run.trainer.config.total_steps:,} env steps); nothing to do (--steps with a larger budget "
-                    "continues it)",
-                    err=True,
-                )
-                return
         else:
-            if (out / RUN_FILE).exists() and not options.overwrite:
-                raise UsageError(f"{out} already holds a run; add --resume to continue it or --overwrite to replace it")
-            run = fresh
+            run = fresh if _afresh(out, fresh, options.overwrite) else Run.resume(out)
+        if run is not fresh and run.trainer.member_done(run.member):
+            typer.echo(
+                f"note: {out} holds this run, complete ({run.trainer.env_steps:,} of "
+                f"{run.trainer.config.total_steps:,} env steps); nothing to do (--resume --steps with a larger budget "
+                "continues it, --overwrite starts afresh)",
+                err=True,
+            )
+            return
+        if run is fresh:
             # Only once the new run has started: a bad option must not cost the user the old run.
             for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE):
                 (out / name).unlink(missing_ok=True)
+        board = None
+        if options.tensorboard is not None:
+            from famarl_cli.rl.tensorboard import TensorBoardLog
+
+            board = TensorBoardLog(options.tensorboard)
         try:
             _train(run, out, options.checkpoint_every, board)
         finally:
             if board is not None:
                 board.close()
+
+
+def _afresh(out: Path, fresh, overwrite: bool) -> bool:
+    """Whether ``famarl train`` starts the run ``fresh`` in ``out`` (True) or continues the one there, made from the
+    same inputs and options (False): the rule of every command (:mod:`famarl_cli.artifacts.made`)."""
+    from famarl_cli.artifacts.made import recorded_making, what_changed
+    from famarl_cli.artifacts.runs import RUN_FILE
+
+    if overwrite or not (out / RUN_FILE).exists():
+        return True
+    recorded = recorded_making(out / RUN_FILE)
+    if recorded is None:
+        raise UsageError(
+            f"{out} holds a run that does not record what it was made from; add --resume to continue it as it was "
+            "made, or --overwrite to replace it"
+        )
+    changes = what_changed(recorded, fresh.provenance["made_from"])
+    if changes:
+        raise UsageError(
+            f"{out} holds a run made from other inputs or options: {'; '.join(changes)}; add --overwrite to start "
+            "afresh, or --resume to continue it as it was made"
+        )
+    return False
 
 
 @sweepable(

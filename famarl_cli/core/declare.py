@@ -32,6 +32,8 @@ def option(
     text: str | None = None,
     parse: Callable[[str], Any] | None = None,
     argument: bool = False,
+    affects: bool = True,
+    renamed: tuple[str, ...] = (),
 ) -> Any:
     """One option's declaration (a dataclass field).
 
@@ -39,6 +41,9 @@ def option(
     for ``neighbours``, or a short ``-s`` beside it); ``path`` is ``"file"`` or ``"dir"`` for a path that must be
     one. A value that the command line writes as text (a list of numbers, JSON) has ``parse`` (text -> value) and
     its default ``text``. An ``argument`` is given by its place, not by a flag (without a default, it is required).
+    ``affects=False``: the option says where or how the command shows what it makes (its output's path, a picture,
+    its workers), not what it makes, so an output made without it is the same (:mod:`famarl_cli.artifacts.made`).
+    ``renamed``: the option's old flags, still accepted, hidden, with a note that names the new one.
     """
     metadata = {
         "help": help,
@@ -49,20 +54,33 @@ def option(
         "text": text,
         "parse": parse,
         "argument": argument,
+        "affects": affects,
+        "renamed": renamed,
     }
     if factory is not None:
         return dataclasses.field(default_factory=factory, metadata=metadata)
     return dataclasses.field(default=default, metadata=metadata)
 
 
-def same_as(owner: type, name: str, **changes: Any) -> Any:
+def same_as(owner: type, name: str, default: Any = MISSING, **changes: Any) -> Any:
     """The field ``name`` of the declaration ``owner`` again, under another name or with another help (``changes``
-    as :func:`option` takes them): its default and bounds stay declared once."""
+    as :func:`option` takes them), or with another ``default`` where a command finds the file by itself: its
+    bounds stay declared once, and it stays one concept with one flag on every command (:attr:`Declared.origin`)."""
     source = next(f for f in fields(owner) if f.name == name)
-    metadata = {**source.metadata, **changes}
+    metadata = {"origin": _origin(owner, source), **source.metadata, **changes}
+    if default is not MISSING:
+        return dataclasses.field(default=default, metadata=metadata)
     if source.default_factory is not MISSING:
         return dataclasses.field(default_factory=source.default_factory, metadata=metadata)
     return dataclasses.field(default=source.default, metadata=metadata)
+
+
+def _origin(cls: type, field: dataclasses.Field) -> str:
+    """Where the option ``field`` of ``cls`` was first declared, ``Class.field`` (:attr:`Declared.origin`)."""
+    if "origin" in field.metadata:
+        return field.metadata["origin"]
+    owner = next(c for c in cls.__mro__ if field.name in vars(c).get("__annotations__", {}))
+    return f"{owner.__qualname__}.{field.name}"
 
 
 def default_of(owner: type, name: str) -> Any:
@@ -87,6 +105,11 @@ class Declared:
     text: str | None = None
     parse: Callable[[str], Any] | None = None
     argument: bool = False
+    affects: bool = True
+    renamed: tuple[str, ...] = ()
+    origin: str = ""
+    """The declaration the option was first made in, ``Class.field``: options of one origin are one concept, with
+    one name on every command (:func:`same_as` keeps it)."""
 
     @property
     def flag(self) -> str:
@@ -110,7 +133,7 @@ def declared(cls: type) -> list[Declared]:
             f.name,
             hints[f.name],
             f.default_factory() if f.default_factory is not MISSING else f.default,
-            **f.metadata,
+            **{**f.metadata, "origin": _origin(cls, f)},
         )
         for f in fields(cls)
     ]
@@ -132,6 +155,12 @@ def plain(value: Any) -> Any:
 def to_json(options: Any) -> dict:
     """Every option of ``options`` by name, as JSON writes it (a sweep job's config, a stage's provenance)."""
     return {f.name: plain(getattr(options, f.name)) for f in fields(options)}
+
+
+def affecting(options: Any) -> dict:
+    """:func:`to_json` of the options that change what a command makes (all but those declared ``affects=False``)."""
+    kept = {option.name for option in declared(type(options)) if option.affects}
+    return {name: value for name, value in to_json(options).items() if name in kept}
 
 
 def from_json(cls: type, values: dict) -> Any:

@@ -59,4 +59,10 @@ class SegmenterOptions:
     window: int = option(4, "Steps per sliding window.", min=2)
     code_dim: int = option(4, "Size of the autoencoder's code.", min=1)
     hidden: int = option(32, "Width of the autoencoder's hidden layer.", min=1)
-    epochs: int = option(300, "Training epochs of the autoencoder.", min=1)
+    epochs: int = option(
+        300,
+        "Training epochs of the segmenter (an autoencoder).",
+        min=1,
+        flags=("--segment-epochs",),
+        renamed=("--epochs",),
+    )

@@ -24,6 +24,7 @@ from famarl_cli.report.results import read_json
 
 FILES = (
     "README.md",
+    "docs/commands.md",
     "docs/pipelines.md",
     "docs/performance.md",
     "docs/skills.md",
@@ -55,6 +56,10 @@ class Pipeline:
     definition: str
     summary: dict | None
     stale: tuple[str, ...]
+    timed: dict | None = None
+    """Its entry in :data:`WALLS`: when, at which revision and on which machine its runs were made and timed."""
+    here: bool = False
+    """Whether every output of its stages is in this working copy (it was run, or checked out, here)."""
 
     @property
     def link(self) -> str:
@@ -100,12 +105,22 @@ def pipelines(root: Path) -> list[Pipeline]:
     from dvc.repo import Repo
 
     found = []
+    walls = _read_entries(root / WALLS, "pipeline walls")
     with Repo(str(root)) as repo:
         graph = repo.index.graph
         for name, definition, summary in definitions(root):
             loaded = read_summary(summary) if summary.is_file() else None
-            found.append(Pipeline(name, definition, loaded, stale_stages(root, definition, graph)))
+            stale = stale_stages(root, definition, graph)
+            found.append(
+                Pipeline(name, definition, loaded, stale, walls.get(name), outputs_here(root, definition, graph))
+            )
     return found
+
+
+def outputs_here(root: Path, definition: str, graph) -> bool:
+    """Whether every output of ``definition``'s stages exists in the working copy."""
+    mine = [stage for stage in graph if Path(stage.path) == (root / definition).resolve()]
+    return all(out.exists for stage in mine for out in stage.outs)
 
 
 def read_summary(path: Path) -> dict:
@@ -124,12 +139,12 @@ def _experiments(pipeline: Pipeline) -> list[tuple[str, dict]]:
     return list((pipeline.summary or {}).items())
 
 
-def _made(section: dict) -> str:
-    made = section.get("made")
-    if not made:
-        return "(not recorded)"
-    revision = made.get("revision") or "no git"
-    return f"{made['date']}, `{revision}`, {made['machine']}"
+def _made(pipeline: Pipeline) -> str:
+    """When, at which revision and on which machine a pipeline's runs were made: its timed run's record."""
+    wall = pipeline.timed
+    if wall is None:
+        return "(not timed: benchmarks/pipeline_walls.py)"
+    return f"{wall['date']}, `{wall['revision']}`, {wall['machine']}"
 
 
 def _status(pipeline: Pipeline) -> str:
@@ -146,7 +161,7 @@ def _status(pipeline: Pipeline) -> str:
 def verdicts_table(found: list[Pipeline]) -> str:
     lines = [
         "| pipeline | experiment | claims | reproduce (met) | do not (missed) | inconclusive | wrong by chance, "
-        "expected at most | made (date, revision, machine) | status |",
+        "expected at most | runs made (date, revision, machine) | status |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     totals = {"current": [0, 0, 0, 0], "stale": [0, 0, 0, 0]}
@@ -160,7 +175,7 @@ def verdicts_table(found: list[Pipeline]) -> str:
             totals[kind] = [a + b for a, b in zip(totals[kind], counts, strict=True)]
             lines.append(
                 f"| {pipeline.link} | {name} | " + " | ".join(map(str, counts)) + f" | {_chance(counts):.2g} | "
-                f"{_made(section)} | {_status(pipeline)} |"
+                f"{_made(pipeline)} | {_status(pipeline)} |"
             )
     lines.append("")
     for kind, (claims, held, not_held, open_) in totals.items():
@@ -220,7 +235,7 @@ def headline_table(found: list[Pipeline], name: str = "default") -> str:
         return f"No committed metrics of {title} yet: {_status(pipeline)}.\n"
     experiment, section = sections[0]
     lines = [
-        f"{title[0].upper()}{title[1:]} ({experiment}; {_made(section)}; {_status(pipeline)}):",
+        f"{title[0].upper()}{title[1:]} ({experiment}; runs made {_made(pipeline)}; {_status(pipeline)}):",
         "",
         "| agent | n | success, sampled policy [95% CI] | area under the success curve | return |",
         "|---|---|---|---|---|",
@@ -417,12 +432,13 @@ def fill(text: str, made: dict[str, str], where: str) -> str:
     return MARKER.sub(replace, text)
 
 
-def write_docs(root: Path, check: bool = False) -> list[str]:
-    """Fill every generated table of :data:`FILES` from the committed metrics; the files that changed (with
-    ``check``, that would change, and nothing is written)."""
+def write_docs(root: Path, check: bool = False, extra: dict[str, str] | None = None) -> list[str]:
+    """Fill every generated table of :data:`FILES` from the committed metrics, and the ``extra`` tables the caller
+    makes (the command line's names table, :mod:`famarl_cli.cli.names`); the files that changed (with ``check``,
+    that would change, and nothing is written)."""
     from famarl_cli.artifacts import atomic_path
 
-    made = tables(root)
+    made = {**tables(root), **(extra or {})}
     # Every file filled before any is written: an error in one leaves all as they were.
     if missing := [name for name in FILES if not (root / name).is_file()]:
         raise ArtifactError(f"{root}: {', '.join(missing)} missing (famarl docs fills tables in {', '.join(FILES)})")

@@ -26,7 +26,14 @@ from pathlib import Path
 import numpy as np
 
 from famarl_cli.artifacts import atomic_path
-from famarl_cli.artifacts.runs import EVAL_FILE, LOG_FILE, read_evaluation, read_run_file, read_training_log
+from famarl_cli.artifacts.runs import (
+    EVAL_FILE,
+    LOG_FILE,
+    read_evaluation,
+    read_run_file,
+    read_timing,
+    read_training_log,
+)
 from famarl_cli.core.errors import ArtifactError
 from famarl_cli.core.statistics import RATE, mean_interval, normalised_auc
 
@@ -63,6 +70,8 @@ class RunResult:
     budget: int
     folder: Path
     """Where its evaluation was written (rollouts.png, episode.gif)."""
+    train_wall_s: float | None = None
+    """The run's wall time (its timing.json), where recorded."""
 
     @property
     def label(self) -> str:
@@ -131,7 +140,8 @@ def gather(folders: list[Path]) -> list[RunResult]:
             if not (run_folder / LOG_FILE).is_file():
                 raise ArtifactError(f"{path}: its run's training log {run_folder / LOG_FILE} is missing")
             budget = int(read_run_file(run_folder)["spec"]["ppo"]["total_steps"])
-            results.append(RunResult(evaluation, read_training_log(run_folder), budget, path.parent))
+            log = read_training_log(run_folder)
+            results.append(RunResult(evaluation, log, budget, path.parent, read_timing(run_folder)))
     return results
 
 
@@ -167,8 +177,9 @@ def reached(g: Group) -> str:
 
 def results_table(groups: list[Group], extra: dict | None = None) -> str:
     """Per label: seeds, env steps, success (sampled) and deterministic success with their 95% intervals, AUC,
-    steps to 0.8, return, macro length and training wall time per run; then the rule that judged success (evaluations
-    before famarl recorded it say nothing)."""
+    steps to 0.8, return and macro length; then the rule that judged success (evaluations before famarl recorded it
+    say nothing). Wall times are measurements, not results: docs/pipelines.md has each stage's, and a run's is in
+    its timing.json."""
     extra = extra or {}
     head = [
         "n",
@@ -179,7 +190,6 @@ def results_table(groups: list[Group], extra: dict | None = None) -> str:
         f"steps to {THRESHOLD:g} (reached, median)",
         "return",
         "macro length",
-        "train wall / run",
         *extra,
     ]
     lines = ["| label | " + " | ".join(head) + " |", "|---" * (len(head) + 1) + "|"]
@@ -193,7 +203,6 @@ def results_table(groups: list[Group], extra: dict | None = None) -> str:
             reached(g),
             f"{g.values('return_mean').mean():.0f}",
             f"{g.values('macro_length').mean():.1f}",
-            f"{g.values('train_wall_s').mean():.0f} s",
             *(cell(g) for cell in extra.values()),
         ]
         lines.append(f"| {g.label} | " + " | ".join(cells) + " |")
@@ -217,16 +226,24 @@ def series_names(groups: list[Group]) -> list[str]:
     return [f"{g.label} ({g.runs[0].evaluation['env'].split('/')[-1]})" for g in groups]
 
 
+CURVE_POINTS = 100
+"""At most this many points of each run's curve in the plots' CSV (a pipeline's is committed; train.csv keeps
+every update)."""
+
+
 def write_curves(groups: list[Group], path: Path) -> None:
     """Every run's learning curve in one long CSV: ``series, run, seed, env_steps`` and the :data:`CURVES`
-    columns, one row per update. The pipelines' DVC plots draw it, one line per run coloured by series."""
+    columns, at most :data:`CURVE_POINTS` evenly spaced updates per run, its last among them. The pipelines' DVC
+    plots draw it, one line per run coloured by series."""
     with atomic_path(path) as temp, temp.open("w", newline="") as handle:
         writer = csv.writer(handle)
         writer.writerow(["series", "run", "seed", "env_steps", *CURVES])
         for series, g in zip(series_names(groups), groups, strict=True):
             for run in g.runs:
                 name, seed = Path(run.evaluation["run"]).name, run.evaluation["seed"]
-                columns = [run.log["env_steps"].astype(int)] + [run.log[key] for key in CURVES.values()]
+                updates = len(run.log["env_steps"])
+                kept = np.unique(np.linspace(0, updates - 1, min(updates, CURVE_POINTS)).round().astype(int))
+                columns = [run.log["env_steps"][kept].astype(int)] + [run.log[key][kept] for key in CURVES.values()]
                 for row in zip(*columns, strict=True):
                     writer.writerow([series, name, seed, row[0], *(f"{v:.4g}" for v in row[1:])])
 

@@ -3,13 +3,12 @@ experiments."""
 
 from __future__ import annotations
 
-from datetime import UTC, datetime
 from pathlib import Path
 
 from famarl_cli.artifacts import atomic_path
 from famarl_cli.artifacts.base import write_json
 from famarl_cli.core.errors import ArtifactError
-from famarl_cli.core.reproducibility import machine, source_revision
+from famarl_cli.core.reproducibility import machine
 from famarl_cli.report.experiments import experiments
 from famarl_cli.report.plots import plot_intervals
 from famarl_cli.report.results import write_curves
@@ -23,8 +22,9 @@ def write_report(
     (``summary``, else ``out/summary.json``: each claim's verdict, estimates, intervals and rule, the headline
     numbers, and where and when they were made, for ``famarl docs``), beside it :data:`METRICS_FILE`
     (:func:`compared`, for ``dvc metrics show`` and ``dvc metrics diff``) and, for experiments with runs,
-    ``<name>-curves.csv`` (their learning curves, for ``dvc plots show``). Experiments without data are listed
-    with the command that makes them; it is an error when none of them has data."""
+    ``<name>-curves.csv`` (their learning curves, for ``dvc plots show``: committed beside the summary, so that a
+    fresh clone draws every pipeline's curves before running any). Experiments without data are listed with the
+    command that makes them; it is an error when none of them has data."""
     known = experiments()
     # No mkdir: each file makes its folder as it is written (atomic_path), so a report of nothing leaves nothing.
     sections = {name: known[name].build(data, out) for name in names}
@@ -33,12 +33,13 @@ def write_report(
         raise ArtifactError(
             f"{data}: nothing to report for {', '.join(names)} (run `dvc repro` first, or `famarl evaluate --out`)"
         )
+    summary = summary or out / "summary.json"
     for name, section in built.items():
         path = out / f"{name}-intervals.png"
         plot_intervals(section.claims, path, section.title)
         section.figures.insert(0, path.name)
         if section.groups:
-            write_curves(section.groups, out / f"{name}-curves.csv")
+            write_curves(section.groups, summary.with_name(f"{name}-curves.csv"))
     parts = [
         f"# famarl report\n\nfamarl {version}; numbers from `{data}`. Every verdict is reproduces, does not reproduce "
         "or inconclusive (a goal beyond the paper: met, missed or inconclusive), from 95% intervals over seeds with "
@@ -52,13 +53,10 @@ def write_report(
         )
     with atomic_path(out / "report.md") as temp:
         temp.write_text("\n".join(parts))
-    made = {
-        "date": datetime.now(UTC).strftime("%Y-%m-%d"),
-        "revision": source_revision(),
-        "machine": machine(),
-        "famarl": version,
-    }
-    summary = summary or out / "summary.json"
+    # What made the numbers, and nothing that changes with the day or the commit: the same runs on a machine of
+    # the same kind give the same summary, byte for byte (when and at which revision the runs were made is in
+    # benchmarks/pipeline_walls.json, which famarl docs shows beside the verdicts).
+    made = {"machine": machine(), "famarl": version}
     write_json(summary, {name: {**s.summary(), "made": made} for name, s in built.items()})
     write_json(summary.with_name(METRICS_FILE), compared(list(built.values())))
     return built

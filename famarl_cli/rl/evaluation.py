@@ -19,9 +19,8 @@ from famarl_cli.envs.continuous_world import Layouts
 from famarl_cli.envs.external import make_env
 from famarl_cli.envs.success import as_bool, rate
 from famarl_cli.rl.executor import run_sequences
-from famarl_cli.rl.normalization import ObservationNormalizer
-from famarl_cli.rl.training import TrainedAgent, build_guide, build_mode
-from famarl_cli.rl.vector import BatchedEnv, GymBatch, make_batch
+from famarl_cli.rl.training import FrozenActor, TrainedAgent
+from famarl_cli.rl.vector import GymBatch, make_batch
 
 
 @dataclass
@@ -40,25 +39,6 @@ class Trace:
 class Evaluation:
     metrics: dict[str, float]
     traces: list[Trace]
-
-
-class FrozenActor:
-    """The trained policy on observations normalised with the statistics frozen at the end of training: acting
-    with its mode, or sampling as it did in training when given a generator. Returns each decision's open-loop
-    actions (N, L, D) and lengths (N,); ``macro`` is which of the last decisions were macro actions."""
-
-    def __init__(self, agent: TrainedAgent, env: BatchedEnv, rng: np.random.Generator | None = None) -> None:
-        self.agent, self.rng = agent, rng
-        self.mode = build_mode(agent.spec, env, agent.favae, agent.skills)
-        self.guide = build_guide(agent.spec, self.mode, agent.skills)
-        self.normalize = ObservationNormalizer((env.observation_size,), agent.spec.ppo.normalize_obs)
-        self.normalize.load_state_dict(agent.obs_norm_state)
-
-    def __call__(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        base = None if self.guide is None else self.guide.base(obs)
-        action = self.agent.policy.act(self.normalize(obs.astype(np.float32), update=False), self.rng, base=base)
-        self.macro = self.mode.macro(action.index)
-        return self.mode.to_sequences(action.u.astype(np.float64), action.index)
 
 
 def layout_seed(agent: TrainedAgent, seed: int) -> int:
@@ -180,7 +160,7 @@ def film_episode(agent: TrainedAgent, seed: int) -> Film:
         decision += 1
 
 
-SUMMARISED = ("success_rate", "return_mean", "episode_length", "decisions", "macro_length", "train_wall_s")
+SUMMARISED = ("success_rate", "return_mean", "episode_length", "decisions", "macro_length")
 
 
 def summarise(evaluations: list[dict]) -> dict[str, dict]:

@@ -7,14 +7,17 @@ the same seed, a run stopped and resumed ends with the same weights and log as o
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
+import numpy as np
+
 from famarl_cli.artifacts import provenance
 from famarl_cli.artifacts.base import sha256
-from famarl_cli.artifacts.runs import CHECKPOINT_FILE, read_run_checkpoint, write_run
+from famarl_cli.artifacts.runs import CHECKPOINT_FILE, read_run_checkpoint, read_timing, write_run, write_timing
 from famarl_cli.core.errors import ArtifactError, UsageError
 from famarl_cli.core.seeding import Stream, seed_of
 from famarl_cli.method.favae.checkpoint import load_favae
@@ -29,6 +32,7 @@ from famarl_cli.rl.action_modes import (
     PrimitiveActions,
     RepeatedActions,
 )
+from famarl_cli.rl.normalization import ObservationNormalizer
 from famarl_cli.rl.policy import ActorCritic
 from famarl_cli.rl.ppo import PPOConfig, PPOTrainer
 from famarl_cli.rl.prior_guide import PriorGuide
@@ -189,7 +193,7 @@ class Run:
         favae = load_favae(spec.favae)[0] if spec.agent.decodes_macros else None
         skills = load_skills(spec.prior) if spec.prior is not None else None
         inputs = [Path(path) for path in (spec.favae, spec.prior) if path is not None and favae is not None]
-        prov = provenance("famarl train", spec.to_dict(), spec.seed, inputs)
+        prov = provenance("famarl train", spec.to_dict(), spec.seed, inputs, options=spec.to_dict())
         return Run(spec, favae, prov, skills=skills)
 
     @staticmethod
@@ -207,7 +211,7 @@ class Run:
             spec = replace(spec, ppo=replace(spec.ppo, total_steps=total_steps))
         mode = payload["mode"]
         run = Run(spec, _favae_from_state(mode), payload["provenance"], payload["trainer"], _skills_from_state(mode))
-        run.wall_s = float(payload["status"]["wall_s"])
+        run.wall_s = read_timing(run_dir) or 0.0
         return run
 
     def save(self, run_dir: str | os.PathLike) -> None:
@@ -217,10 +221,10 @@ class Run:
             "env_steps": member.env_steps,
             "decisions": member.decisions,
             "updates": member.updates,
-            "wall_s": round(self.wall_s, 2),
         }
         mode = _favae_state(self.favae, self.skills)
         write_run(run_dir, self.spec.to_dict(), trainer.state_dict(self.member), mode, self.provenance, status)
+        write_timing(run_dir, self.wall_s)
 
     @property
     def summary(self) -> dict[str, float]:
@@ -281,7 +285,8 @@ def train_together(
 
 @dataclass
 class TrainedAgent:
-    """What evaluation needs: the policy, its frozen observation statistics and its action mode."""
+    """A trained run (:func:`load_agent`): the policy, its frozen observation statistics and its action mode; it
+    acts on one observation with :meth:`act`, as ``famarl evaluate`` acts on many."""
 
     spec: RunSpec
     policy: ActorCritic
@@ -289,6 +294,59 @@ class TrainedAgent:
     favae: Favae | None
     env_steps: int
     skills: Skills | None = None
+
+    @functools.cached_property
+    def _actor(self) -> FrozenActor:
+        return FrozenActor(self, make_batch(self.spec.env_id, 1, self.spec.seed, self.spec.env_kwargs))
+
+    def act(
+        self, observation: np.ndarray, deterministic: bool = True, rng: np.random.Generator | None = None
+    ) -> Decision:
+        """The decision the policy takes at ``observation`` (the env's own, unnormalised): the primitive actions
+        to run, open loop, and for a macro action the FAVAE latent it chose. ``deterministic``: the policy's mode
+        (``famarl evaluate``'s first numbers); otherwise drawn as in training, from ``rng``. A run whose macros are
+        closed-loop (``--loop closed``) chooses each action from the state reached: step it in
+        :class:`~famarl_cli.wrappers.MacroActionWrapper` instead."""
+        if self.spec.decoder == MacroDecoder.CLOSED:
+            raise UsageError("a closed-loop run decides each action from the state reached; use MacroActionWrapper")
+        actor = self._actor
+        actor.rng = None if deterministic else (rng if rng is not None else np.random.default_rng())
+        actions, length = actor(np.asarray(observation, dtype=np.float64)[None])
+        macro = bool(actor.macro[0])
+        latent = actor.last_u[0, : self.favae.config.latent_size].copy() if macro and self.favae else None
+        return Decision(actions[0, : int(length[0])].copy(), latent, macro)
+
+
+@dataclass(frozen=True)
+class Decision:
+    """One decision of a trained agent (:meth:`TrainedAgent.act`)."""
+
+    actions: np.ndarray
+    """(n, D): the primitive actions it runs, in order (one for PPO, a repeated one for FiGAR, a macro's)."""
+    latent: np.ndarray | None
+    """The FAVAE latent z of a macro action (FaMARL, the hybrid's macro decisions), else None."""
+    macro: bool
+    """Whether it is a macro action (FaMARL always; the hybrid where its type head chose one)."""
+
+
+class FrozenActor:
+    """The trained policy on observations normalised with the statistics frozen at the end of training: acting
+    with its mode, or sampling as it did in training when given a generator. Returns each decision's open-loop
+    actions (N, L, D) and lengths (N,); ``macro`` is which of the last decisions were macro actions."""
+
+    def __init__(self, agent: TrainedAgent, env: BatchedEnv, rng: np.random.Generator | None = None) -> None:
+        self.agent, self.rng = agent, rng
+        self.mode = build_mode(agent.spec, env, agent.favae, agent.skills)
+        self.guide = build_guide(agent.spec, self.mode, agent.skills)
+        self.normalize = ObservationNormalizer((env.observation_size,), agent.spec.ppo.normalize_obs)
+        self.normalize.load_state_dict(agent.obs_norm_state)
+
+    def __call__(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        base = None if self.guide is None else self.guide.base(obs)
+        action = self.agent.policy.act(self.normalize(obs.astype(np.float32), update=False), self.rng, base=base)
+        self.macro = self.mode.macro(action.index)
+        self.last_u = action.u
+        return self.mode.to_sequences(action.u.astype(np.float64), action.index)
 
 
 def load_agent(run_dir: str | os.PathLike) -> TrainedAgent:

@@ -4,9 +4,11 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 from famarl_cli.artifacts.segments import REPLICATE_FILE
+from famarl_cli.core.declare import option
 from famarl_cli.core.errors import ArtifactError
 
 DEMOS = Path("data/demos/pushed-down-only.h5")
@@ -57,3 +59,14 @@ def _first(what: str, flag: str, manual: tuple[Path, str] | None, main_job: Path
     if manual is not None:
         where = f"neither {manual[0]} ({manual[1]}) nor {main_job} (dvc repro) exists"
     raise ArtifactError(f"no {what} given, and {where}; make one, or give {flag}")
+
+
+@dataclass(frozen=True)
+class FavaeInput:
+    """The FAVAE a command reads, declared once for every command that takes one (``--favae``)."""
+
+    favae: Path | None = option(
+        None,
+        f"FAVAE checkpoint (from famarl favae fit or famarl macros).  [default: {FAVAE}, else the main job's "
+        f"{replicate(0) / REPLICATE_FAVAE}]",
+    )

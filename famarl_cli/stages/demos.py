@@ -13,6 +13,7 @@ import numpy as np
 
 from famarl_cli.artifacts import Demos, Episode, provenance
 from famarl_cli.artifacts.demos import content_fault
+from famarl_cli.artifacts.made import Replaceable
 from famarl_cli.core.declare import from_json, option, same_as
 from famarl_cli.core.errors import FamarlError, UsageError, foreign
 from famarl_cli.envs.external import MakeOptions, make_env
@@ -23,7 +24,7 @@ from famarl_cli.experts.scripts import Environment
 
 
 @dataclass(frozen=True)
-class DemosOptions:
+class DemosOptions(Replaceable):
     """``famarl demos``: record expert demos, or import a Minari dataset as demos."""
 
     script: Script | None = option(
@@ -55,12 +56,16 @@ class DemosOptions:
         None, "With --expert: keep only episodes whose return is above this (failed attempts dropped)."
     )
     max_attempts: int | None = option(
-        None, "With --min-return: give up after this many episodes.  [default: 50 x --episodes]", min=1
+        None,
+        "With --min-return: give up after this many episodes.  [default: 50 x --episodes]",
+        min=1,
+        flags=("--max-episodes",),
+        renamed=("--max-attempts",),
     )
     out: Path | None = option(
-        None, "Output HDF5 file.  [default: data/demos/<script, env or dataset name>.h5]", path="file"
+        None, "Output HDF5 file.  [default: data/demos/<script, env or dataset name>.h5]", path="file", affects=False
     )
-    plot: bool = option(True, "Also draw the trajectories to <out>.png.")
+    plot: bool = option(True, "Also draw the trajectories to <out>.png.", affects=False)
     success_return: float | None = same_as(SuccessOptions, "success_return")
 
     def __post_init__(self) -> None:
@@ -76,7 +81,7 @@ class DemosOptions:
         if len(given) > 1:
             raise UsageError(f"give one source of demos, not {' and '.join(given)}")
         if (self.min_return is not None or self.max_attempts is not None or self.env_kwargs) and self.expert is None:
-            raise UsageError("--min-return, --max-attempts and --env-kwargs go with --expert")
+            raise UsageError("--min-return, --max-episodes and --env-kwargs go with --expert")
         if self.success_return is not None and self.expert is None and self.from_minari is None:
             raise UsageError("--success-return goes with --expert or --from-minari: famarl's scripts report success")
         if self.from_minari is not None and self.env is not None:
@@ -94,6 +99,23 @@ class DemosOptions:
                 )
             if self.env is not None and self.env != self.script.environment:
                 raise UsageError(f"script {self.script.value} acts in {self.script.environment}, not in {self.env}")
+
+    @property
+    def name(self) -> str:
+        """The demos' name: the script's, the env's (with --expert) or the dataset's."""
+        if self.from_minari is not None:
+            return Path(self.from_minari.rstrip("/")).name
+        if self.expert is not None:
+            return self.env.split("/")[-1].split(":")[-1].lower()
+        return self.script.value
+
+    @property
+    def destination(self) -> Path:
+        return self.out or Path("data/demos") / f"{self.name}.h5"
+
+    def outputs(self) -> list[Path]:
+        """What the command writes, the demos first (they record what they were made from)."""
+        return [self.destination, *([self.destination.with_suffix(".png")] if self.plot else [])]
 
 
 def episode_seeds(seed: int, n_episodes: int) -> np.ndarray:

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from famarl_cli.artifacts import provenance, write_json
+from famarl_cli.artifacts.made import Replaceable, made_result, making
 from famarl_cli.core.declare import option, same_as
 from famarl_cli.core.errors import ArtifactError
 from famarl_cli.envs.success import SuccessOptions
@@ -14,7 +15,7 @@ from famarl_cli.stages.train import TrainOptions
 
 
 @dataclass(frozen=True)
-class EvaluateOptions:
+class EvaluateOptions(Replaceable):
     """``famarl evaluate``: deterministic episodes of trained runs, and their learning curves side by side."""
 
     run: list[Path] = option(
@@ -23,6 +24,7 @@ class EvaluateOptions:
         "train's]",
         flags=("--run",),
         path="dir",
+        affects=False,
     )
     episodes: int = option(100, "Evaluation episodes per run.", min=1)
     seed: int = option(
@@ -31,19 +33,25 @@ class EvaluateOptions:
         "noise, so every run of one seed meets the same layouts and runs of other seeds other ones.",
         min=0,
     )
-    rollouts: int = option(4, "Episodes drawn in each run's rollouts.png (ContinuousWorld).", min=0)
-    film: bool = option(True, "Also render one episode of each run: episode.gif and a strip of stills, episode.png.")
+    rollouts: int = option(4, "Episodes drawn in each run's rollouts.png (ContinuousWorld).", min=0, affects=False)
+    film: bool = option(
+        True, "Also render one episode of each run: episode.gif and a strip of stills, episode.png.", affects=False
+    )
     curves: Path | None = option(
         None,
         "Learning curves of all runs by label.  [default: curves.png beside the runs' results, or with the one run's]",
         path="file",
+        affects=False,
     )
-    jobs: int | None = option(None, "Runs evaluated at once.  [default: $FAMARL_JOBS, else one per usable core]", min=1)
+    jobs: int | None = option(
+        None, "Runs evaluated at once.  [default: $FAMARL_JOBS, else one per usable core]", min=1, affects=False
+    )
     out: Path | None = option(
         None,
         "Write each run's results into OUT/<run folder name>/ instead of into the run folder (keeps a pipeline's "
         "evaluation apart from its training outputs).",
         path="dir",
+        affects=False,
     )
     success_return: float | None = same_as(SuccessOptions, "success_return")
 
@@ -61,27 +69,39 @@ class EvaluateOptions:
 
 
 def evaluate_run(
-    run: str, into: str, episodes: int, seed: int, rollouts: int, film: bool, success_return: float | None = None
+    run: str,
+    into: str,
+    episodes: int,
+    seed: int,
+    rollouts: int,
+    film: bool,
+    success_return: float | None = None,
+    overwrite: bool = False,
 ) -> dict:
     """Evaluate the run folder ``run`` into the folder ``into``: ``eval.json`` (the policy acting with its mode,
     and under ``sampled`` the same numbers for the policy drawing its actions as in training), ``rollouts.png``
     (ContinuousWorld) and, with ``film``, one rendered episode (where the env cannot render for want of its extra,
     eval.json's ``not_filmed`` says why and the rest is written). Success follows :mod:`famarl_cli.envs.success`
     (``success_return`` overrides the run's); ``success_rule`` says which rule judged it. Returns what eval.json
-    holds, less provenance."""
+    holds, less provenance; where it holds this evaluation already (the same checkpoint and options), that, with
+    nothing run or rewritten (``reused`` true; :mod:`famarl_cli.artifacts.made`)."""
     from famarl_cli.artifacts.runs import (
         CHECKPOINT_FILE,
         EVAL_FILE,
         FILM_FILE,
         ROLLOUTS_FILE,
         STILLS_FILE,
-        read_run_file,
     )
     from famarl_cli.report.plots import plot_rollouts, save_film
     from famarl_cli.rl.evaluation import evaluate, film_episode, layout_seed
     from famarl_cli.rl.training import load_agent
 
     run_folder, into_folder = Path(run), Path(into)
+    options = EvaluateOptions(episodes=episodes, seed=seed, success_return=success_return)
+    made = making("famarl evaluate", options, [run_folder / CHECKPOINT_FILE])
+    done = made_result(into_folder / EVAL_FILE, made, overwrite)
+    if done is not None:
+        return {**done, "reused": True}
     agent = load_agent(run_folder)
     result = evaluate(agent, episodes, seed, rollouts, success_return=success_return)
     sampled = evaluate(agent, episodes, seed, 0, sample=True, success_return=success_return)
@@ -96,7 +116,6 @@ def evaluate_run(
         "layout_seed": layout_seed(agent, seed),
         "run": str(run_folder),
         "env_steps": agent.env_steps,
-        "train_wall_s": read_run_file(run_folder)["wall_s"],
     }
     filmed = None
     if film:
@@ -112,7 +131,7 @@ def evaluate_run(
         "seed": seed,
         **({} if success_return is None else {"success_return": success_return}),
     }
-    prov = provenance("famarl evaluate", params, seed, [run_folder / CHECKPOINT_FILE])
+    prov = provenance("famarl evaluate", params, seed, [run_folder / CHECKPOINT_FILE], options=options)
     write_json(into_folder / EVAL_FILE, {**evaluation, "provenance": prov})
     if result.traces:
         title = (

@@ -43,13 +43,19 @@ class MacrosConfig(stages.TraversalPlace, FitChoices, FavaeOptions, SegmentParam
     """Everything one replicate is made from: the segmentation's, the FAVAE's and the traversal's options, declared
     where those stages declare them. Exactly one of ``demos`` and ``segments`` is set."""
 
-    demos: Path | None = option(None, "Demos HDF5 file to segment (or give --segments).")
-    episodes: int | None = same_as(stages.SegmentOptions, "episodes")
-    segments: Path | None = option(None, "Use these segments (from famarl segment) instead of segmenting demos.")
-    calibration: Path | None = option(
-        None, "C_last from famarl favae calibrate on --segments; without it the pre-run runs."
+    demos: Path | None = same_as(
+        stages.SegmentOptions, "demos", None, help="Demos HDF5 file to segment (or give --segments)."
     )
-    segment_epochs: int = same_as(SegmenterOptions, "epochs", help="Training epochs of the segmenter.")
+    episodes: int | None = same_as(stages.SegmentOptions, "episodes")
+    segments: Path | None = same_as(
+        stages.SegmentsInput, "segments", help="Use these segments (from famarl segment) instead of segmenting demos."
+    )
+    calibration: Path | None = same_as(
+        stages.FitOptions,
+        "calibration",
+        help="C_last from famarl favae calibrate on --segments; without it the pre-run runs.",
+    )
+    segment_epochs: int = same_as(SegmenterOptions, "epochs", renamed=())
     seed: int = option(0, "Seed of the segmenter, the pre-run and the fit.")
 
     def __post_init__(self) -> None:
@@ -153,7 +159,7 @@ def traverse(config: MacrosConfig, folder: Path) -> None:
             pick(
                 stages.TraverseOptions,
                 config,
-                model=favae,
+                favae=favae,
                 out=folder / TRAVERSAL,
                 env=env_id,
                 env_kwargs=env_kwargs,

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from famarl_cli.artifacts import prepare_output, provenance, read_demos, write_csv, write_json
+from famarl_cli.artifacts.made import Replaceable
 from famarl_cli.artifacts.segments import Segments, read_segments, write_segments
 from famarl_cli.core.declare import option, pick, same_as, to_json
 from famarl_cli.core.errors import UsageError
@@ -29,13 +30,15 @@ from famarl_cli.stages import defaults
 
 
 @dataclass(frozen=True)
-class SegmentOptions(SegmentParams, SegmenterOptions):
+class SegmentOptions(SegmentParams, SegmenterOptions, Replaceable):
     """``famarl segment``: cut demos into macro actions."""
 
     demos: Path = option(defaults.DEMOS, "Demos HDF5 file to segment.")
-    out: Path | None = option(None, "Output segments HDF5.  [default: data/segments/<demos name>.h5]", path="file")
+    out: Path | None = option(
+        None, "Output segments HDF5.  [default: data/segments/<demos name>.h5]", path="file", affects=False
+    )
     encoder: Path | None = option(None, "Use this trained segmenter (a .segmenter.pt) instead of training one.")
-    plot: bool = option(True, "Also draw distance curves and boundaries to <out>.png.")
+    plot: bool = option(True, "Also draw distance curves and boundaries to <out>.png.", affects=False)
     episodes: int | None = option(None, "Only the first this many episodes of the demos.  [default: all]", min=1)
     device: Device = same_as(
         FavaeOptions,
@@ -48,11 +51,28 @@ class SegmentOptions(SegmentParams, SegmenterOptions):
     def destination(self) -> Path:
         return self.out or Path("data/segments") / f"{self.demos.stem}.h5"
 
+    def outputs(self) -> list[Path]:
+        """What the command writes, the segments first (they record what they were made from)."""
+        out = self.destination
+        return [
+            out,
+            out.with_suffix(".metrics.json"),
+            *([] if self.encoder else [out.with_suffix(".segmenter.pt")]),
+            *([out.with_suffix(".png")] if self.plot else []),
+        ]
+
 
 SEGMENTS_HELP = (
     f"Segments HDF5 file (from famarl segment).  [default: {defaults.SEGMENTS}, else the main job's "
     f"{defaults.replicate(0)}/segments.h5]"
 )
+
+
+@dataclass(frozen=True)
+class SegmentsInput:
+    """The segments a command reads, declared once for every command that takes them (``--segments``)."""
+
+    segments: Path | None = option(None, SEGMENTS_HELP)
 
 
 def given_segments(options):
@@ -61,12 +81,14 @@ def given_segments(options):
 
 
 @dataclass(frozen=True)
-class CalibrateOptions(FavaeOptions):
+class CalibrateOptions(FavaeOptions, Replaceable):
     """``famarl favae calibrate``: the C_last pre-run."""
 
-    segments: Path | None = option(None, SEGMENTS_HELP)
-    out: Path | None = option(None, "Calibration JSON.  [default: data/favae/<segments name>.calibration.json]")
-    calibration_beta: float = same_as(FavaeOptions, "calibration_beta", flags=("--beta",))
+    segments: Path | None = same_as(SegmentsInput, "segments")
+    out: Path | None = option(
+        None, "Calibration JSON.  [default: data/favae/<segments name>.calibration.json]", affects=False
+    )
+    calibration_beta: float = same_as(FavaeOptions, "calibration_beta", renamed=("--beta",))
 
     @property
     def destination(self) -> Path:
@@ -74,16 +96,22 @@ class CalibrateOptions(FavaeOptions):
 
 
 @dataclass(frozen=True)
-class FitOptions(FitChoices, FavaeOptions):
+class FitOptions(FitChoices, FavaeOptions, Replaceable):
     """``famarl favae fit``: the FAVAE on segments, after the pre-run unless a calibration is given."""
 
-    segments: Path | None = option(None, SEGMENTS_HELP)
+    segments: Path | None = same_as(SegmentsInput, "segments")
     calibration: Path | None = option(None, "C_last from famarl favae calibrate; without it the pre-run runs first.")
-    out: Path | None = option(None, "Checkpoint.  [default: data/favae/<segments name>.pt]", path="file")
+    out: Path | None = option(None, "Checkpoint.  [default: data/favae/<segments name>.pt]", path="file", affects=False)
 
     @property
     def destination(self) -> Path:
         return self.out or Path("data/favae") / f"{given_segments(self).segments.stem}.pt"
+
+    def outputs(self) -> list[Path]:
+        """What the command writes, the checkpoint first (it records what it was made from)."""
+        out = self.destination
+        written = [out, out.with_suffix(".log.csv"), out.with_suffix(".metrics.json")]
+        return written + ([] if self.calibration else [out.with_suffix(".calibration.json")])
 
 
 @dataclass(frozen=True)
@@ -116,17 +144,15 @@ class TraversalPlace:
 
 
 @dataclass(frozen=True)
-class TraverseOptions(TraversalPlace):
+class TraverseOptions(TraversalPlace, Replaceable):
     """``famarl traverse``: latent traversal of a FAVAE."""
 
-    model: Path | None = option(
-        None,
-        f"FAVAE checkpoint (from famarl favae fit).  [default: {defaults.FAVAE}, else the main job's "
-        f"{defaults.replicate(0) / defaults.REPLICATE_FAVAE}]",
-    )
+    favae: Path | None = same_as(defaults.FavaeInput, "favae", renamed=("--model",))
     ladder: int | None = option(None, "Traverse this ladder's variables (from 1).  [default: all]")
     index: int | None = option(None, "Only this variable of the ladder (from 1).")
-    out: Path | None = option(None, "Traversal HDF5.  [default: data/traverse/<model name>[-ladder<L>[-index<I>]].h5]")
+    out: Path | None = option(
+        None, "Traversal HDF5.  [default: data/traverse/<model name>[-ladder<L>[-index<I>]].h5]", affects=False
+    )
     draw: str = option(
         DRAWS[0],
         "run: run the decoded macro actions in --world (or --env); values: draw the decoded sequences' first two "
@@ -140,10 +166,16 @@ class TraverseOptions(TraversalPlace):
 
     @property
     def destination(self) -> Path:
-        model = self.model or defaults.favae("--model")
+        model = self.favae or defaults.favae("--favae")
         name = model.stem + (f"-ladder{self.ladder}" if self.ladder else "")
         name += f"-index{self.index}" if self.index else ""
         return self.out or Path("data/traverse") / f"{name}.h5"
+
+    def outputs(self) -> list[Path]:
+        """What the command writes, the traversal first (it records what it was made from)."""
+        out = self.destination
+        frames = [out.with_suffix(".frames.png")] if self.frames else []
+        return [out, out.with_suffix(".png"), out.with_suffix(".json"), *frames]
 
 
 @dataclass
@@ -212,7 +244,7 @@ def segment_many(
         model, train_mse = trained[k] if o.encoder is None else (load_autoencoder(o.encoder), None)
         segments, metrics = segment_demos(loaded, model, params)
         metrics["autoencoder_mse"] = train_mse
-        segments.provenance = provenance("famarl segment", recorded, params.seed, inputs)
+        segments.provenance = provenance("famarl segment", recorded, params.seed, inputs, options=o)
         write_segments(out, segments)
         written = [out]
         if o.encoder is None:
@@ -307,7 +339,7 @@ def calibrate_many(
             out,
             c_last,
             config,
-            provenance("famarl favae calibrate", recorded, params.seed, [o.segments]),
+            provenance("famarl favae calibrate", recorded, params.seed, [o.segments], options=o),
             params,
             beta,
             o.pre_run_window(),
@@ -387,7 +419,7 @@ def fit_many(options: list[FitOptions], on_epoch: Callable[[int, str, dict], Non
         # the information each latent carries travels with the model: famarl traverse names an empty ladder by it
         summary = {**training, "kl_per_dim": scores["kl_per_dim"], "information_per_dim": scores["information_per_dim"]}
         inputs = [o.segments] + ([o.calibration] if o.calibration else [])
-        save_favae(out, model, summary, provenance("famarl favae fit", recorded, params[k].seed, inputs))
+        save_favae(out, model, summary, provenance("famarl favae fit", recorded, params[k].seed, inputs, options=o))
         metrics = {
             **scores,
             "beta": o.beta,
@@ -408,7 +440,7 @@ def fit_many(options: list[FitOptions], on_epoch: Callable[[int, str, dict], Non
 
 
 def traverse(options: TraverseOptions):
-    """Traverse the FAVAE ``options.model`` (:mod:`~famarl_cli.stages.defaults` when None) in the empty ``world``
+    """Traverse the FAVAE ``options.favae`` (:mod:`~famarl_cli.stages.defaults` when None) in the empty ``world``
     of a famarl env family, or in the gymnasium env ``options.env`` when given, drawing observation ``obs_dims``.
     Writes the HDF5 (``options.destination``), ``.png`` and ``.json`` (effect per variable, in the path's units, and the
     information and KL each carries, nats, where the checkpoint records them) and, with ``frames``,
@@ -424,7 +456,7 @@ def traverse(options: TraverseOptions):
         raise UsageError("--env-kwargs goes with --env")
     if options.frames and options.env is None:
         raise UsageError("--frames goes with --env: the frames are what that env renders")
-    model, out = options.model or defaults.favae("--model"), prepare_output(options.destination)
+    model, out = options.favae or defaults.favae("--favae"), prepare_output(options.destination)
     values, env_id, dims = options.values, options.env, options.obs_dims
     favae, payload = load_favae(model)
     result = run_traversal(
@@ -446,8 +478,8 @@ def traverse(options: TraverseOptions):
         return None if values is None else [float(values[favae.config.latent_index(*v)]) for v in variables]
 
     carried = Carried(per_variable("information_per_dim"), per_variable("kl_per_dim"))
-    recorded = {key: value for key, value in to_json(options).items() if key not in ("model", "out")}
-    write_traversal(out, result, provenance("famarl traverse", recorded, None, [model]))
+    recorded = {key: value for key, value in to_json(options).items() if key not in ("favae", "out", "overwrite")}
+    write_traversal(out, result, provenance("famarl traverse", recorded, None, [model], options=options))
     where = "" if env_id is None else f" in {env_id}"
     plot_traversal(
         result,

@@ -6,13 +6,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from famarl_cli.artifacts import provenance, write_json
+from famarl_cli.artifacts.made import Replaceable, made_result, making
 from famarl_cli.core.declare import option, same_as
 from famarl_cli.core.errors import UsageError
 from famarl_cli.stages.evaluate import EvaluateOptions
 
 
 @dataclass(frozen=True)
-class OracleStageOptions:
+class OracleStageOptions(Replaceable):
     """``famarl oracle``: the best success each run's action space reaches at all, by search with the env's resets."""
 
     run: list[Path] = same_as(
@@ -34,21 +35,36 @@ class OracleStageOptions:
     jobs: int | None = same_as(
         EvaluateOptions, "jobs", help="Runs searched at once.  [default: $FAMARL_JOBS, else one per usable core]"
     )
-    out: Path = option(Path("data/oracle"), "Folder for OUT/<run folder name>/oracle.json.", path="dir")
+    out: Path = option(Path("data/oracle"), "Folder for OUT/<run folder name>/oracle.json.", path="dir", affects=False)
 
 
 def oracle_run(
-    run: str, into: str, episodes: int, seed: int, candidates: int, iterations: int, decisions: int | None
+    run: str,
+    into: str,
+    episodes: int,
+    seed: int,
+    candidates: int,
+    iterations: int,
+    decisions: int | None,
+    overwrite: bool = False,
 ) -> dict:
     """Search the action space of the run folder ``run`` (:mod:`famarl_cli.rl.oracle`) on ``episodes`` layouts of
     its replicate, and write ``into/oracle.json``: the share of layouts a plan solved, with its 95% Wilson interval
-    over the layouts, and each layout's result. Returns what it holds, less provenance."""
+    over the layouts, and each layout's result. Returns what it holds, less provenance (what it holds already,
+    where it was made from the same checkpoint and options: :mod:`famarl_cli.artifacts.made`)."""
     from famarl_cli.artifacts.runs import CHECKPOINT_FILE, ORACLE_FILE, ORACLE_SCHEMA, ORACLE_SCHEMA_VERSION
     from famarl_cli.core.statistics import proportion_interval
     from famarl_cli.rl.oracle import OracleOptions, oracle, start_of
     from famarl_cli.rl.training import build_mode, load_agent
     from famarl_cli.rl.vector import GymBatch
 
+    stage = OracleStageOptions(
+        episodes=episodes, seed=seed, candidates=candidates, iterations=iterations, decisions=decisions
+    )
+    made = making("famarl oracle", stage, [Path(run) / CHECKPOINT_FILE])
+    done = made_result(Path(into) / ORACLE_FILE, made, overwrite)
+    if done is not None:
+        return {**done, "reused": True}
     agent = load_agent(run)
     spec = agent.spec
     batch = GymBatch.make(spec.env_id, candidates, seed, spec.env_kwargs, spec.success_return)
@@ -77,6 +93,8 @@ def oracle_run(
         "episodes": [{"success": s.success, "best_return": round(s.best_return, 3), "plans": s.plans} for s in found],
     }
     params = {"episodes": episodes, "seed": seed, "candidates": candidates, "iterations": iterations}
-    prov = provenance("famarl oracle", {**params, "decisions": decisions}, seed, [Path(run) / CHECKPOINT_FILE])
+    prov = provenance(
+        "famarl oracle", {**params, "decisions": decisions}, seed, [Path(run) / CHECKPOINT_FILE], options=stage
+    )
     write_json(Path(into) / ORACLE_FILE, {**result, "provenance": prov})
     return result

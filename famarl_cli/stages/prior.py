@@ -14,28 +14,35 @@ from pathlib import Path
 import numpy as np
 
 from famarl_cli.artifacts import prepare_output, provenance, read_demos, write_csv, write_json
-from famarl_cli.core.declare import option, to_json, with_paths
+from famarl_cli.artifacts.made import Replaceable
+from famarl_cli.core.declare import option, same_as, to_json, with_paths
 from famarl_cli.method.prior.choices import PriorFitChoices
 from famarl_cli.stages import defaults
-from famarl_cli.stages.method import SEGMENTS_HELP
+from famarl_cli.stages.method import SEGMENTS_HELP, SegmentOptions, SegmentsInput
 
 
 @dataclass(frozen=True)
-class PriorFitOptions(PriorFitChoices):
+class PriorFitOptions(PriorFitChoices, Replaceable):
     """``famarl prior fit``: p(z | s) and pi(a | s, z) from demos, their segments and a FAVAE."""
 
-    demos: Path = option(defaults.DEMOS, "Demos HDF5 file the segments were cut from.")
-    segments: Path | None = option(None, f"The segments the FAVAE was fitted on. {SEGMENTS_HELP}")
-    favae: Path | None = option(
-        None,
-        "FAVAE checkpoint whose latents the prior proposes and the decoder reads.  [default: "
+    demos: Path = same_as(SegmentOptions, "demos", help="Demos HDF5 file the segments were cut from.")
+    segments: Path | None = same_as(
+        SegmentsInput, "segments", help=f"The segments the FAVAE was fitted on. {SEGMENTS_HELP}"
+    )
+    favae: Path | None = same_as(
+        defaults.FavaeInput,
+        "favae",
+        help="FAVAE checkpoint whose latents the prior proposes and the decoder reads.  [default: "
         f"{defaults.FAVAE}, else the main job's {defaults.replicate(0) / defaults.REPLICATE_FAVAE}]",
     )
-    out: Path | None = option(None, "Prior file.  [default: <favae folder>/<favae name>.prior.pt]", path="file")
+    out: Path | None = option(
+        None, "Prior file.  [default: <favae folder>/<favae name>.prior.pt]", path="file", affects=False
+    )
     plot: bool = option(
         True,
         "Also draw <out>.png: macros of latents from the prior and from N(0, I), run in the demos' env from three "
         "held-out demos' first states.",
+        affects=False,
     )
 
     def __post_init__(self) -> None:
@@ -45,6 +52,12 @@ class PriorFitOptions(PriorFitChoices):
     def destination(self) -> Path:
         favae = self.given().favae
         return self.out or favae.with_name(f"{favae.stem}.prior.pt")
+
+    def outputs(self) -> list[Path]:
+        """What the command writes, the prior file first (it records what it was made from)."""
+        out = self.destination
+        drawn = [out.with_suffix(".png")] if self.plot else []
+        return [out, out.with_suffix(".log.csv"), out.with_suffix(".metrics.json"), *drawn]
 
     def given(self) -> PriorFitOptions:
         """These options with the segments and FAVAE filled in where none was given
@@ -82,9 +95,9 @@ def fit_prior(options: PriorFitOptions, on_epoch: Callable[[int, dict], None] | 
         title = f"{options.favae}: the prior's macros (blue) and N(0, I)'s (grey) from held-out demo starts"
         plot_proposals(proposals, out.with_suffix(".png"), title)
     skills = Skills(prior, decoder, sha256(options.favae), scores)
-    recorded = {key: value for key, value in to_json(options).items() if key != "out"}
+    recorded = {key: value for key, value in to_json(options).items() if key not in ("out", "overwrite")}
     inputs = [options.demos, options.segments, options.favae]
-    save_skills(out, skills, provenance("famarl prior fit", recorded, options.seed, inputs))
+    save_skills(out, skills, provenance("famarl prior fit", recorded, options.seed, inputs, options=options))
     write_csv(out.with_suffix(".log.csv"), log)
     write_json(out.with_suffix(".metrics.json"), scores)
     return scores

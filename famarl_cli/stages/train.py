@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from famarl_cli.artifacts.made import Replaceable
 from famarl_cli.core.declare import option, same_as
 from famarl_cli.core.errors import UsageError
 from famarl_cli.envs.external import MakeOptions
@@ -40,15 +41,16 @@ class TrainOptions:
         "famarl: search FAVAE latents; ppo: primitive actions; figar: action + repeat count; hybrid: each decision "
         "a primitive action or a macro action.",
     )
-    favae: Path | None = option(
-        None,
-        "FAVAE checkpoint whose decoder makes the macro actions (famarl and hybrid).  [default: "
+    favae: Path | None = same_as(
+        inputs.FavaeInput,
+        "favae",
+        help="FAVAE checkpoint whose decoder makes the macro actions (famarl and hybrid).  [default: "
         f"{inputs.FAVAE}, else the main job's {inputs.replicate(0).parent}/seed<S>/{inputs.REPLICATE_FAVAE}]",
     )
     prior: Path | None = option(
         None,
         "famarl, hybrid: a prior file of famarl prior fit on this FAVAE's latents: the latent policy starts at its "
-        "p(z | s) and pays its KL (see --prior-weight), and --decoder closed uses its closed-loop decoder.",
+        "p(z | s) and pays its KL (see --prior-weight), and --loop closed uses its closed-loop decoder.",
     )
     prior_guide: bool = option(
         True, "With --prior: start the latent policy at p(z | s) and regularise it towards it (off: decoder only)."
@@ -69,18 +71,25 @@ class TrainOptions:
         MacroDecoder.OPEN,
         "famarl, hybrid: open: the FAVAE's decoder, fixed when the macro starts (the paper's); closed: the "
         "closed-loop decoder of --prior, which chooses each action from the state reached.",
+        flags=("--loop",),
+        renamed=("--decoder",),
     )
     steps: int | None = option(
         None, f"Budget in environment steps.  [default: {DEFAULT_STEPS:,}; on --resume, the run's own]", min=1
     )
     seed: int = option(0, "Seed of the networks, sampling and environments.")
     out: Path | None = option(
-        None, "Run folder.  [default: data/runs/<env>-<agent>[-<favae name>]-seed<S>]", path="dir"
+        None, "Run folder.  [default: data/runs/<env>-<agent>[-<favae name>]-seed<S>]", path="dir", affects=False
     )
     resume: bool = option(
         False, "Continue the run in --out from its last checkpoint (other options are the run's own)."
     )
-    overwrite: bool = option(False, "Replace a run already in --out.")
+    overwrite: bool = same_as(
+        Replaceable,
+        "overwrite",
+        help="Start afresh where --out holds a run (made from other inputs or options, or by hand); without it, a "
+        "run made from the same inputs and options continues, or is left as it is where it is complete.",
+    )
     n_envs: int = option(16, "Environments stepped together.", min=1)
     n_steps: int | None = option(
         None,
@@ -89,7 +98,13 @@ class TrainOptions:
         + "]",
         min=1,
     )
-    epochs: int = option(10, "PPO epochs per rollout.", min=1)
+    epochs: int = option(
+        10,
+        "PPO epochs per rollout (passes over its minibatches).",
+        min=1,
+        flags=("--update-epochs",),
+        renamed=("--epochs",),
+    )
     minibatches: int = option(8, "Minibatches per epoch.", min=1)
     lr: float = option(3e-4, "Adam learning rate (annealed linearly to 0 over the budget).", min=0.0)
     gamma: float = option(0.99, "Discount per decision (or per step with --macro-discount steps).", min=0.0, max=1.0)
@@ -156,7 +171,7 @@ class TrainOptions:
 
     def __post_init__(self) -> None:
         if self.decoder == MacroDecoder.CLOSED and self.prior is None:
-            raise UsageError("--decoder closed needs --prior: the closed-loop decoder is in the prior file")
+            raise UsageError("--loop closed needs --prior: the closed-loop decoder is in the prior file")
         if self.prior is not None and not self.agent.decodes_macros:
             raise UsageError(
                 f"--prior goes with --agent famarl or hybrid, not {self.agent}: {self.agent} has no latent"

@@ -30,6 +30,8 @@ from pathlib import Path
 
 from famarl_cli import __version__
 from famarl_cli.artifacts.base import sha256
+from famarl_cli.artifacts.made import shown_path
+from famarl_cli.artifacts.made import what_changed as changed_making
 from famarl_cli.core.errors import ArtifactError, UsageError
 
 JOB_FILE = "job.json"
@@ -183,7 +185,7 @@ def made_from(job: Job) -> dict:
         "config": job.config,
         "famarl_version": __version__,
         "code": code_fingerprint(),
-        "inputs": {p: sha256(p) for p in job.inputs},
+        "inputs": {shown_path(p): sha256(p) for p in job.inputs},
     }
 
 
@@ -208,25 +210,19 @@ def job_record(job: Job, complete: bool, made: dict | None = None) -> dict:
     }
 
 
-def what_changed(record: dict, job: Job, made: dict | None = None) -> list[str]:
+def _making(record: dict) -> dict:
+    """A job record (or :func:`made_from`) as :mod:`famarl_cli.artifacts.made` words a making."""
+    keys = {"command": "runner", "options": "config", "famarl_version": "famarl_version", "inputs": "inputs"}
+    return {key: record.get(field) for key, field in keys.items()}
+
+
+def what_changed(record: dict, job: Job, made: dict | None = None, source: bool = True) -> list[str]:
     """How ``job`` (made from ``made``, when the caller has it) differs from the one a folder's record was made
     from, in words: the options (as the config names them), the input files whose content changed, famarl's
-    version or source."""
+    version and, with ``source``, famarl's source."""
     made = made_from(job) if made is None else made
-    changes = [] if record.get("runner") == job.runner else [f"the command ({record.get('runner')})"]
-    before = record.get("config") or {}
-    for name in sorted(set(before) | set(job.config)):
-        if before.get(name) != job.config.get(name):
-            was, now = (json.dumps(config.get(name)) for config in (before, job.config))
-            changes.append(f"{name} {was} -> {now}")
-    inputs = record.get("inputs")
-    if inputs is None:
-        changes.append("its inputs (the folder does not record their contents)")
-    else:
-        changes += [f"the content of {path}" for path, digest in made["inputs"].items() if inputs.get(path) != digest]
-    if record.get("famarl_version") != made["famarl_version"]:
-        changes.append(f"famarl {record.get('famarl_version')} -> {made['famarl_version']}")
-    elif record.get("code") != made["code"]:
+    changes = changed_making(_making(record), _making(made))
+    if source and not changes and record.get("code") != made["code"]:
         changes.append("famarl's source")
     return changes
 
@@ -294,12 +290,13 @@ def folder_action(folder: Path, job: Job, overwrite: bool, made: dict | None = N
     the folder                                               becomes
     =======================================================  ==========================================
     missing or empty                                         run
-    complete, same key                                       skipped: already complete, nothing to do
-    started, same key                                        resumed from where it stopped
-    any other key, or files no famarl job recorded           refused, unless ``overwrite``: run afresh
+    complete, same inputs and options                        skipped: already complete, nothing to do
+    started, same inputs and options                         resumed from where it stopped
+    other inputs or options, or files no famarl job recorded refused, unless ``overwrite``: run afresh
     =======================================================  ==========================================
 
-    ``made``: what the job is made from (:func:`made_from`), when the caller has it already.
+    famarl's source is not compared, as for any command's output (:mod:`famarl_cli.artifacts.made`). ``made``: what
+    the job is made from (:func:`made_from`), when the caller has it already.
     """
     record = read_job_record(folder)
     if record is None:
@@ -313,8 +310,8 @@ def folder_action(folder: Path, job: Job, overwrite: bool, made: dict | None = N
     if overwrite:
         return Action.RUN
     made = made_from(job) if made is None else made
-    if record.get("key") != job_key(job, made):
-        changes = what_changed(record, job, made) or ["its key"]
+    changes = what_changed(record, job, made, source=False)
+    if changes:
         raise UsageError(
             f"{folder} was made from other inputs: {'; '.join(changes)}; add --overwrite to start over in it, or "
             "give another --out"

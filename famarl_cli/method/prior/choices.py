@@ -21,7 +21,9 @@ from famarl_cli.core.declare import option
 class PriorFitChoices:
     """How the prior and the closed-loop decoder are fitted."""
 
-    epochs: int = option(400, "Full-batch Adam steps of each network.", min=1)
+    epochs: int = option(
+        400, "Full-batch Adam steps of each network.", min=1, flags=("--prior-steps",), renamed=("--epochs",)
+    )
     hidden: int = option(32, "Units of each of the two hidden layers of both networks.", min=1)
     correction: float = option(
         0.25,

@@ -282,7 +282,10 @@ def curves(groups: list[Group], path: Path, title: str, panels: tuple[str, ...] 
 
 
 def wall_per_million(run: RunResult) -> float:
-    return float(run.evaluation["train_wall_s"]) / float(run.evaluation["env_steps"]) * 1e6
+    """The run's training wall per million env steps (from its timing.json)."""
+    if run.train_wall_s is None:
+        raise ArtifactError(f"{run.folder}: its run records no wall time (timing.json); the speed goals need it")
+    return run.train_wall_s / float(run.evaluation["env_steps"]) * 1e6
 
 
 def at_least(interval: Interval, goal: float) -> Verdict:

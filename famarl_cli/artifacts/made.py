@@ -1,0 +1,202 @@
+"""What an output was made from, and the one rule every command follows for an output that is there already.
+
+An output's *making* is the command that wrote it, the command's options (those that change what it makes: where
+it writes, whether it also draws a picture, how many workers it uses do not), famarl's version and its input files'
+content hashes. Every artifact records its making in its provenance (``made_from``, :func:`making`); a
+``famarl macros`` folder and a sweep's job folder in their ``job.json`` (:mod:`famarl_cli.sweep.plan`).
+
+Run again where its output is, a command follows :func:`claim_output`:
+
+=========================================================  ===========================================
+the output                                                 the command
+=========================================================  ===========================================
+missing                                                    makes it
+there and complete, made from the same inputs and options  "already complete; nothing to do"
+there but not complete (a file of it missing)              makes it again
+made from other inputs or options                          refused, naming what changed
+a file that records no making (by hand, or older famarl)   refused
+=========================================================  ===========================================
+
+``--overwrite`` makes it afresh in every case. famarl's own source is not part of the making (as with any tool, a
+new release is a new version): a sweep's key adds it, because DVC re-runs a sweep's stage when the code changes.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import h5py
+
+from famarl_cli import __version__
+from famarl_cli.artifacts.base import HDF5_SIGNATURE, ZIP_SIGNATURE, sha256
+from famarl_cli.core.declare import affecting, declared, option
+from famarl_cli.core.errors import UsageError
+from famarl_cli.core.reproducibility import platform_facts
+
+
+def shown_path(path: str | os.PathLike) -> str:
+    """``path`` as a record names it: relative to the working folder where it lies inside it (the project's root,
+    for DVC), so that a record does not change with the folder a project was cloned into."""
+    path = Path(path)
+    if path.is_absolute():
+        try:
+            return str(path.relative_to(Path.cwd()))
+        except ValueError:
+            return str(path)
+    return str(path)
+
+
+def input_files(options: Any) -> list[Path]:
+    """The files an options object reads: its options typed as paths that affect the output and name a file."""
+    found = []
+    for declaration in declared(type(options)):
+        if not declaration.affects or declaration.base not in (Path, list[Path]):
+            continue
+        value = getattr(options, declaration.name)
+        found += [Path(v) for v in (value if isinstance(value, list) else [value]) if v and Path(v).is_file()]
+    return found
+
+
+def making(command: str, options: Any, inputs: Iterable[str | os.PathLike] = ()) -> dict:
+    """What ``command`` with ``options`` makes its output from: the options that change it, famarl's version and
+    the content of the files the options name, with ``inputs`` (files the options imply, a run's checkpoint).
+    ``options`` is a declaration (:mod:`famarl_cli.core.declare`), or a dict of the settings themselves (a run's
+    spec, every entry of which changes the run)."""
+    given = isinstance(options, dict)
+    files = dict.fromkeys([*([] if given else input_files(options)), *map(Path, inputs)])
+    return {
+        "command": command,
+        "options": options if given else affecting(options),
+        "famarl_version": __version__,
+        "inputs": {shown_path(p): sha256(p) for p in files},
+    }
+
+
+def provenance(
+    command: str,
+    params: dict[str, Any],
+    seed: int | None,
+    inputs: Iterable[str | os.PathLike] = (),
+    options: Any = None,
+) -> dict:
+    """What made an artifact: command, parameters, seed, package version, the inputs' content hashes, the platform
+    facts that decide its floats (:func:`famarl_cli.core.reproducibility.platform_facts`) and, given the command's
+    ``options``, its making (:func:`making`), by which a command run again knows its work (:func:`claim_output`)."""
+    inputs = list(inputs)
+    prov = {
+        "command": command,
+        "params": params,
+        "seed": seed,
+        "famarl_version": __version__,
+        "inputs": {shown_path(p): sha256(p) for p in inputs},
+        "platform": platform_facts(),
+    }
+    if options is not None:
+        prov["made_from"] = making(command, options, inputs)
+    return prov
+
+
+def read_provenance(path: Path) -> dict:
+    """The provenance an artifact records (HDF5, JSON or torch checkpoint); empty where it records none or cannot
+    be read."""
+    try:
+        with open(path, "rb") as handle:
+            head = handle.read(8)
+        if head == HDF5_SIGNATURE:
+            with h5py.File(path, "r") as handle:
+                prov = json.loads(handle.attrs.get("provenance", "{}"))
+        elif head.startswith(ZIP_SIGNATURE):
+            import torch
+
+            prov = torch.load(path, map_location="cpu", weights_only=True).get("provenance", {})
+        else:
+            prov = json.loads(path.read_text()).get("provenance", {})
+    except Exception:  # an unreadable file records nothing
+        return {}
+    return prov if isinstance(prov, dict) else {}
+
+
+def recorded_making(path: Path) -> dict | None:
+    """The making an artifact records in its provenance, or None where it records none or cannot be read."""
+    made = read_provenance(path).get("made_from")
+    return made if isinstance(made, dict) else None
+
+
+def _flat(options: dict, prefix: str = "") -> dict:
+    """Nested settings by dotted name (``ppo.total_steps``), so that a change names the one that changed."""
+    flat = {}
+    for name, value in options.items():
+        if isinstance(value, dict) and value:
+            flat.update(_flat(value, f"{prefix}{name}."))
+        else:
+            flat[f"{prefix}{name}"] = value
+    return flat
+
+
+def what_changed(before: dict, now: dict) -> list[str]:
+    """How the making ``now`` differs from ``before``, in words: the command, each option (``epochs 2 -> 3``), each
+    input whose content changed, famarl's version."""
+    changes = [] if before.get("command") == now["command"] else [f"the command ({before.get('command')})"]
+    was_options, options = _flat(before.get("options") or {}), _flat(now["options"])
+    for name in sorted(set(was_options) | set(options)):
+        if was_options.get(name) != options.get(name):
+            changes.append(f"{name} {json.dumps(was_options.get(name))} -> {json.dumps(options.get(name))}")
+    inputs = before.get("inputs")
+    if inputs is None:
+        changes.append("its inputs (the record does not hold their contents)")
+    else:
+        was = sorted(inputs.values())
+        changes += [f"the content of {p}" for p, digest in now["inputs"].items() if digest not in was]
+    if before.get("famarl_version") != now["famarl_version"]:
+        changes.append(f"famarl {before.get('famarl_version')} -> {now['famarl_version']}")
+    return changes
+
+
+def claim_output(outputs: list[Path], made: dict, overwrite: bool) -> bool:
+    """Whether to make ``outputs`` (the first records the making; all of them make it complete) by the rule of the
+    module doc: True to make them, False where they are complete and made so; a usage error otherwise."""
+    primary = outputs[0]
+    if overwrite or not primary.exists():
+        return True
+    recorded = recorded_making(primary)
+    if recorded is None:
+        raise UsageError(
+            f"{primary} exists and does not record what it was made from (made by hand or by an older famarl); "
+            "add --overwrite to replace it, or give another --out"
+        )
+    changes = what_changed(recorded, made)
+    if changes:
+        raise UsageError(
+            f"{primary} was made from other inputs or options: {'; '.join(changes)}; add --overwrite to make it "
+            "afresh, or give another --out"
+        )
+    return not all(p.exists() for p in outputs)
+
+
+ALREADY_MADE = "already holds this, complete and made from the same inputs and options; nothing to do"
+"""What a command says where :func:`claim_output` finds its work done (after the output's name)."""
+
+
+@dataclass(frozen=True)
+class Replaceable:
+    """The option of every command that writes an output (:func:`claim_output`)."""
+
+    overwrite: bool = option(
+        False,
+        "Make the output afresh where it exists (made from other inputs or options, or by hand); without it, a "
+        "complete output made from the same inputs and options is left as it is.",
+        affects=False,
+    )
+
+
+def made_result(path: Path, made: dict, overwrite: bool) -> dict | None:
+    """A JSON result (an evaluation, an oracle's) that ``path`` holds, complete and made so (less its provenance),
+    or None where it is to be made (:func:`claim_output`'s rule)."""
+    if claim_output([path], made, overwrite):
+        return None
+    return {key: value for key, value in json.loads(path.read_text()).items() if key != "provenance"}

@@ -1,0 +1,42 @@
+"""``famarl status``: each pipeline's committed results, whether they are current, whether it ran here, and what to
+run: what ``dvc status`` cannot say on a fresh clone, where every stage never run here is "changed"."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from famarl_cli.cli import app, reports_errors
+
+
+@app.command()
+@reports_errors
+def status(
+    root: Annotated[Path, typer.Option(help="The project's root (its dvc.yaml).", file_okay=False)] = Path("."),
+) -> None:
+    """Per pipeline: its committed verdicts, whether its code, parameters and commands are those its dvc.lock
+    records (current) or have changed since (stale), whether its outputs are in this working copy, and the
+    command that makes them with its measured time. A fresh clone has committed results for every pipeline and
+    the outputs of none: `dvc repro` makes the main job's. Takes a few seconds (it asks DVC)."""
+    from famarl_cli.core.errors import ArtifactError
+    from famarl_cli.report.docs import COUNTS, pipelines
+
+    if not (root / "dvc.yaml").is_file():
+        raise ArtifactError(f"{root}: no dvc.yaml here; run famarl status in the project's root, or pass --root")
+    table = Table(title="pipelines (dvc status lists every stage not run here as changed; this says what to run)")
+    for column in ("pipeline", "committed verdicts", "code since its lock", "outputs here"):
+        table.add_column(column)
+    table.add_column("to make them", overflow="fold")
+    for p in pipelines(root):
+        claims = sum(section[COUNTS[0]] for section in p.summary.values()) if p.summary else 0
+        committed = f"{claims} claims" if p.summary else "none yet"
+        current = f"stale ({len(p.stale)} stages)" if p.stale else "current"
+        command = "dvc repro" + ("" if p.definition == "dvc.yaml" else f" {p.definition}")
+        took = f" (~{p.timed['total_s'] / 60:.0f} min, 2 cores)" if p.timed else ""
+        todo = "nothing to run" if p.here and not p.stale else f"{command}{took}"
+        table.add_row(p.name, committed, current, "yes" if p.here else "no", todo)
+    Console().print(table)
