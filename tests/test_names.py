@@ -77,3 +77,15 @@ def test_every_long_command_says_how_long_it_takes_on_two_cores():
     commands = sorted({n.command for n in options()} - QUICK)
     silent = [c for c in commands if "2-core" not in " ".join(famarl(*c.split(), "--help").stdout.split())]
     assert silent == []
+
+
+def test_every_placeholder_is_one_word_a_path_file_or_dir():
+    from famarl_cli.cli.names import options as every
+
+    odd = set()
+    for command in sorted({n.command for n in every()}):
+        for line in famarl(*command.split(), "--help").stdout.splitlines():
+            found = re.match(r"^\s+(?:-\w, )?--[a-z-]+ <([^>]+)>", line)
+            if found and (found[1].startswith(("list[", "path")) or "[" in found[1]):
+                odd.add(f"{command}: {line.strip()}")
+    assert odd == set()

@@ -7,6 +7,7 @@ import inspect
 import typing
 from collections.abc import Callable
 from dataclasses import MISSING
+from pathlib import Path
 from typing import Annotated, Any
 
 import typer
@@ -43,6 +44,8 @@ def _settings(option: Declared) -> dict[str, Any]:
         settings["dir_okay"] = False
     elif option.path == "dir":
         settings["file_okay"] = False
+    if option.base in (Path, list[Path]):  # one placeholder for each kind of path, whatever typer would print
+        settings["metavar"] = "<dir>" if option.path == "dir" else "<file>"
     return settings
 
 

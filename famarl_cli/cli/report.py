@@ -21,6 +21,7 @@ def report(
         typer.Option(
             "--experiment",
             "-e",
+            metavar="<name>",
             help="Report only this experiment; repeat for several.  [default: every one in "
             "famarl_cli/report/experiments]",
         ),

@@ -77,6 +77,7 @@ def sweep(
     over: Annotated[
         list[str] | None,
         typer.Option(
+            metavar="<name=values>",
             help="Another axis, NAME=V1,V2,... (repeat for more). When COMMAND has an option --NAME, each run "
             "gets its value; {NAME} in the options is replaced by it.",
         ),
