@@ -362,7 +362,7 @@ def test_steps_to_0_8_count_from_where_the_curve_holds_it_to_the_end():
     assert steps_to_hold(steps, np.array([0, 1, 0, 0, 1, 1, 1.0]), 0.8, 3) == 700.0  # smoothed over 3 updates
 
 
-def test_the_plots_csv_keeps_at_most_a_hundred_evenly_spaced_points_per_run_and_the_last(tmp_path):
+def test_the_plots_csv_keeps_a_few_evenly_spaced_points_per_run_and_the_last(tmp_path):
     from famarl_cli.report.results import CURVE_POINTS, Group, RunResult, write_curves
 
     updates = 257

@@ -226,7 +226,7 @@ def series_names(groups: list[Group]) -> list[str]:
     return [f"{g.label} ({g.runs[0].evaluation['env'].split('/')[-1]})" for g in groups]
 
 
-CURVE_POINTS = 100
+CURVE_POINTS = 50
 """At most this many points of each run's curve in the plots' CSV (a pipeline's is committed; train.csv keeps
 every update)."""
 
