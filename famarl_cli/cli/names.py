@@ -102,7 +102,7 @@ def names_table(named: list[Named] | None = None) -> str:
         if n.hidden:
             current = next((s.flag for s in shown if s.concept == n.concept and s.command == n.command), None)
             if current:
-                old.setdefault(current, set()).add(n.flag)
+                old.setdefault(current, set()).add(f"{n.flag} (`{n.command}`)")
     rows = ["| option | means | commands | old spelling |", "|---|---|---|---|"]
     for flag in sorted({n.flag for n in shown}):
         using = [n for n in shown if n.flag == flag]
