@@ -16,6 +16,7 @@ from cli_helpers import famarl, one_line_error
 from famarl_cli.artifacts.made import claim_output, making, recorded_making, what_changed
 from famarl_cli.core.errors import UsageError
 from famarl_cli.stages.demos import DemosOptions
+from famarl_cli.stages.method import SegmentOptions
 
 TINY_PPO = ("--steps", 600, "--n-envs", 2, "--n-steps", 8, "--update-epochs", 1, "--minibatches", 2)
 
@@ -118,11 +119,17 @@ def test_a_missing_part_of_the_output_makes_it_again(tmp_path):
     assert again.exit_code == 0 and "nothing to do" not in again.output and out.with_suffix(".png").exists()
 
 
-def test_where_and_how_a_command_shows_its_output_is_not_part_of_its_making(tmp_path):
+def test_where_and_how_a_command_shows_its_output_is_not_part_of_its_making(tmp_path, demos_file):
     a = making("famarl demos", DemosOptions(episodes=3, out=tmp_path / "a.h5", plot=True))
     b = making("famarl demos", DemosOptions(episodes=3, out=tmp_path / "b.h5", plot=False, overwrite=True))
     assert a == b and "out" not in a["options"] and "plot" not in a["options"]
     assert what_changed(a, making("famarl demos", DemosOptions(episodes=4))) == ["episodes 3 -> 4"]
+    # a file counts by its content, not by the name it is given under
+    copy = tmp_path / "elsewhere" / "copy.h5"
+    copy.parent.mkdir()
+    shutil.copy(demos_file, copy)
+    named = [making("famarl segment", SegmentOptions(demos=path)) for path in (demos_file, copy)]
+    assert "demos" not in named[0]["options"] and what_changed(*named) == []
 
 
 def test_the_rule_names_nested_settings_inputs_and_the_version(tmp_path):
@@ -133,6 +140,11 @@ def test_the_rule_names_nested_settings_inputs_and_the_version(tmp_path):
     after = {**making("famarl train", {"ppo": {"epochs": 2, "lr": 0.1}}, [source]), "famarl_version": "9"}
     assert what_changed(before, after) == ["ppo.epochs 1 -> 2", f"the content of {source}", "famarl 0.1.0 -> 9"]
     assert what_changed(before, before) == []
+    assert what_changed(after, {**after, "inputs": {}}) == [f"{source}, read before and not now"]
+    assert what_changed(after, {**after, "inputs": {"other.bin": "0" * 64}}) == [
+        "the content of other.bin",
+        f"{source}, read before and not now",
+    ]
     missing = tmp_path / "nothing.h5"
     assert claim_output([missing], before, overwrite=False) is True
     (tmp_path / "plain.h5").write_bytes(np.zeros(4).tobytes())

@@ -71,10 +71,17 @@ def making(command: str, options: Any, inputs: Iterable[str | os.PathLike] = ())
     files = dict.fromkeys([*([] if given else input_files(options)), *map(Path, inputs)])
     return {
         "command": command,
-        "options": options if given else affecting(options),
+        "options": options if given else _settings(options),
         "famarl_version": __version__,
         "inputs": {shown_path(p): sha256(p) for p in files},
     }
+
+
+def _settings(options: Any) -> dict:
+    """The options that change what a command makes, but those naming files: a file counts by its content (the
+    making's inputs), not by the name it was given under (``d.h5`` and ``./d.h5``, or a project cloned elsewhere)."""
+    paths = {d.name for d in declared(type(options)) if d.base in (Path, list[Path])}
+    return {name: value for name, value in affecting(options).items() if name not in paths}
 
 
 def provenance(
@@ -150,8 +157,10 @@ def what_changed(before: dict, now: dict) -> list[str]:
     if inputs is None:
         changes.append("its inputs (the record does not hold their contents)")
     else:
-        was = sorted(inputs.values())
+        was, read = set(inputs.values()), set(now["inputs"].values())
         changes += [f"the content of {p}" for p, digest in now["inputs"].items() if digest not in was]
+        gone = [p for p, digest in inputs.items() if digest not in read and p not in now["inputs"]]
+        changes += [f"{p}, read before and not now" for p in gone]
     if before.get("famarl_version") != now["famarl_version"]:
         changes.append(f"famarl {before.get('famarl_version')} -> {now['famarl_version']}")
     return changes
