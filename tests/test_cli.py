@@ -257,7 +257,7 @@ def test_train_and_evaluate_end_to_end(favae_file, tmp_path):
         out = tmp_path / agent
         result = famarl("train", "--agent", agent, "--favae", favae_file, *TINY_TRAINING, "--out", out)
         assert result.exit_code == 0, result.output
-        assert {p.name for p in out.iterdir()} == {"run.json", "checkpoint.pt", "train.csv"}
+        assert {p.name for p in out.iterdir()} == {"run.json", "checkpoint.pt", "train.csv", "timing.json"}
         run = json.loads((out / "run.json").read_text())
         assert run["schema"] == "famarl.run" and run["complete"] and run["env_steps"] >= 1500
         assert run["spec"]["agent"] == agent

@@ -336,3 +336,50 @@ def ratio_goal(
     rule = f"ratio of means (bootstrap over seeds); {side}"
     estimate = Estimate(name, interval, tuple(mine / theirs.mean()), bound)
     return Claim(goal, measure, Judgement(verdict, rule, (estimate,)))
+
+
+def oracle(folder: Path, tasks: dict[str, str]) -> dict[str, dict]:
+    """Per task (``tasks``: name -> env id) and agent whose runs ``famarl oracle`` searched
+    (``<folder>/<run>/oracle.json``): the share of layouts a plan in the agent's action space solved, its mean over
+    replicates with the 95% interval (the variance floored at the layouts' binomial noise), n and the layouts per
+    run."""
+    from famarl_cli.artifacts.runs import ORACLE_FILE, read_oracle
+    from famarl_cli.core.statistics import mean_interval
+
+    shares: dict[tuple[str, str], list[float]] = {}
+    layouts = 0
+    for path in sorted(folder.glob(f"*/{ORACLE_FILE}")):
+        found = read_oracle(path)
+        task = next((name for name, env in tasks.items() if env == found["env"]), None)
+        if task is not None:
+            shares.setdefault((task, found["agent"]), []).append(found["success_rate"])
+            layouts = len(found["episodes"])
+    result: dict[str, dict] = {}
+    for (task, agent), values in shares.items():
+        interval = mean_interval(values, layouts)
+        result.setdefault(task, {})[agent] = {
+            "n": len(values),
+            "layouts": layouts,
+            "share": round(interval.estimate, 4),
+            "share_low": round(interval.low, 4),
+            "share_high": round(interval.high, 4),
+        }
+    return result
+
+
+def oracle_table(found: dict[str, dict]) -> str:
+    rows = [
+        "The action-space oracle (`famarl oracle`, stage `oracle`): per run, the share of its evaluation layouts an "
+        "open-loop plan in the agent's own action space solved (the cross-entropy method with the env's resets; a "
+        "lower bound of what the space can reach). An agent that fails where its space's share is high has a "
+        "learner that did not find the solution; a low share says only that this search found no plan in its "
+        "budget (plans x iterations), which long plans of primitive actions outgrow first.",
+        "",
+        "| task | action space | n | layouts per run | share solved [95% CI over replicates] |",
+        "|---|---|---|---|---|",
+    ]
+    for task, agents in found.items():
+        for agent, o in sorted(agents.items()):
+            interval = f"{o['share']:.2f} [{o['share_low']:.2f}, {o['share_high']:.2f}]"
+            rows.append(f"| {task} | {agent} | {o['n']} | {o['layouts']} | {interval} |")
+    return "\n".join(rows)

@@ -12,6 +12,8 @@ from famarl_cli.report.experiments.common import (
     fails_claim,
     fastest_claim,
     favae_table,
+    oracle,
+    oracle_table,
     solves_claim,
 )
 from famarl_cli.report.results import by_agent, copy_figure, gather, group, macros_folders, results_table
@@ -39,6 +41,8 @@ def maze(data: Path, out: Path):
     tables = [results_table(present)]
     favae = favae_table(data / "maze" / "macros")
     tables += [favae] if favae else []
+    searched = oracle(data / "maze" / "oracle", {"maze": MAZE})
+    tables += [oracle_table(searched)] if searched else []
     figures = [curves(present, out / "maze-curves.png", "Maze")]
     if famarl is not None:
         figures.append(copy_figure(famarl.runs[0].folder / ROLLOUTS_FILE, out / "maze-rollouts-famarl.png"))
@@ -51,4 +55,5 @@ def maze(data: Path, out: Path):
         tables,
         [f for f in figures if f is not None],
         present,
+        instruments={"oracle": searched} if searched else {},
     )

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from famarl_cli.core.statistics import aggregate_interval
 from famarl_cli.report.experiments import experiment
-from famarl_cli.report.experiments.common import curves, fails_claim, solves_claim
+from famarl_cli.report.experiments.common import curves, fails_claim, oracle, oracle_table, solves_claim
 from famarl_cli.report.results import by_agent, copy_figure, gather, group, results_table
 from famarl_cli.report.verdicts import Claim, improves
 
@@ -39,51 +39,6 @@ def controls(folder: Path) -> dict[str, dict]:
             "steps": round(sum(e.length for e in episodes) / len(episodes), 1),
         }
     return found
-
-
-def oracle(folder: Path) -> dict[str, dict]:
-    """Per task and agent whose runs ``famarl oracle`` searched (``data/robothand/oracle/<run>/oracle.json``): the
-    share of layouts a plan in the agent's action space solved, its mean over replicates with the 95% interval
-    (the variance floored at the layouts' binomial noise), n and the layouts per run."""
-    from famarl_cli.artifacts.runs import ORACLE_FILE, read_oracle
-    from famarl_cli.core.statistics import mean_interval
-
-    shares: dict[tuple[str, str], list[float]] = {}
-    layouts = 0
-    for path in sorted(folder.glob(f"*/{ORACLE_FILE}")):
-        found = read_oracle(path)
-        task = next((name for name, env in TASKS.items() if env == found["env"]), None)
-        if task is not None:
-            shares.setdefault((task, found["agent"]), []).append(found["success_rate"])
-            layouts = len(found["episodes"])
-    result: dict[str, dict] = {}
-    for (task, agent), values in shares.items():
-        interval = mean_interval(values, layouts)
-        result.setdefault(task, {})[agent] = {
-            "n": len(values),
-            "layouts": layouts,
-            "share": round(interval.estimate, 4),
-            "share_low": round(interval.low, 4),
-            "share_high": round(interval.high, 4),
-        }
-    return result
-
-
-def oracle_table(found: dict[str, dict]) -> str:
-    rows = [
-        "The action-space oracle (`famarl oracle`, stage `oracle`): per run, the share of its evaluation layouts an "
-        "open-loop plan in the agent's own action space solved (the cross-entropy method with the env's resets; a "
-        "lower bound of what the space can reach). An agent that fails where its space's share is high has a "
-        "learner that did not find the solution.",
-        "",
-        "| task | action space | n | layouts per run | share solved [95% CI over replicates] |",
-        "|---|---|---|---|---|",
-    ]
-    for task, agents in found.items():
-        for agent, o in sorted(agents.items()):
-            interval = f"{o['share']:.2f} [{o['share_low']:.2f}, {o['share_high']:.2f}]"
-            rows.append(f"| {task} | {agent} | {o['n']} | {o['layouts']} | {interval} |")
-    return "\n".join(rows)
 
 
 def controls_table(found: dict[str, dict]) -> str:
@@ -123,7 +78,7 @@ def robothand(data: Path, out: Path):
     found = controls(data / "robothand" / "controls")
     if found:
         tables.append(controls_table(found))
-    searched = oracle(data / "robothand" / "oracle")
+    searched = oracle(data / "robothand" / "oracle", TASKS)
     if searched:
         tables.append(oracle_table(searched))
     agents = sorted({agent for by in tasks.values() for agent in by}, key=["famarl", "ppo", "figar"].index)
