@@ -44,3 +44,25 @@ def test_pipeline_stages_against_a_revision_that_is_not_there(tmp_path):
     out = tmp_path / "result.json"
     one_error_line(run("pipeline_stages.py", "--against", "no-such-revision", "--out", out), "git archive")
     assert not out.exists()
+
+
+def test_robothand_sparsity_counts_each_setting_from_one_pass(tmp_path):
+    import json
+    import os
+
+    out, measured = tmp_path / "sparsity.json", tmp_path / "measured.json"
+    args = ["--episodes", 12, "--limits", "20,80", "--radii", "0.5,3", "--min-distances", "0", "--out", out]
+    result = subprocess.run(
+        [sys.executable, str(BENCHMARKS / "robothand_sparsity.py"), *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "FAMARL_MEASURED": str(measured)},
+    )
+    assert result.returncode == 0, result.stderr
+    rows = json.loads(out.read_text())["rows"]
+    hits = {name: row["hits"] for name, row in rows.items()}
+    assert set(hits) == {"20-0.5-0", "20-3-0", "80-0.5-0", "80-3-0"}
+    # a longer limit or a wider goal never reaches fewer
+    assert hits["20-0.5-0"] <= hits["80-0.5-0"] <= hits["80-3-0"] and hits["20-0.5-0"] <= hits["20-3-0"]
+    assert len(json.loads(measured.read_text())) == 4

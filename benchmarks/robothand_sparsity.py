@@ -1,0 +1,94 @@
+"""How sparse is RobotHand Reaching? The share of episodes in which uniformly random primitive actions bring the
+grip within the goal radius, for settings the paper leaves open (time limit; how far from the grip's start a goal
+may be drawn) and goal radii, with its 95% Wilson interval over the episodes.
+
+    python benchmarks/robothand_sparsity.py [--episodes 2000] [--limits 100,200] [--radii 0.5]
+                                            [--min-distances 0,1,2,3]
+
+The paper chose Reaching's sparse reward "to make this task sufficiently difficult" (PPO fails it). Our rule for
+"sparse", stated before any agent is judged under another setting: random primitive actions reach the goal in at
+most 2% of episodes (the interval's upper end). Each episode runs the pipeline's Reaching layouts (reset seeds from
+0) for the longest limit without stopping at the goal; an episode succeeds under (limit, radius) when the grip comes
+within the radius in its first ``limit`` steps, so one pass gives every setting. A minimum distance D keeps the
+layouts whose goal was drawn at least D from the grip's start (as a goal range that excludes the start's
+neighbourhood would draw them). Records one row per setting in
+benchmarks/measured.json (docs/robothand.md shows them) and writes benchmarks/results/robothand_sparsity.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+from common import RESULTS, command_line, record, write_result
+
+import famarl_cli  # noqa: F401  (registers the envs)
+from famarl_cli.core.statistics import proportion_interval
+from famarl_cli.envs.robot_hand import OBSERVATION_NAMES
+from famarl_cli.sweep.plan import parse_values
+
+RULE = 0.02
+"""Reaching is sparse when random primitive actions reach the goal in at most this share of episodes."""
+
+
+def closest(episodes: int, steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """(episodes, steps): the grip's running minimum distance to the goal under uniform random actions; and
+    (episodes,): its distance at the start."""
+    env = gym.make("famarl/RobotHand-Reaching-v0").unwrapped  # unwrapped: on past the goal and the time limit
+    grip = [OBSERVATION_NAMES.index(n) for n in ("grip_x", "grip_y")]
+    target = [OBSERVATION_NAMES.index(n) for n in ("target_x", "target_y")]
+    rng = np.random.default_rng(0)
+    distances, start = np.empty((episodes, steps)), np.empty(episodes)
+    for episode in range(episodes):
+        obs, _ = env.reset(seed=episode)
+        start[episode] = np.linalg.norm(obs[grip] - obs[target])
+        for step in range(steps):
+            obs, *_ = env.step(rng.uniform(-1, 1, 4).astype(np.float32))
+            distances[episode, step] = np.linalg.norm(obs[grip] - obs[target])
+    return np.minimum.accumulate(distances, axis=1), start
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--episodes", type=int, default=2000)
+    parser.add_argument("--limits", default="100,200", help="Time limits (steps); the pipeline's is 200.")
+    parser.add_argument("--radii", default="0.5", help="Goal radii (m); the paper's is 0.5.")
+    parser.add_argument(
+        "--min-distances", default="0,1,2,3", help="Least distance (m) of a goal from the grip's start; ours is 0."
+    )
+    parser.add_argument("--out", type=Path, default=RESULTS / "robothand_sparsity.json")
+    args = parser.parse_args()
+    limits = [int(v) for v in parse_values(args.limits)]
+    radii = [float(v) for v in parse_values(args.radii)]
+    least = [float(v) for v in parse_values(args.min_distances)]
+    nearest, start = closest(args.episodes, max(limits))
+    shown = ("episodes", "limits", "radii", "min_distances")
+    line = command_line("robothand_sparsity.py", parser, args, shown=shown)
+    rows = {}
+    for limit in limits:
+        for radius in radii:
+            for distance in least:
+                kept = start >= distance
+                hits, layouts = int((nearest[kept, limit - 1] <= radius).sum()), int(kept.sum())
+                interval = proportion_interval(hits, layouts)
+                sparse = interval.high <= RULE
+                name = f"{limit}-{radius:g}-{distance:g}"
+                rows[name] = {"hits": hits, "layouts": layouts, "interval": interval.text("{:.3f}"), "sparse": sparse}
+                record(
+                    f"robothand_sparsity_{name}".replace(".", "p").replace("-", "_"),
+                    f"RobotHand Reaching, time limit {limit} steps, goal radius {radius:g} m, goals at least "
+                    f"{distance:g} m from the grip's start: share of episodes uniformly random primitive actions "
+                    f"reach the goal [95% Wilson CI], {layouts} layouts",
+                    line,
+                    interval.text("{:.3f}"),
+                    f"at most {RULE:.0%} (sparse)",
+                )
+    write_result(args.out, {"command": line, "rule": RULE, "rows": rows})
+    for name, row in rows.items():
+        print(f"limit-radius-distance {name:<12} {row['interval']:<24} {'sparse' if row['sparse'] else 'not sparse'}")
+
+
+if __name__ == "__main__":
+    main()
