@@ -292,9 +292,9 @@ def test_an_error_in_the_second_file_leaves_the_first_as_it_was(project):
 def test_famarl_status_says_per_pipeline_what_is_committed_current_here_and_what_to_run(project):
     shown = famarl("status", "--root", project)
     assert shown.exit_code == 0, shown.output
-    assert "default" in shown.stdout and "1 claims" in shown.stdout and "current" in shown.stdout
-    assert "nothing to run" in shown.stdout
+    assert "default" in shown.stdout and "1 claim " in shown.stdout and "current" in shown.stdout
+    assert "nothing to run" in shown.stdout and "1 min" in shown.stdout
     (project / "data" / "out.txt").unlink()
     (project / "code" / "method.py").write_text("X = 2\n")
     again = famarl("status", "--root", project).stdout
-    assert "stale" in again and "dvc repro" in again and "nothing to run" not in again
+    assert "stale (1 stages)" in again and "\n  dvc repro\n" in again and "nothing to run" not in again

@@ -27,16 +27,23 @@ def status(
 
     if not (root / "dvc.yaml").is_file():
         raise ArtifactError(f"{root}: no dvc.yaml here; run famarl status in the project's root, or pass --root")
-    table = Table(title="pipelines (dvc status lists every stage not run here as changed; this says what to run)")
-    for column in ("pipeline", "committed verdicts", "code since its lock", "outputs here"):
+    table = Table(title="pipelines: what is committed, whether it is current, what ran here")
+    for column in ("pipeline", "committed verdicts", "code since its lock", "outputs here", "its wall"):
         table.add_column(column)
-    table.add_column("to make them", overflow="fold")
+    todo = []
     for p in pipelines(root):
         claims = sum(section[COUNTS[0]] for section in p.summary.values()) if p.summary else 0
-        committed = f"{claims} claims" if p.summary else "none yet"
+        committed = f"{claims} claim{'' if claims == 1 else 's'}" if p.summary else "none yet"
         current = f"stale ({len(p.stale)} stages)" if p.stale else "current"
-        command = "dvc repro" + ("" if p.definition == "dvc.yaml" else f" {p.definition}")
-        took = f" (~{p.timed['total_s'] / 60:.0f} min, 2 cores)" if p.timed else ""
-        todo = "nothing to run" if p.here and not p.stale else f"{command}{took}"
-        table.add_row(p.name, committed, current, "yes" if p.here else "no", todo)
-    Console().print(table)
+        wall = f"{p.timed['total_s'] / 60:.0f} min" if p.timed else "not timed"
+        table.add_row(p.name, committed, current, "yes" if p.here else "no", wall)
+        if not p.here or p.stale:
+            todo.append("dvc repro" + ("" if p.definition == "dvc.yaml" else f" {p.definition}"))
+    console = Console()
+    console.print(table)
+    console.print("walls on 2 cores (docs/pipelines.md); dvc status lists every stage not run here as changed")
+    console.print(
+        "to make what is missing or stale here:" if todo else "nothing to run: every pipeline is here and current"
+    )
+    for command in todo:
+        console.print(f"  {command}", soft_wrap=True)
