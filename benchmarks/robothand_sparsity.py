@@ -3,7 +3,7 @@ grip within the goal radius, for settings the paper leaves open (time limit; how
 may be drawn) and goal radii, with its 95% Wilson interval over the episodes.
 
     python benchmarks/robothand_sparsity.py [--episodes 2000] [--limits 100,200] [--radii 0.5]
-                                            [--min-distances 0,1,2,3]
+                                            [--min-distances 0,1,2,3] [--env famarl/RobotHand-Reaching-v0]
 
 The paper chose Reaching's sparse reward "to make this task sufficiently difficult" (PPO fails it). Our rule for
 "sparse", stated before any agent is judged under another setting: random primitive actions reach the goal in at
@@ -33,10 +33,13 @@ RULE = 0.02
 """Reaching is sparse when random primitive actions reach the goal in at most this share of episodes."""
 
 
-def closest(episodes: int, steps: int) -> tuple[np.ndarray, np.ndarray]:
+REACHING = "famarl/RobotHand-Reaching-v0"
+
+
+def closest(env_id: str, episodes: int, steps: int) -> tuple[np.ndarray, np.ndarray]:
     """(episodes, steps): the grip's running minimum distance to the goal under uniform random actions; and
     (episodes,): its distance at the start."""
-    env = gym.make("famarl/RobotHand-Reaching-v0").unwrapped  # unwrapped: on past the goal and the time limit
+    env = gym.make(env_id).unwrapped  # unwrapped: on past the goal and the time limit
     grip = [OBSERVATION_NAMES.index(n) for n in ("grip_x", "grip_y")]
     target = [OBSERVATION_NAMES.index(n) for n in ("target_x", "target_y")]
     rng = np.random.default_rng(0)
@@ -58,13 +61,14 @@ def main() -> None:
     parser.add_argument(
         "--min-distances", default="0,1,2,3", help="Least distance (m) of a goal from the grip's start; ours is 0."
     )
+    parser.add_argument("--env", default=REACHING, help="The Reaching env whose layouts are drawn.")
     parser.add_argument("--out", type=Path, default=RESULTS / "robothand_sparsity.json")
     args = parser.parse_args()
     limits = [int(v) for v in parse_values(args.limits)]
     radii = [float(v) for v in parse_values(args.radii)]
     least = [float(v) for v in parse_values(args.min_distances)]
-    nearest, start = closest(args.episodes, max(limits))
-    shown = ("episodes", "limits", "radii", "min_distances")
+    nearest, start = closest(args.env, args.episodes, max(limits))
+    shown = ("episodes", "limits", "radii", "min_distances", "env")
     line = command_line("robothand_sparsity.py", parser, args, shown=shown)
     rows = {}
     for limit in limits:
@@ -74,13 +78,14 @@ def main() -> None:
                 hits, layouts = int((nearest[kept, limit - 1] <= radius).sum()), int(kept.sum())
                 interval = proportion_interval(hits, layouts)
                 sparse = interval.high <= RULE
-                name = f"{limit}-{radius:g}-{distance:g}"
+                version = "" if args.env == REACHING else args.env.rpartition("-")[2] + "-"
+                name = f"{version}{limit}-{radius:g}-{distance:g}"
                 rows[name] = {"hits": hits, "layouts": layouts, "interval": interval.text("{:.3f}"), "sparse": sparse}
                 record(
                     f"robothand_sparsity_{name}".replace(".", "p").replace("-", "_"),
-                    f"RobotHand Reaching, time limit {limit} steps, goal radius {radius:g} m, goals at least "
-                    f"{distance:g} m from the grip's start: share of episodes uniformly random primitive actions "
-                    f"reach the goal [95% Wilson CI], {layouts} layouts",
+                    f"{args.env.removeprefix('famarl/')}, time limit {limit} steps, goal radius {radius:g} m, goals at "
+                    f"least {distance:g} m from the grip's start: share of episodes uniformly random primitive "
+                    f"actions reach the goal [95% Wilson CI], {layouts} layouts",
                     line,
                     interval.text("{:.3f}"),
                     f"at most {RULE:.0%} (sparse)",

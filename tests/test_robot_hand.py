@@ -201,3 +201,22 @@ def test_batch_reports_unsuccessful_endings():
     batch.envs[0].unwrapped.object.position = (5.0, rh.BALL_RADIUS)
     _, _, terminated, _, info = batch.step(np.zeros((2, 4)))
     assert terminated.tolist() == [True, False] and info["success"].tolist() == [False, False]
+
+
+def test_reaching_v1_draws_every_goal_far_from_the_start_and_v0_as_before():
+    from famarl_cli.envs.robot_hand import FAR_GOAL, OBSERVATION_NAMES
+
+    grip = [OBSERVATION_NAMES.index(n) for n in ("grip_x", "grip_y")]
+    target = [OBSERVATION_NAMES.index(n) for n in ("target_x", "target_y")]
+    near, far = make("reaching"), make("reaching-far")
+    redrawn = 0
+    for seed in range(200):
+        before, _ = near.reset(seed=seed)
+        after, _ = far.reset(seed=seed)
+        assert np.linalg.norm(after[target] - after[grip]) >= FAR_GOAL
+        assert np.array_equal(before[grip], after[grip])  # the start is drawn first, the same
+        if np.linalg.norm(before[target] - before[grip]) >= FAR_GOAL:
+            assert np.array_equal(before[target], after[target])  # a far goal is kept as drawn
+        else:
+            redrawn += 1
+    assert redrawn > 10  # v0 draws goals near the start often enough that random actions find them

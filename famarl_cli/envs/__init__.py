@@ -21,6 +21,8 @@ ROBOT_HAND_IDS = {
     "base": "famarl/RobotHand-Base-v0",
     "reaching": "famarl/RobotHand-Reaching-v0",
     "reaching-no-penalty": "famarl/RobotHand-ReachingNoPenalty-v0",
+    "reaching-far": "famarl/RobotHand-Reaching-v1",
+    "reaching-far-no-penalty": "famarl/RobotHand-ReachingNoPenalty-v1",
     "ball-placing": "famarl/RobotHand-BallPlacing-v0",
 }
 ENV_IDS = {**CONTINUOUS_WORLD_IDS, **{f"robot-hand-{task}": env_id for task, env_id in ROBOT_HAND_IDS.items()}}
