@@ -17,14 +17,14 @@ def test_no_name_has_two_meanings_and_no_meaning_two_names():
 
 def test_the_rule_finds_both_kinds_of_clash():
     named = [
-        Named("a", "--epochs", "Segmenter.epochs", "", False, False),
-        Named("b", "--epochs", "Favae.epochs", "", False, False),
-        Named("c", "--model", "Favae.path", "", False, False),
-        Named("d", "--favae", "Favae.path", "", False, False),
-        Named("e", "--seed", "E.seed", "", False, False),
-        Named("f", "--seed", "F.seed", "", False, False),
-        Named("g", "--beta", "Calibration.beta", "", True, False),  # an old spelling: another command's name now
-        Named("h", "--beta", "Fit.beta", "", False, False),
+        Named("a", "--epochs", "Segmenter.epochs", "", False),
+        Named("b", "--epochs", "Favae.epochs", "", False),
+        Named("c", "--model", "Favae.path", "", False),
+        Named("d", "--favae", "Favae.path", "", False),
+        Named("e", "--seed", "E.seed", "", False),
+        Named("f", "--seed", "F.seed", "", False),
+        Named("g", "--beta", "Calibration.beta", "", True),  # an old spelling: another command's name now
+        Named("h", "--beta", "Fit.beta", "", False),
     ]
     found = clashes(named)
     assert len(found) == 2 and found[0].startswith("--epochs means 2 things") and "has 2 names" in found[1]

@@ -95,16 +95,18 @@ def provenance(
     facts that decide its floats (:func:`famarl_cli.core.reproducibility.platform_facts`) and, given the command's
     ``options``, its making (:func:`making`), by which a command run again knows its work (:func:`claim_output`)."""
     inputs = list(inputs)
+    made = None if options is None else making(command, options, inputs)
+    hashed = {} if made is None else made["inputs"]  # each input's content read once
     prov = {
         "command": command,
         "params": params,
         "seed": seed,
         "famarl_version": __version__,
-        "inputs": {shown_path(p): sha256(p) for p in inputs},
+        "inputs": {shown_path(p): hashed.get(shown_path(p)) or sha256(p) for p in inputs},
         "platform": platform_facts(),
     }
-    if options is not None:
-        prov["made_from"] = making(command, options, inputs)
+    if made is not None:
+        prov["made_from"] = made
     return prov
 
 
@@ -166,9 +168,10 @@ def what_changed(before: dict, now: dict) -> list[str]:
     return changes
 
 
-def claim_output(outputs: list[Path], made: dict, overwrite: bool) -> bool:
+def claim_output(outputs: list[Path], made: dict, overwrite: bool, instead: str = "give another --out") -> bool:
     """Whether to make ``outputs`` (the first records the making; all of them make it complete) by the rule of the
-    module doc: True to make them, False where they are complete and made so; a usage error otherwise."""
+    module doc: True to make them, False where they are complete and made so; a usage error otherwise, whose hint
+    offers ``--overwrite`` or ``instead``."""
     primary = outputs[0]
     if overwrite or not primary.exists():
         return True
@@ -176,13 +179,13 @@ def claim_output(outputs: list[Path], made: dict, overwrite: bool) -> bool:
     if recorded is None:
         raise UsageError(
             f"{primary} exists and does not record what it was made from (made by hand or by an older famarl); "
-            "add --overwrite to replace it, or give another --out"
+            f"add --overwrite to replace it, or {instead}"
         )
     changes = what_changed(recorded, made)
     if changes:
         raise UsageError(
             f"{primary} was made from other inputs or options: {'; '.join(changes)}; add --overwrite to make it "
-            "afresh, or give another --out"
+            f"afresh, or {instead}"
         )
     return not all(p.exists() for p in outputs)
 

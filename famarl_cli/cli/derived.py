@@ -87,8 +87,7 @@ def command(registrar: typer.Typer, options: type, name: str | None = None, **se
             )
         renamed = [option for option in shown if option.renamed]
         for option in renamed:
-            annotation, _ = typer_option(option)
-            kind, setting = typing.get_args(annotation)
+            kind = typing.get_args(typer_option(option)[0])[0]
             alias = typer.Option(*option.renamed, **{**_settings(option), "hidden": True})
             parameters.append(
                 inspect.Parameter(

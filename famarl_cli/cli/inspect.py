@@ -34,21 +34,22 @@ def inspect(
     from famarl_cli.artifacts.base import HDF5_SIGNATURE, ZIP_SIGNATURE
     from famarl_cli.core.errors import ArtifactError
 
-    if path.is_dir():
-        table, made = _run_folder(path)
-    elif not path.is_file():
+    if not path.exists():
         raise ArtifactError(f"{path}: no such file or folder")
-    else:
+    head = b""
+    if path.is_file():
         with open(path, "rb") as handle:
             head = handle.read(8)
-        if head == HDF5_SIGNATURE:
-            table, made = _hdf5(path, plot)
-        elif head.startswith(ZIP_SIGNATURE):
-            table, made = _checkpoint(path)
-        else:
-            table, made = _record(path)
-    if plot and "written" not in {str(cell) for cell in table.columns[0].cells}:
+    if plot and head != HDF5_SIGNATURE:  # a demos file's trajectories: _hdf5 checks the schema
         raise ArtifactError(f"{path}: --plot draws demos files; this is not one")
+    if path.is_dir():
+        table, made = _run_folder(path)
+    elif head == HDF5_SIGNATURE:
+        table, made = _hdf5(path, plot)
+    elif head.startswith(ZIP_SIGNATURE):
+        table, made = _checkpoint(path)
+    else:
+        table, made = _record(path)
     _provenance_rows(table, made)
     Console().print(table)
 
@@ -64,6 +65,8 @@ def _hdf5(path: Path, plot: bool) -> tuple[Table, dict]:
     from famarl_cli.core.errors import ArtifactError
 
     schema = peek_schema(path)
+    if plot and schema != DEMOS:
+        raise ArtifactError(f"{path}: --plot draws demos files; this is not one")
     if schema == DEMOS:
         loaded = read_demos(path)
         table = demos_table(loaded, str(path))
@@ -130,7 +133,7 @@ def _checkpoint(path: Path) -> tuple[Table, dict]:
 
 
 def _run_folder(folder: Path) -> tuple[Table, dict]:
-    from famarl_cli.artifacts.runs import EVAL_FILE, read_run_file
+    from famarl_cli.artifacts.runs import EVAL_FILE, read_evaluation, read_run_file
 
     run = read_run_file(folder)
     spec, ppo = run["spec"], run["spec"]["ppo"]
@@ -143,7 +146,7 @@ def _run_folder(folder: Path) -> tuple[Table, dict]:
     table.add_row("env steps", f"{run.get('env_steps', 0):,} of {ppo['total_steps']:,}; {state}")
     evaluation = folder / EVAL_FILE
     if evaluation.is_file():
-        found = json.loads(evaluation.read_text())
+        found = read_evaluation(evaluation)
         table.add_row(
             "evaluation",
             f"success {found['success_rate']:.2f} (sampled {found['sampled']['success_rate']:.2f}) over "

@@ -38,7 +38,6 @@ class Named:
     """``Class.field`` of its declaration, or ``command.parameter`` for an option typer declares itself."""
     help: str
     hidden: bool
-    is_flag: bool
 
 
 def options() -> list[Named]:
@@ -60,7 +59,7 @@ def options() -> list[Named]:
             name = param.name.removeprefix("renamed__")
             concept = origins.get(name, f"{path}.{name}")
             for flag in (f for f in param.opts if f.startswith("--")):
-                found.append(Named(path, flag, concept, param.help or "", param.hidden, bool(param.is_flag)))
+                found.append(Named(path, flag, concept, param.help or "", param.hidden))
 
     walk(typer.main.get_command(app), "")
     return found

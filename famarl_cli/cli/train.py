@@ -11,7 +11,6 @@ from rich.table import Table
 
 from famarl_cli.cli import JobRecipe, app, console, progress_bar, sweepable, torch_on_one_thread
 from famarl_cli.cli.derived import command
-from famarl_cli.core.errors import UsageError
 from famarl_cli.stages.train import TrainOptions, run_spec
 
 
@@ -60,25 +59,13 @@ def train(options: TrainOptions) -> None:
 
 def _afresh(out: Path, fresh, overwrite: bool) -> bool:
     """Whether ``famarl train`` starts the run ``fresh`` in ``out`` (True) or continues the one there, made from the
-    same inputs and options (False): the rule of every command (:mod:`famarl_cli.artifacts.made`)."""
-    from famarl_cli.artifacts.made import recorded_making, what_changed
+    same inputs and options (False): the rule of every command (:mod:`famarl_cli.artifacts.made`), its run file
+    recording the making."""
+    from famarl_cli.artifacts.made import claim_output
     from famarl_cli.artifacts.runs import RUN_FILE
 
-    if overwrite or not (out / RUN_FILE).exists():
-        return True
-    recorded = recorded_making(out / RUN_FILE)
-    if recorded is None:
-        raise UsageError(
-            f"{out} holds a run that does not record what it was made from; add --resume to continue it as it was "
-            "made, or --overwrite to replace it"
-        )
-    changes = what_changed(recorded, fresh.provenance["made_from"])
-    if changes:
-        raise UsageError(
-            f"{out} holds a run made from other inputs or options: {'; '.join(changes)}; add --overwrite to start "
-            "afresh, or --resume to continue it as it was made"
-        )
-    return False
+    made = fresh.provenance["made_from"]
+    return claim_output([out / RUN_FILE], made, overwrite, instead="--resume to continue it as it was made")
 
 
 @sweepable(

@@ -83,6 +83,11 @@ def _is_data(path: str) -> bool:
     return bool(parts) and parts[0] == "data"
 
 
+def stages_of(root: Path, definition: str, graph) -> list:
+    """The stages of the ``dvc.yaml`` ``definition`` in DVC's stage ``graph``."""
+    return [stage for stage in graph if Path(stage.path) == (root / definition).resolve()]
+
+
 def stale_stages(root: Path, definition: str, graph) -> tuple[str, ...]:
     """The stages of ``definition``, and those upstream of it in DVC's stage ``graph``, whose command, code or
     parameters differ from their dvc.lock. Data deps are left aside: a fresh clone has none, and a local run's data
@@ -90,7 +95,7 @@ def stale_stages(root: Path, definition: str, graph) -> tuple[str, ...]:
     ``dvc repro``)."""
     import networkx as nx
 
-    mine = [stage for stage in graph if Path(stage.path) == (root / definition).resolve()]
+    mine = stages_of(root, definition, graph)
     wanted = set(mine).union(*(nx.descendants(graph, stage) for stage in mine))
     stale = [
         stage.addressing
@@ -119,8 +124,7 @@ def pipelines(root: Path) -> list[Pipeline]:
 
 def outputs_here(root: Path, definition: str, graph) -> bool:
     """Whether every output of ``definition``'s stages exists in the working copy."""
-    mine = [stage for stage in graph if Path(stage.path) == (root / definition).resolve()]
-    return all(out.exists for stage in mine for out in stage.outs)
+    return all(out.exists for stage in stages_of(root, definition, graph) for out in stage.outs)
 
 
 def read_summary(path: Path) -> dict:

@@ -30,8 +30,7 @@ from pathlib import Path
 
 from famarl_cli import __version__
 from famarl_cli.artifacts.base import sha256
-from famarl_cli.artifacts.made import shown_path
-from famarl_cli.artifacts.made import what_changed as changed_making
+from famarl_cli.artifacts.made import shown_path, what_changed
 from famarl_cli.core.errors import ArtifactError, UsageError
 
 JOB_FILE = "job.json"
@@ -197,7 +196,7 @@ def job_key(job: Job, made: dict | None = None) -> str:
 
 def job_record(job: Job, complete: bool, made: dict | None = None) -> dict:
     """What :data:`JOB_FILE` holds: the job's name, key, axis values and whether it is complete, and what the key
-    hashes, so that a folder made from other inputs can say which (:func:`what_changed`)."""
+    hashes, so that a folder made from other inputs can say which (:func:`folder_action`)."""
     made = made_from(job) if made is None else made
     return {
         "schema": JOB_SCHEMA,
@@ -214,17 +213,6 @@ def _making(record: dict) -> dict:
     """A job record (or :func:`made_from`) as :mod:`famarl_cli.artifacts.made` words a making."""
     keys = {"command": "runner", "options": "config", "famarl_version": "famarl_version", "inputs": "inputs"}
     return {key: record.get(field) for key, field in keys.items()}
-
-
-def what_changed(record: dict, job: Job, made: dict | None = None, source: bool = True) -> list[str]:
-    """How ``job`` (made from ``made``, when the caller has it) differs from the one a folder's record was made
-    from, in words: the options (as the config names them), the input files whose content changed, famarl's
-    version and, with ``source``, famarl's source."""
-    made = made_from(job) if made is None else made
-    changes = changed_making(_making(record), _making(made))
-    if source and not changes and record.get("code") != made["code"]:
-        changes.append("famarl's source")
-    return changes
 
 
 class Action(StrEnum):
@@ -310,7 +298,7 @@ def folder_action(folder: Path, job: Job, overwrite: bool, made: dict | None = N
     if overwrite:
         return Action.RUN
     made = made_from(job) if made is None else made
-    changes = what_changed(record, job, made, source=False)
+    changes = what_changed(_making(record), _making(made))
     if changes:
         raise UsageError(
             f"{folder} was made from other inputs: {'; '.join(changes)}; add --overwrite to start over in it, or "
