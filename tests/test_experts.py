@@ -81,7 +81,7 @@ def test_robothand_controls_solve_their_tasks_in_the_pegging_experts_moves(scrip
     """The positive controls of RobotHand's target tasks: each task can be solved in its own world and time limit,
     by straight moves and grasps like the pegging demos' (all their phases begun)."""
     demos = record_demos(script, n_episodes=40, seed=11)
-    assert demos.env_id.endswith(("Reaching-v0", "BallPlacing-v0")) and script.environment == Environment.ROBOT_HAND
+    assert demos.env_id.endswith(("Reaching-v1", "BallPlacing-v0")) and script.environment == Environment.ROBOT_HAND
     assert demos.success_rate >= 0.95
     begun = [len(e.segment_starts) for e in demos.episodes]
     assert max(begun) == phases and demos.factor_names == ("dx", "dy", "grasp")

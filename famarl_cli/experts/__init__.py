@@ -24,8 +24,9 @@ class Demonstration:
     factor_names: tuple[str, ...] = ()
 
 
-ROBOT_HAND_TASKS = {Script.PEGGING: "base", Script.REACHING: "reaching", Script.BALL_PLACING: "ball-placing"}
-"""The RobotHand task each RobotHand script acts in."""
+ROBOT_HAND_TASKS = {Script.PEGGING: "base", Script.REACHING: "reaching-far", Script.BALL_PLACING: "ball-placing"}
+"""The RobotHand task each RobotHand script acts in: the reaching control in Reaching-v1, the version
+pipelines/robothand judges agents on (goals at least 2 m from the grip's start, docs/robothand.md)."""
 
 
 def demonstration(script: Script) -> Demonstration:
