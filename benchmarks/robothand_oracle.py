@@ -26,7 +26,8 @@ from common import RESULTS, ROOT, command_line, record, write_result
 from famarl_cli.core.statistics import mean_interval
 from famarl_cli.sweep.plan import parse_values
 
-TASKS, AGENTS = ("Reaching", "BallPlacing"), ("famarl", "figar", "ppo")
+TASKS, AGENTS = ("Reaching-v1", "BallPlacing-v0"), ("famarl", "figar", "ppo")
+"""The pipeline's tasks, as its run folders name them."""
 
 
 def main() -> None:
@@ -58,7 +59,7 @@ def main() -> None:
             interval = mean_interval(shares, args.episodes)
             rows[f"{task}-{agent}"] = {"shares": shares, "mean": interval.estimate, "interval": interval.text()}
             record(
-                f"robothand_oracle_{task.lower()}_{agent}",
+                f"robothand_oracle_{task.lower().replace('-', '_')}_{agent}",
                 f"RobotHand {task}: share of layouts an open-loop plan in {agent}'s action space solved (famarl "
                 f"oracle, lower bound), replicates {args.seeds}, {args.episodes} layouts each; mean over replicates "
                 "[95% CI]",

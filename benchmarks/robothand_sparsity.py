@@ -67,6 +67,8 @@ def main() -> None:
     limits = [int(v) for v in parse_values(args.limits)]
     radii = [float(v) for v in parse_values(args.radii)]
     least = [float(v) for v in parse_values(args.min_distances)]
+    if args.episodes < 1 or min(limits) < 1 or min(radii) <= 0:
+        parser.error("--episodes and --limits must be at least 1, --radii above 0")
     nearest, start = closest(args.env, args.episodes, max(limits))
     shown = ("episodes", "limits", "radii", "min_distances", "env")
     line = command_line("robothand_sparsity.py", parser, args, shown=shown)
