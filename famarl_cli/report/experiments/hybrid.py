@@ -27,12 +27,10 @@ from famarl_cli.report.experiments.common import (
     wall_per_million,
 )
 from famarl_cli.report.experiments.common import speed as speed_of
+from famarl_cli.report.experiments.robothand import BALL_PLACING, REACHING
 from famarl_cli.report.results import THRESHOLD, Group, RunResult, by_agent, copy_figure, gather, group, results_table
 from famarl_cli.report.verdicts import Claim, Estimate, Judgement, combine, not_run
 
-REACHING, BALL_PLACING = "famarl/RobotHand-Reaching-v0", "famarl/RobotHand-BallPlacing-v0"
-"""The RobotHand tasks as pipelines/hybrid ran them (goals anywhere: v0), compared with pipelines/robothand's runs
-of the same env ids."""
 EARLY = 0.02
 """Share of the budget that counts as the start of training."""
 START_RATIO = 0.7

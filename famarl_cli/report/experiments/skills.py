@@ -34,6 +34,7 @@ from famarl_cli.report.experiments.common import (
     success_of,
     wall_per_million,
 )
+from famarl_cli.report.experiments.robothand import REACHING
 from famarl_cli.report.results import THRESHOLD, Group, copy_figure, gather, group, read_json, results_table
 from famarl_cli.report.verdicts import Claim, Estimate, Judgement, bonferroni_level, combine, not_run
 
@@ -51,8 +52,6 @@ the closed-loop decoder, both, and re-deciding after 10 steps (FaMARL's cheap fo
 BASELINES = ("famarl", "ppo", "figar")
 POINTMAZE_LARGE = "PointMaze_Large-v3"
 BIPEDAL = "BipedalWalker-v3"
-REACHING = "famarl/RobotHand-Reaching-v0"
-"""Reaching as pipelines/skills ran it (goals anywhere), compared with pipelines/robothand's runs of the same id."""
 POINTMAZE_RATIO = 2.0
 """Goal: the best skill agent's final success on PointMaze Large is at least this many times PPO's."""
 MAZE_SPEED = 0.5
