@@ -131,7 +131,7 @@ def evaluate(options: EvaluateOptions) -> None:
         typer.echo(f"note: not filmed: {note}", err=True)
     filmed = film and not unfilmed
     console.print(
-        f"written {EVAL_FILE}, {ROLLOUTS_FILE} (ContinuousWorld)"
+        f"written {EVAL_FILE}, {ROLLOUTS_FILE} (ContinuousWorld runs only)"
         f"{f', {FILM_FILE}, {STILLS_FILE}' if filmed else ''} in {out or 'each run folder'}, {curves}, "
         f"{curves.with_suffix('.json')}"
     )
