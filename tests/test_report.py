@@ -191,7 +191,10 @@ def test_robothand_aggregates_both_tasks(tmp_path):
     assert (tmp_path / "report/robothand-profile.png").stat().st_size > 1000
     # two tasks' runs of one agent are two series, by the env's name, in the curves and the headline numbers
     headline = json.loads((tmp_path / "report/summary.json").read_text())["robothand"]["headline"]
-    assert headline["famarl (RobotHand-Reaching-v0)"]["n"] == headline["ppo (RobotHand-BallPlacing-v0)"]["n"] == 5
+    reaching, ball = (
+        f"{agent} ({env.removeprefix('famarl/')})" for agent, env in (("famarl", REACHING), ("ppo", BALL_PLACING))
+    )
+    assert headline[reaching]["n"] == headline[ball]["n"] == 5
     assert len(headline) == 6
     assert "Positive controls" not in text  # none has run
 
