@@ -25,6 +25,7 @@ from pathlib import Path
 from common import RESULTS, ROOT, command_line, record, write_result
 
 from famarl_cli.artifacts.runs import read_evaluation, read_run_file
+from famarl_cli.core.errors import UsageError
 from famarl_cli.core.statistics import mean_interval
 from famarl_cli.report.experiments.robothand import REACHING
 from famarl_cli.sweep.plan import parse_values
@@ -39,8 +40,8 @@ pipelines/macro-length runs 1M-lr1e-3 under semi-MDP discounting)."""
 EPISODES, EVALUATION_SEED = 100, 100
 
 
-def train_and_evaluate(setting: str, seeds: str, data: Path) -> list[Path]:
-    """The setting's runs over ``seeds``, trained and evaluated where they are not yet; their evaluation folders."""
+def train_and_evaluate(setting: str, seeds: str, data: Path) -> list[tuple[Path, Path]]:
+    """The setting's runs over ``seeds``, trained and evaluated where they are not yet: (run, evaluation) folders."""
     out, evaluated = data / "robothand-budget" / setting, data / "robothand-budget" / f"{setting}-eval"
     famarl = [sys.executable, "-m", "famarl_cli"]
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
@@ -50,7 +51,7 @@ def train_and_evaluate(setting: str, seeds: str, data: Path) -> list[Path]:
     subprocess.run([*command, *SETTINGS[setting]], check=True, env=env)
     evaluate = [*famarl, "evaluate", "--run", str(out), "--out", str(evaluated)]
     subprocess.run([*evaluate, "--episodes", str(EPISODES), "--seed", str(EVALUATION_SEED)], check=True, env=env)
-    return [evaluated / f"seed{s}" for s in parse_values(seeds)]
+    return [(out / f"seed{s}", evaluated / f"seed{s}") for s in parse_values(seeds)]
 
 
 def main() -> None:
@@ -62,16 +63,22 @@ def main() -> None:
     args = parser.parse_args()
     settings = args.settings.split(",")
     if unknown := [s for s in settings if s not in SETTINGS]:
-        parser.error(f"unknown setting {unknown[0]!r} (known: {', '.join(SETTINGS)})")
-    if not (args.data / "robothand/macros/seed0/favae.pt").is_file():
-        parser.error("no pegging macros in data/robothand/macros: dvc repro pipelines/robothand/dvc.yaml first")
+        raise SystemExit(f"error: unknown setting {unknown[0]!r} (known: {', '.join(SETTINGS)})")
+    try:
+        seeds = [int(s) for s in parse_values(args.seeds)]
+    except (UsageError, ValueError) as exc:
+        raise SystemExit(f"error: --seeds {args.seeds!r}: {exc}") from None
+    if missing := [s for s in seeds if not (args.data / f"robothand/macros/seed{s}/favae.pt").is_file()]:
+        raise SystemExit(
+            f"error: no pegging FAVAE of replicate {missing[0]} in {args.data}/robothand/macros: dvc repro "
+            "pipelines/robothand/dvc.yaml first"
+        )
     line = command_line("robothand_budget.py", parser, args, shown=("seeds", "settings"), hidden=("out", "data"))
     rows = {}
     for setting in settings:
         folders = train_and_evaluate(setting, args.seeds, args.data)
-        success = [float(read_evaluation(f / "eval.json")["sampled"]["success_rate"]) for f in folders]
-        runs = args.data / "robothand-budget" / setting
-        updates = [int(read_run_file(runs / f.name)["updates"]) for f in folders]
+        success = [float(read_evaluation(e / "eval.json")["sampled"]["success_rate"]) for _, e in folders]
+        updates = [int(read_run_file(run)["updates"]) for run, _ in folders]
         interval = mean_interval(success, EPISODES)
         rows[setting] = {"success": success, "updates": updates, "interval": interval.text()}
         record(

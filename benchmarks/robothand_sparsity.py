@@ -25,6 +25,7 @@ import numpy as np
 from common import RESULTS, command_line, record, write_result
 
 import famarl_cli  # noqa: F401  (registers the envs)
+from famarl_cli.core.errors import UsageError
 from famarl_cli.core.statistics import proportion_interval
 from famarl_cli.envs.robot_hand import OBSERVATION_NAMES
 from famarl_cli.sweep.plan import parse_values
@@ -64,11 +65,14 @@ def main() -> None:
     parser.add_argument("--env", default=REACHING, help="The Reaching env whose layouts are drawn.")
     parser.add_argument("--out", type=Path, default=RESULTS / "robothand_sparsity.json")
     args = parser.parse_args()
-    limits = [int(v) for v in parse_values(args.limits)]
-    radii = [float(v) for v in parse_values(args.radii)]
-    least = [float(v) for v in parse_values(args.min_distances)]
-    if args.episodes < 1 or min(limits) < 1 or min(radii) <= 0:
-        parser.error("--episodes and --limits must be at least 1, --radii above 0")
+    try:
+        limits = [int(v) for v in parse_values(args.limits)]
+        radii = [float(v) for v in parse_values(args.radii)]
+        least = [float(v) for v in parse_values(args.min_distances)]
+    except (UsageError, ValueError) as exc:
+        raise SystemExit(f"error: --limits, --radii and --min-distances take numbers: {exc}") from None
+    if args.episodes < 1 or min(limits) < 1 or not all(r > 0 for r in radii):
+        raise SystemExit("error: --episodes and --limits must be at least 1, --radii above 0")
     nearest, start = closest(args.env, args.episodes, max(limits))
     shown = ("episodes", "limits", "radii", "min_distances", "env")
     line = command_line("robothand_sparsity.py", parser, args, shown=shown)

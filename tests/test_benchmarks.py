@@ -66,3 +66,23 @@ def test_robothand_sparsity_counts_each_setting_from_one_pass(tmp_path):
     # a longer limit or a wider goal never reaches fewer
     assert hits["20-0.5-0"] <= hits["80-0.5-0"] <= hits["80-3-0"] and hits["20-0.5-0"] <= hits["20-3-0"]
     assert len(json.loads(measured.read_text())) == 4
+
+
+def test_robothand_budget_and_sparsity_refuse_bad_options_before_any_work(tmp_path):
+    import os
+
+    out, measured = tmp_path / "result.json", tmp_path / "measured.json"
+    env = {**os.environ, "FAMARL_MEASURED": str(measured)}
+
+    def run_with(script: str, *args) -> subprocess.CompletedProcess:
+        command = [sys.executable, str(BENCHMARKS / script), *map(str, args), "--out", str(out)]
+        return subprocess.run(command, capture_output=True, text=True, timeout=120, env=env)
+
+    one_error_line(run_with("robothand_budget.py", "--settings", "nope"), "unknown setting 'nope'")
+    one_error_line(run_with("robothand_budget.py", "--seeds", "abc"), "--seeds 'abc'")
+    one_error_line(run_with("robothand_budget.py", "--seeds", "3-1"), "runs backwards")
+    one_error_line(run_with("robothand_budget.py", "--data", tmp_path), "no pegging FAVAE of replicate 0")
+    one_error_line(run_with("robothand_sparsity.py", "--episodes", 0), "--episodes and --limits must be at least 1")
+    one_error_line(run_with("robothand_sparsity.py", "--radii", "nan"), "--radii above 0")
+    one_error_line(run_with("robothand_sparsity.py", "--limits", "abc"), "take numbers")
+    assert not out.exists() and not measured.exists() and not (tmp_path / "robothand-budget").exists()

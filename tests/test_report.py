@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 from famarl_cli.cli import app
 from famarl_cli.core.errors import ArtifactError
 from famarl_cli.report import experiments as registry
-from famarl_cli.report.experiments import experiments, hybrid
+from famarl_cli.report.experiments import experiments
 from famarl_cli.report.experiments.common import MAZE
 from famarl_cli.report.experiments.macro_length import REACHING_NO_PENALTY
 from famarl_cli.report.experiments.robothand import BALL_PLACING, REACHING
@@ -305,7 +305,7 @@ def test_hybrid_goals_are_met_missed_or_inconclusive_from_intervals_over_seeds(t
                 learned_at=learned_at,
                 wall=wall,
             )
-        make_run(data, "hybrid", f"reaching-{seed}", "hybrid", "hybrid", 0.5 + jitter, hybrid.REACHING)
+        make_run(data, "hybrid", f"reaching-{seed}", "hybrid", "hybrid", 0.5 + jitter, REACHING)
     section = write_report(["hybrid"], data, tmp_path / "report", "test")["hybrid"]
     met = {claim.paper.split(":")[0]: section.word(claim.verdict) for claim in section.claims}
     assert met == {
