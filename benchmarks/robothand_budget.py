@@ -3,7 +3,7 @@ pipeline's pegging macros under a few budgets and learning rates, and the succes
 95% interval over replicates.
 
     dvc repro pipelines/robothand/dvc.yaml               # data/robothand/macros/seed*/favae.pt
-    python benchmarks/robothand_budget.py [--seeds 0-4] [--settings 300k,1M,1M-lr1e-3]
+    python benchmarks/robothand_budget.py [--seeds 0-4] [--settings 300k,1M,1M-lr1e-3,3M,3M-semi-mdp]
 
 The budget is counted in environment steps, as for every agent, but a macro action runs about 30 of them, so at
 300k env steps FaMARL makes about 10k decisions and, at 16 envs x 16 decisions a rollout, about 40 PPO updates,
@@ -34,9 +34,12 @@ SETTINGS = {
     "300k": ["--steps", "300000"],
     "1M": ["--steps", "1000000"],
     "1M-lr1e-3": ["--steps", "1000000", "--lr", "0.001"],
+    "3M": ["--steps", "3000000"],
+    "3M-semi-mdp": ["--steps", "3000000", "--macro-discount", "steps"],
 }
 """Each setting's options beside the pipeline's (300k: its budget until Reaching-v1; 1M-lr1e-3: its budget now;
-pipelines/macro-length runs 1M-lr1e-3 under semi-MDP discounting)."""
+pipelines/macro-length runs 1M-lr1e-3 under semi-MDP discounting; 3M: three times the budget under the paper's
+per-decision discount and under semi-MDP discounting, ours)."""
 EPISODES, EVALUATION_SEED = 100, 100
 
 

@@ -68,7 +68,7 @@ def test_robothand_sparsity_counts_each_setting_from_one_pass(tmp_path):
     assert len(json.loads(measured.read_text())) == 4
 
 
-def test_robothand_budget_and_sparsity_refuse_bad_options_before_any_work(tmp_path):
+def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     import os
 
     out, measured = tmp_path / "result.json", tmp_path / "measured.json"
@@ -85,4 +85,10 @@ def test_robothand_budget_and_sparsity_refuse_bad_options_before_any_work(tmp_pa
     one_error_line(run_with("robothand_sparsity.py", "--episodes", 0), "--episodes and --limits must be at least 1")
     one_error_line(run_with("robothand_sparsity.py", "--radii", "nan"), "--radii above 0")
     one_error_line(run_with("robothand_sparsity.py", "--limits", "abc"), "take numbers")
-    assert not out.exists() and not measured.exists() and not (tmp_path / "robothand-budget").exists()
+    one_error_line(run_with("robothand_demos.py", "--demos", "nope"), "--demos: unknown 'nope'")
+    one_error_line(run_with("robothand_demos.py", "--discounts", "gamma"), "--discounts: unknown 'gamma'")
+    one_error_line(run_with("robothand_demos.py", "--seeds", "abc"), "--seeds 'abc'")
+    one_error_line(run_with("robothand_demos.py", "--oracle-episodes", -1), "not a count of layouts")
+    one_error_line(run_with("robothand_demos.py", "--demos", "pegging", "--data", tmp_path), "no pegging FAVAE there")
+    assert not out.exists() and not measured.exists()
+    assert not (tmp_path / "robothand-budget").exists() and not (tmp_path / "robothand-demos").exists()

@@ -220,3 +220,41 @@ def test_reaching_v1_draws_every_goal_far_from_the_start_and_v0_as_before():
         else:
             redrawn += 1
     assert redrawn > 10  # v0 draws goals near the start often enough that random actions find them
+
+
+def test_base_varied_raises_the_baskets_and_base_draws_as_before():
+    """BaseVaried draws each basket's floor height after everything Base draws, so Base's layouts are unchanged;
+    its hand never starts inside a raised basket's column (post, basket, rod)."""
+    base, varied = make("base"), make("base-varied")
+    floors = []
+    for seed in range(100):
+        plain, _ = base.reset(seed=seed)
+        raised, _ = varied.reset(seed=seed)
+        assert plain[15] == plain[17] == 0.0
+        assert plain[14] == raised[14] and plain[16] == raised[16]  # the baskets' x: the same draws
+        assert raised[9] == pytest.approx(raised[17] + rh.BASKET_WALL + rh.ROD_SIZE[1] / 2)  # the rod stands in it
+        assert not rh.hand_hits(raised[0:2], rh.column_tops(raised[16:18], raised[14:16]))
+        floors += [raised[15], raised[17]]
+    low, high = rh.VARIED_BASKET_FLOOR
+    assert low <= min(floors) and max(floors) <= high and np.ptp(floors) > (high - low) / 2
+
+
+def test_pegging_varied_demos_succeed_and_carry_up_and_down():
+    demos = record_demos("pegging-varied", 40, seed=0)
+    assert demos.success_rate >= 0.95 and demos.env_id == ROBOT_HAND_IDS["base-varied"]
+    carries = np.array([episode.factors[-3, 1] for episode in demos.episodes])  # carry: third phase from the end
+    assert (carries > 0.5).any() and (carries < -0.5).any()
+    approaches = [episode.factors[0] for episode in demos.episodes]
+    assert any(move[1] > 0.5 for move in approaches), "some starts lie below the rod's hover point"
+
+
+def test_route_goes_over_a_basket_in_the_way_and_keeps_the_hand_clear():
+    from famarl_cli.experts.pegging import SAFE_CLEARANCE, _clear, route
+
+    columns = [(2.0, 4.0), (5.0, 3.0)]  # a rod in a raised basket at x = 2, a raised basket at x = 5
+    start, end = np.array([7.0, 2.5]), (2.0, 4.6)
+    way = route(start, end, columns)
+    assert len(way) > 1 and way[-1] == end and way[0] == (7.0, 4.0 + SAFE_CLEARANCE)
+    assert all(_clear(a, b, columns) for a, b in zip([tuple(start), *way[:-1]], way, strict=True))
+    assert not _clear(tuple(start), end, columns)
+    assert route(np.array([7.0, 5.0]), (2.0, 4.6), [(2.0, 4.0), (5.0, 0.35)]) == [(2.0, 4.6)]  # clear: straight

@@ -19,6 +19,7 @@ CONTINUOUS_WORLD_IDS = {
 }
 ROBOT_HAND_IDS = {
     "base": "famarl/RobotHand-Base-v0",
+    "base-varied": "famarl/RobotHand-BaseVaried-v0",
     "reaching": "famarl/RobotHand-Reaching-v0",
     "reaching-no-penalty": "famarl/RobotHand-ReachingNoPenalty-v0",
     "reaching-far": "famarl/RobotHand-Reaching-v1",

@@ -15,6 +15,8 @@ Tasks:
 
 - **Base** (pegging): carry a rod from a blue basket to a red basket; success when the rod stands in the red
   basket and the fingers have let go. The scripted expert (:mod:`famarl_cli.experts.pegging`) acts here.
+  **BaseVaried** is Base with each basket raised on a post to a height drawn per episode, so the expert's moves
+  go up and down and across at every slope (pegging demos that hold what the target tasks ask for).
 - **Reaching**: bring the grip point within GOAL_RADIUS of a random goal; +100 there, -1 every other step
   (``time_penalty=False`` removes the -1).
 - **BallPlacing**: carry a ball from a cup (at a random place) to a fixed goal; reward ``-|b - g|`` each step,
@@ -103,6 +105,12 @@ HAND_START_X, HAND_START_Y = (1.0, 9.0), (2.5, 5.0)
 """Ranges of the grip point's start position (m), drawn per episode in every task."""
 BLUE_BASKET_X, RED_BASKET_X = (1.5, 3.5), (6.5, 8.5)
 """Base: ranges of the baskets' centres; which side each is on is drawn per episode too."""
+VARIED_BASKET_FLOOR = (0.0, 3.0)
+"""BaseVaried: range of each basket's floor height (m); the highest leaves the carried rod's hand below the
+ceiling."""
+HAND_HALF_WIDTH = 0.4
+"""How far the open hand reaches sideways from its grip point (m): the palm's half-width, and the splayed fingers'
+tips a little beyond it. A start or a path of the hand keeps this clear of the baskets."""
 REACH_GOAL_X, REACH_GOAL_Y = (0.5, 9.5), (0.5, 5.5)
 CUP_X = (1.5, 4.0)
 """BallPlacing: range of the cup's centre (the ball starts resting in it)."""
@@ -130,6 +138,8 @@ class TaskSpec:
     time_penalty: bool = True
     min_goal_distance: float = 0.0
     """Reaching: goals are drawn at least this far from the grip's start (m)."""
+    basket_floor: tuple[float, float] = (0.0, 0.0)
+    """Base: range of each basket's floor height (m); a raised basket stands on a post."""
 
 
 FAR_GOAL = 2.0
@@ -140,6 +150,7 @@ benchmarks/robothand_sparsity.py)."""
 
 TASKS = {
     "base": TaskSpec("base", 400),
+    "base-varied": TaskSpec("base", 400, basket_floor=VARIED_BASKET_FLOOR),
     "reaching": TaskSpec("reaching", 200),
     "reaching-no-penalty": TaskSpec("reaching", 200, time_penalty=False),
     "reaching-far": TaskSpec("reaching", 200, min_goal_distance=FAR_GOAL),
@@ -239,6 +250,8 @@ def _pad_vertices(side: float) -> list[tuple[float, float]]:
 
 
 def _add_basket(space: pymunk.Space, x: float, floor_y: float, depth: float = BASKET_HEIGHT) -> list[pymunk.Segment]:
+    """A basket (or cup) with its floor at ``floor_y``, on a post down to the world's floor when raised; returns
+    the basket's own segments (the ones drawn in its colour)."""
     half = BASKET_INNER / 2 + BASKET_WALL
     body = space.static_body
     segments = [
@@ -249,7 +262,25 @@ def _add_basket(space: pymunk.Space, x: float, floor_y: float, depth: float = BA
     for segment in segments:
         segment.friction = FRICTION
     space.add(*segments)
+    if floor_y > 0:
+        space.add(pymunk.Segment(body, (x, 0.0), (x, floor_y), BASKET_WALL))
     return segments
+
+
+def column_tops(source: np.ndarray, target: np.ndarray) -> list[tuple[float, float]]:
+    """Base: (x, top) of the two baskets' columns (post, basket and, in the blue one, the rod standing in it), from
+    the baskets' (x, floor height) at reset: what a hand must not start in nor pass through."""
+    return [
+        (float(source[0]), float(source[1]) + BASKET_WALL + ROD_SIZE[1]),
+        (float(target[0]), float(target[1]) + BASKET_HEIGHT),
+    ]
+
+
+def hand_hits(grip: np.ndarray, columns: list[tuple[float, float]], margin: float = 0.1) -> bool:
+    """Whether an open hand with its grip point at ``grip`` comes within ``margin`` of any column (x, top) that
+    stands from the world's floor up to its top."""
+    reach = HAND_HALF_WIDTH + BASKET_INNER / 2 + BASKET_WALL + margin
+    return any(abs(grip[0] - x) < reach and grip[1] < top + margin for x, top in columns)
 
 
 def empty_world() -> pymunk.Space:
@@ -310,10 +341,16 @@ class RobotHandEnv(gym.Env):
             blue, red = rng.uniform(*BLUE_BASKET_X), rng.uniform(*RED_BASKET_X)
             if rng.random() < 0.5:  # mirror the layout so that rods are carried both ways
                 blue, red = WIDTH - blue, WIDTH - red
-            source, target = np.array([blue, 0.0]), np.array([red, 0.0])
-            self.colours.update(dict.fromkeys(_add_basket(self.space, blue, 0.0), COLOURS["blue"]))
-            self.colours.update(dict.fromkeys(_add_basket(self.space, red, 0.0), COLOURS["red"]))
-            self.object = self._add_rod(blue)
+            floors = (0.0, 0.0)
+            if self.task.basket_floor != (0.0, 0.0):  # drawn only here, so Base's episodes stay as they were
+                floors = (rng.uniform(*self.task.basket_floor), rng.uniform(*self.task.basket_floor))
+            source, target = np.array([blue, floors[0]]), np.array([red, floors[1]])
+            # A start in a raised basket's column is drawn again, not moved: the start stays uniform where it is free.
+            while hand_hits(grip, column_tops(source, target)):
+                grip = np.array([rng.uniform(*HAND_START_X), rng.uniform(*HAND_START_Y)])
+            self.colours.update(dict.fromkeys(_add_basket(self.space, blue, floors[0]), COLOURS["blue"]))
+            self.colours.update(dict.fromkeys(_add_basket(self.space, red, floors[1]), COLOURS["red"]))
+            self.object = self._add_rod(blue, floors[0])
         elif self.task.name == "reaching":
             source = np.zeros(2)
             target = np.array([rng.uniform(*REACH_GOAL_X), rng.uniform(*REACH_GOAL_Y)])
@@ -328,9 +365,9 @@ class RobotHandEnv(gym.Env):
         self.hand = Hand(self.space, tuple(grip))
         return self._observe(), self._info(False)
 
-    def _add_rod(self, x: float) -> pymunk.Body:
+    def _add_rod(self, x: float, floor_y: float) -> pymunk.Body:
         rod = pymunk.Body(ROD_MASS, pymunk.moment_for_box(ROD_MASS, ROD_SIZE))
-        rod.position = (x, BASKET_WALL + ROD_SIZE[1] / 2)
+        rod.position = (x, floor_y + BASKET_WALL + ROD_SIZE[1] / 2)
         shape = pymunk.Poly.create_box(rod, ROD_SIZE)
         shape.friction = FRICTION
         self.space.add(rod, shape)
@@ -338,8 +375,6 @@ class RobotHandEnv(gym.Env):
 
     def _add_cup(self, x: float) -> None:
         self.colours.update(dict.fromkeys(_add_basket(self.space, x, CUP_HEIGHT, CUP_DEPTH), COLOURS["blue"]))
-        post = pymunk.Segment(self.space.static_body, (x, 0.0), (x, CUP_HEIGHT), BASKET_WALL)
-        self.space.add(post)
 
     def _add_ball(self, x: float) -> pymunk.Body:
         ball = pymunk.Body(BALL_MASS, pymunk.moment_for_circle(BALL_MASS, 0, BALL_RADIUS))
@@ -363,7 +398,7 @@ class RobotHandEnv(gym.Env):
     def _outcome(self) -> tuple[float, bool, bool]:
         """(reward, terminated, success) of the state just reached."""
         if self.task.name == "base":
-            success = rod_in_basket(self.object, self.layout.target[0]) and self.hand.closure < 0.5
+            success = rod_in_basket(self.object, *self.layout.target) and self.hand.closure < 0.5
             return -float(np.linalg.norm(self._object_position() - self.layout.target)), success, success
         if self.task.name == "reaching":
             success = bool(np.linalg.norm(self.hand.grip - self.layout.target) < GOAL_RADIUS)
@@ -400,9 +435,10 @@ class RobotHandEnv(gym.Env):
         return render_scene(self)
 
 
-def rod_in_basket(rod: pymunk.Body, basket_x: float) -> bool:
-    """Whether the rod stands upright inside the basket centred at ``basket_x`` (resting on its floor, slowly)."""
-    bottom = rod.position.y - ROD_SIZE[1] / 2 * np.cos(rod.angle)
+def rod_in_basket(rod: pymunk.Body, basket_x: float, floor_y: float = 0.0) -> bool:
+    """Whether the rod stands upright inside the basket centred at ``basket_x`` with its floor at ``floor_y``
+    (resting on its floor, slowly)."""
+    bottom = rod.position.y - floor_y - ROD_SIZE[1] / 2 * np.cos(rod.angle)
     inside = abs(rod.position.x - basket_x) < BASKET_INNER / 2
     return bool(inside and bottom < BASKET_HEIGHT / 2 and abs(rod.angle) < 0.3 and abs(rod.velocity.y) < 0.5)
 

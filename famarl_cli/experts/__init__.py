@@ -24,7 +24,12 @@ class Demonstration:
     factor_names: tuple[str, ...] = ()
 
 
-ROBOT_HAND_TASKS = {Script.PEGGING: "base", Script.REACHING: "reaching-far", Script.BALL_PLACING: "ball-placing"}
+ROBOT_HAND_TASKS = {
+    Script.PEGGING: "base",
+    Script.PEGGING_VARIED: "base-varied",
+    Script.REACHING: "reaching-far",
+    Script.BALL_PLACING: "ball-placing",
+}
 """The RobotHand task each RobotHand script acts in: the reaching control in Reaching-v1, the version
 pipelines/robothand judges agents on (goals at least 2 m from the grip's start, docs/robothand.md)."""
 
@@ -40,6 +45,7 @@ def make_expert(script: Script) -> ContinuousWorldExpert | PhasedHand:
     script = Script(script)
     controllers = {
         Script.PEGGING: PeggingExpert,
+        Script.PEGGING_VARIED: PeggingExpert,
         Script.REACHING: ReachingControl,
         Script.BALL_PLACING: BallPlacingControl,
     }

@@ -2,12 +2,15 @@
 
 Seven phases, each a straight move of the grip point or a grasp held in place:
 
-1. approach: to HOVER_CLEARANCE above the rod's grasp height, right above the rod, fingers opening;
+1. approach: to HOVER_CLEARANCE above the rod's grasp height, right above the rod, fingers opening (in BaseVaried,
+   where a raised basket may stand in the way, first **rise** to SAFE_CLEARANCE above the highest basket and, if
+   still blocked, go **across** at that height: eight or nine phases);
 2. descend: down to GRASP_ABOVE_CENTRE above the rod's centre (held above its centre of mass, the rod hangs
    upright: gravity turns it back when the carry swings it);
 3. grasp: close the fingers, hand still;
 4. lift: up to CARRY_HEIGHT, squeezing;
-5. carry: across to above the red basket, squeezing;
+5. carry: straight to CARRY_HEIGHT above the red basket's floor, squeezing (level in Base; a slope up or down in
+   BaseVaried);
 6. place: down until the rod stands on the red basket's floor, squeezing;
 7. release: open the fingers, hand still; the episode succeeds once the rod stands free in the red basket.
 
@@ -22,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from famarl_cli.envs.robot_hand import BASKET_WALL, ROD_SIZE, TURN_SPEED
+from famarl_cli.envs.robot_hand import BASKET_WALL, ROD_SIZE, TURN_SPEED, column_tops, hand_hits
 
 CRUISE = 0.8
 """Cruising speed as a fraction of HAND_SPEED (1.6 m/s)."""
@@ -35,7 +38,13 @@ ARRIVE_SPEED = 0.1
 HOVER_CLEARANCE = 0.8
 """How far above the grasp height the approach ends (m): the open fingertips pass 0.3 m over the rod's top."""
 CARRY_HEIGHT = 2.1
-"""Height of the grip point while carrying (m): the rod's bottom clears the baskets' rims by about a metre."""
+"""Height of the grip point above a basket's floor while carrying (m): the rod's bottom clears the rims by about a
+metre."""
+SAFE_CLEARANCE = 0.6
+"""BaseVaried: how far above the highest basket column the grip point passes when the straight way to the rod is
+blocked (m)."""
+PATH_STEP = 0.05
+"""Spacing (m) of the points at which a straight move is checked clear of the baskets."""
 PLACE_CLEARANCE = 0.02
 """The rod is put down this far above the red basket's floor (m); gravity does the rest once it is let go."""
 GRASP_STEPS = 6
@@ -64,16 +73,40 @@ class Phase:
     """How long a phase with no target lasts."""
 
 
-def phases(rod_x: float, basket_x: float) -> list[Phase]:
+def phases(grip: np.ndarray, rod_x: float, source: np.ndarray, target: np.ndarray) -> list[Phase]:
+    """The plan from the grip point's start, the rod's x and the blue (``source``) and red (``target``) baskets'
+    (x, floor height)."""
+    rod_floor, basket_x, basket_floor = float(source[1]), float(target[0]), float(target[1])
+    hover = (rod_x, rod_floor + GRASP_HEIGHT + HOVER_CLEARANCE)
+    way = route(grip, hover, column_tops(source, target))
+    names = ("rise", "across", "approach")[-len(way) :]
     return [
-        Phase("approach", (rod_x, GRASP_HEIGHT + HOVER_CLEARANCE), -1.0),
-        Phase("descend", (rod_x, GRASP_HEIGHT), -1.0),
+        *(Phase(name, point, -1.0) for name, point in zip(names, way, strict=True)),
+        Phase("descend", (rod_x, rod_floor + GRASP_HEIGHT), -1.0),
         Phase("grasp", None, 1.0, GRASP_STEPS),
-        Phase("lift", (rod_x, CARRY_HEIGHT), 1.0),
-        Phase("carry", (basket_x, CARRY_HEIGHT), 1.0),
-        Phase("place", (basket_x, GRASP_HEIGHT + PLACE_CLEARANCE), 1.0),
+        Phase("lift", (rod_x, rod_floor + CARRY_HEIGHT), 1.0),
+        Phase("carry", (basket_x, basket_floor + CARRY_HEIGHT), 1.0),
+        Phase("place", (basket_x, basket_floor + GRASP_HEIGHT + PLACE_CLEARANCE), 1.0),
         Phase("release", None, -1.0, RELEASE_STEPS),
     ]
+
+
+def route(start: np.ndarray, end: tuple[float, float], columns: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Waypoints from ``start`` to ``end`` along which the open hand stays clear of the basket ``columns``:
+    straight there if it can; else first to SAFE_CLEARANCE above the highest column, then across at that height if
+    still needed. The last way always is clear: the start is (the env draws it so), and the rest runs above every
+    column."""
+    safe_y = max(top for _, top in columns) + SAFE_CLEARANCE
+    rise, across = (float(start[0]), safe_y), (end[0], safe_y)
+    for way in ([end], [rise, end]):
+        if all(_clear(a, b, columns) for a, b in zip([tuple(start), *way[:-1]], way, strict=True)):
+            return way
+    return [rise, across, end]
+
+
+def _clear(a: tuple[float, float], b: tuple[float, float], columns: list[tuple[float, float]]) -> bool:
+    points = max(2, int(np.ceil(np.hypot(b[0] - a[0], b[1] - a[1]) / PATH_STEP)) + 1)
+    return not any(hand_hits(p, columns) for p in np.linspace(a, b, points))
 
 
 class PhasedHand:
@@ -136,7 +169,9 @@ class PhasedHand:
 
 
 class PeggingExpert(PhasedHand):
-    """Acts in RobotHand Base: the seven phases above, from the rod's and the red basket's places."""
+    """Acts in RobotHand Base and BaseVaried: the phases above, from the grip's start, the rod's place and the
+    baskets'."""
 
     def plan_for(self, observation: np.ndarray) -> list[Phase]:
-        return phases(rod_x=float(observation[8]), basket_x=float(observation[14]))
+        obs = observation.astype(np.float64)
+        return phases(obs[0:2], rod_x=float(obs[8]), source=obs[16:18], target=obs[14:16])

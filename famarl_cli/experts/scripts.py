@@ -11,20 +11,22 @@ class Environment(StrEnum):
 
 
 class Script(StrEnum):
-    """The paper's four ContinuousWorld scripts (its Figure 3), RobotHand's pegging script, and the scripted
-    controllers of RobotHand's two target tasks (positive controls, :mod:`famarl_cli.experts.robot_hand_tasks`)."""
+    """The paper's four ContinuousWorld scripts (its Figure 3), RobotHand's pegging script (and ours with the
+    baskets raised to varied heights, BaseVaried), and the scripted controllers of RobotHand's two target tasks
+    (positive controls, :mod:`famarl_cli.experts.robot_hand_tasks`)."""
 
     DOWN_ONLY = "down-only"
     DOWN_AND_UP = "down-and-up"
     PUSHED_DOWN_ONLY = "pushed-down-only"
     PUSHED_DOWN_AND_UP = "pushed-down-and-up"
     PEGGING = "pegging"
+    PEGGING_VARIED = "pegging-varied"
     REACHING = "reaching"
     BALL_PLACING = "ball-placing"
 
     @property
     def environment(self) -> Environment:
-        robot_hand = (Script.PEGGING, Script.REACHING, Script.BALL_PLACING)
+        robot_hand = (Script.PEGGING, Script.PEGGING_VARIED, Script.REACHING, Script.BALL_PLACING)
         return Environment.ROBOT_HAND if self in robot_hand else Environment.CONTINUOUS_WORLD
 
     @property
