@@ -5,12 +5,14 @@ interval over replicates.
 
     dvc repro pipelines/robothand/dvc.yaml               # its settings; the pegging set's FAVAEs
     python benchmarks/robothand_demos.py [--seeds 0-9] [--demos pegging-varied] [--discounts decision,steps]
+                                         [--steps N] [--lr X] [--tasks Reaching-v1,BallPlacing-v0]
 
 Demo sets: ``pegging``, the pipeline's own demos and FAVAEs (data/robothand/macros); ``pegging-varied``, 100 demos of
 the same expert in RobotHand BaseVaried (each basket raised on a post to a floor height drawn in [0, 3] m, so the
 approaches, carries and placings go up, down and across at every slope), segmented and pre-run/fitted with the
 pipeline's settings (pipelines/robothand/params.yaml) into data/robothand-demos/pegging-varied. Each cell (demo set,
-task, discount) is a ``famarl sweep train`` over the seeds at the pipeline's budget and learning rate (seed S
+task, discount) is a ``famarl sweep train`` over the seeds at the pipeline's budget and learning rate, or those
+of --steps and --lr (in the cell's folder name then; seed S
 decodes with replicate S's FAVAE) into data/robothand-demos/<demos>/<task>-<discount>, evaluated like the
 pipeline's runs (100 layouts from seed 100, sampled policy); the oracle (``famarl oracle``, the pipeline's 10
 layouts a run) searches each demo set's macro space once per task, on the per-decision runs (the search does not
@@ -63,11 +65,11 @@ def macros(demos: str, seeds: str, params: dict, data: Path) -> Path:
     return folder / "macros"
 
 
-def train_and_evaluate(cell: Path, task: str, discount: str, favaes: Path, seeds: str, params: dict) -> list[float]:
+def train_and_evaluate(cell: Path, task: str, discount: str, favaes: Path, seeds: str, train: dict) -> list[float]:
     """Sampled-policy success of the cell's runs over ``seeds``, trained and evaluated where they are not yet."""
     famarl("sweep", "train", "--seeds", seeds, "--name", "seed{seed}", "--out", str(cell), "--",
            "--env", f"famarl/RobotHand-{task}", "--agent", "famarl", "--favae", str(favaes / "seed{seed}/favae.pt"),
-           "--steps", str(params["train"]["steps"]), "--lr", str(params["train"]["lr"]),
+           "--steps", str(train["steps"]), "--lr", str(train["lr"]),
            "--macro-discount", discount, "--label", f"famarl-{discount}")  # fmt: skip
     evaluated = cell.with_name(cell.name + "-eval")
     famarl("evaluate", "--run", str(cell), "--out", str(evaluated), "--episodes", str(EPISODES),
@@ -98,6 +100,9 @@ def main() -> None:
     parser.add_argument("--seeds", default="0-9", help="Replicates (FAVAE and RL seed).")
     parser.add_argument("--demos", default="pegging-varied", help=f"Demo sets, of {', '.join(DEMOS)}.")
     parser.add_argument("--discounts", default=",".join(DISCOUNTS), help=f"Of {', '.join(DISCOUNTS)}.")
+    parser.add_argument("--tasks", help="Of the pipeline's tasks [default: all of them].")
+    parser.add_argument("--steps", type=int, help="Env steps per run [default: the pipeline's].")
+    parser.add_argument("--lr", type=float, help="Learning rate [default: the pipeline's].")
     parser.add_argument("--oracle-episodes", type=int, default=10, help="Layouts the oracle searches a run (0: none).")
     parser.add_argument("--data", type=Path, default=ROOT / "data")
     parser.add_argument("--out", type=Path, default=RESULTS / "robothand_demos.json")
@@ -110,32 +115,38 @@ def main() -> None:
         raise SystemExit(f"error: --seeds {args.seeds!r}: {exc}") from None
     if args.oracle_episodes < 0:
         raise SystemExit(f"error: --oracle-episodes {args.oracle_episodes}: not a count of layouts")
+    if (args.steps is not None and args.steps < 1) or (args.lr is not None and not 0 < args.lr < 1):
+        raise SystemExit("error: --steps must be at least 1 and --lr in (0, 1)")
     pegging = [args.data / f"robothand/macros/seed{s}/favae.pt" for s in seeds] if "pegging" in demo_sets else []
     if missing := [path for path in pegging if not path.is_file()]:
         raise SystemExit(f"error: {missing[0]}: no pegging FAVAE there; dvc repro pipelines/robothand/dvc.yaml first")
     params = yaml.safe_load(PARAMS.read_text(encoding="utf-8"))
-    tasks = params["tasks"].split(",")
+    tasks = _choices(args.tasks or params["tasks"], dict.fromkeys(params["tasks"].split(",")), "--tasks")
     line = command_line(
         "robothand_demos.py", parser, args, shown=("seeds", "demos", "discounts"), hidden=("out", "data")
     )
-    budget = f"{params['train']['steps']:,} env steps, lr {params['train']['lr']:g}"
+    train = {"steps": args.steps or params["train"]["steps"], "lr": args.lr or params["train"]["lr"]}
+    budget = f"{train['steps']:,} env steps, lr {train['lr']:g}"
+    changed = (f"-{train['steps']}steps" if train["steps"] != params["train"]["steps"] else "") + (
+        f"-lr{train['lr']:g}" if train["lr"] != params["train"]["lr"] else ""
+    )
     rows = {}
     for demos in demo_sets:
         favaes = macros(demos, args.seeds, params, args.data)
         for task in tasks:
             for discount in discounts:
-                cell = args.data / "robothand-demos" / demos / f"{task}-{discount}"
-                success = train_and_evaluate(cell, task, discount, favaes, args.seeds, params)
+                cell = args.data / "robothand-demos" / demos / f"{task}-{discount}{changed}"
+                success = train_and_evaluate(cell, task, discount, favaes, args.seeds, train)
                 interval = mean_interval(success, EPISODES)
-                rows[f"{demos}/{task}/{discount}"] = {"success": success, "interval": interval.text()}
+                rows[f"{demos}/{task}/{discount}{changed}"] = {"success": success, "interval": interval.text()}
                 record(
-                    f"robothand_demos_{demos}_{task}_{discount}".replace("-", "_").lower(),
+                    f"robothand_demos_{demos}_{task}_{discount}{changed}".replace("-", "_").replace(".", "_").lower(),
                     f"RobotHand-{task}, FaMARL with macros from {DEMOS[demos]}, {DISCOUNTS[discount]}, {budget}: "
                     f"success of the sampled policy over {EPISODES} layouts, replicates {args.seeds}; mean [95% CI]",
                     line,
                     interval.text(),
                 )
-            if args.oracle_episodes:
+            if args.oracle_episodes and not changed:  # the oracle searches the macro space: no budget in it
                 shares = oracle(args.data / "robothand-demos" / demos / f"{task}-{discounts[0]}", args.seeds,
                                 args.oracle_episodes)  # fmt: skip
                 interval = mean_interval(shares, args.oracle_episodes)

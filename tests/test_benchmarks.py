@@ -89,6 +89,8 @@ def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     one_error_line(run_with("robothand_demos.py", "--discounts", "gamma"), "--discounts: unknown 'gamma'")
     one_error_line(run_with("robothand_demos.py", "--seeds", "abc"), "--seeds 'abc'")
     one_error_line(run_with("robothand_demos.py", "--oracle-episodes", -1), "not a count of layouts")
+    one_error_line(run_with("robothand_demos.py", "--lr", 2), "--lr in (0, 1)")
+    one_error_line(run_with("robothand_demos.py", "--tasks", "Walking-v0"), "--tasks: unknown 'Walking-v0'")
     one_error_line(run_with("robothand_demos.py", "--demos", "pegging", "--data", tmp_path), "no pegging FAVAE there")
     assert not out.exists() and not measured.exists()
     assert not (tmp_path / "robothand-budget").exists() and not (tmp_path / "robothand-demos").exists()

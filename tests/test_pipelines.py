@@ -74,6 +74,7 @@ TINY = {
         "evaluate": TINY_EVALUATE,
     },
     "pipelines/macro-length/params.yaml": {"seeds": "0-1", "train": TINY_TRAIN, "evaluate": TINY_EVALUATE},
+    "pipelines/robothand-sensitivity/params.yaml": {"seeds": "0-1", "train": TINY_TRAIN, "evaluate": TINY_EVALUATE},
     "pipelines/hybrid/params.yaml": {
         "seeds": "0-1",
         "maze": TINY_TRAIN,
@@ -122,6 +123,7 @@ EXPERIMENTS = (
     "traversal",
     "robothand",
     "macro-length",
+    "robothand-sensitivity",
     "hybrid",
     "bipedal",
     "pointmaze",

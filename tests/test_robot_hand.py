@@ -258,3 +258,12 @@ def test_route_goes_over_a_basket_in_the_way_and_keeps_the_hand_clear():
     assert all(_clear(a, b, columns) for a, b in zip([tuple(start), *way[:-1]], way, strict=True))
     assert not _clear(tuple(start), end, columns)
     assert route(np.array([7.0, 5.0]), (2.0, 4.6), [(2.0, 4.0), (5.0, 0.35)]) == [(2.0, 4.6)]  # clear: straight
+
+
+def test_ball_placing_cup_range_is_an_env_argument_checked_at_make():
+    wide = make("ball-placing", cup_x=[5.0, 6.5])
+    cups = [wide.reset(seed=seed)[0][16] for seed in range(30)]
+    assert 5.0 <= min(cups) and max(cups) <= 6.5
+    for bad in ([4.0, 2.0], [0.2, 3.0], "near", [1.5]):
+        with pytest.raises(ValueError, match="cup_x"):
+            make("ball-placing", cup_x=bad)

@@ -113,7 +113,9 @@ HAND_HALF_WIDTH = 0.4
 tips a little beyond it. A start or a path of the hand keeps this clear of the baskets."""
 REACH_GOAL_X, REACH_GOAL_Y = (0.5, 9.5), (0.5, 5.5)
 CUP_X = (1.5, 4.0)
-"""BallPlacing: range of the cup's centre (the ball starts resting in it)."""
+"""BallPlacing: range of the cup's centre (the ball starts resting in it); the env's ``cup_x`` changes it."""
+CUP_MARGIN = 1.0
+"""The least distance of the cup's centre from a side wall (m): room for the hand to reach round it."""
 BALL_GOAL = (7.5, 2.5)
 """BallPlacing's fixed goal (m)."""
 REACH_REWARD, BALL_REWARD = 100.0, 200.0
@@ -314,11 +316,26 @@ class RobotHandEnv(gym.Env):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": int(round(1 / DT))}
 
-    def __init__(self, task: str = "base", time_penalty: bool = True, render_mode: str | None = None) -> None:
+    def __init__(
+        self,
+        task: str = "base",
+        time_penalty: bool = True,
+        render_mode: str | None = None,
+        cup_x: tuple[float, float] = CUP_X,
+    ) -> None:
+        """``cup_x``: BallPlacing's range of the cup's centre, where the ball starts (the paper does not say; the
+        sensitivity pipeline varies it)."""
         if task not in TASKS:
             raise ValueError(f"unknown RobotHand task {task!r}; expected one of {sorted(TASKS)}")
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"unsupported render_mode {render_mode!r}")
+        try:
+            low, high = (float(x) for x in cup_x)
+        except (TypeError, ValueError):
+            raise ValueError(f"cup_x must be two numbers (low, high), got {cup_x!r}") from None
+        if not CUP_MARGIN <= low <= high <= WIDTH - CUP_MARGIN:
+            raise ValueError(f"cup_x must satisfy {CUP_MARGIN} <= low <= high <= {WIDTH - CUP_MARGIN}, got {cup_x!r}")
+        self.cup_x = (low, high)
         self.task = TASKS[task]
         self.time_penalty = time_penalty and self.task.time_penalty
         self.render_mode = render_mode
@@ -357,7 +374,7 @@ class RobotHandEnv(gym.Env):
             while np.linalg.norm(target - grip) < self.task.min_goal_distance:  # drawn again, not moved: uniform
                 target = np.array([rng.uniform(*REACH_GOAL_X), rng.uniform(*REACH_GOAL_Y)])
         else:
-            cup = rng.uniform(*CUP_X)
+            cup = rng.uniform(*self.cup_x)
             source, target = np.array([cup, CUP_HEIGHT]), np.array(BALL_GOAL)
             self._add_cup(cup)
             self.object = self._add_ball(cup)

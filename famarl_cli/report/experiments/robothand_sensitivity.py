@@ -1,0 +1,80 @@
+"""The RobotHand claims under the constants the paper leaves open: pipelines/robothand's claims about each task,
+judged again under each setting of pipelines/robothand-sensitivity (one constant varied at a time: a time limit,
+where goals or the ball start) and under pipelines/robothand's own settings.
+
+A setting is read from its runs (their env and keyword arguments), so a new setting in the pipeline's params needs
+nothing here.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from famarl_cli.report.experiments import experiment
+from famarl_cli.report.experiments.common import curves, fails_claim, solves_claim
+from famarl_cli.report.experiments.robothand import BALL_PLACING, REACHING
+from famarl_cli.report.results import Group, RunResult, by_agent, gather, group, results_table
+
+CLAIMS = {
+    "Reaching": (
+        ("FaMARL completes Reaching", "famarl", solves_claim),
+        ("PPO with primitive actions fails Reaching (sparse reward)", "ppo", fails_claim),
+    ),
+    "BallPlacing": (
+        ("FaMARL completes BallPlacing", "famarl", solves_claim),
+        ("FiGAR fails BallPlacing (no precise control)", "figar", fails_claim),
+    ),
+}
+"""pipelines/robothand's claims about each task alone, with the agent each names and its rule."""
+DEFAULT = "pipelines/robothand"
+
+
+def task_of(env_id: str) -> str:
+    """``famarl/RobotHand-Reaching-v0`` -> ``Reaching``."""
+    return env_id.removeprefix("famarl/RobotHand-").partition("-")[0]
+
+
+def changed_in(run: RunResult) -> str:
+    """The keyword arguments a run's env was made with, in words ("" for none)."""
+    from famarl_cli.artifacts.runs import read_run_file
+
+    kwargs = read_run_file(run.evaluation["run"])["spec"].get("env_kwargs") or {}
+    return ", ".join(f"{key} {value}" for key, value in sorted(kwargs.items()))
+
+
+@experiment("robothand-sensitivity", "pipelines/robothand-sensitivity/dvc.yaml", order=8)
+def robothand_sensitivity(data: Path, out: Path):
+    from famarl_cli.report.section import Section
+
+    varied = gather(sorted((data / "robothand-sensitivity").glob("*/eval")))
+    if not varied:
+        return None
+    # (env, what changed) -> agent -> runs; pipelines/robothand's runs are the default of their env
+    settings: dict[tuple[str, str], dict[str, list[RunResult]]] = {}
+    default = gather([data / "robothand" / "eval"])
+    for env in (REACHING, BALL_PLACING):
+        for agent, g in by_agent(group(default, env)).items():
+            settings.setdefault((env, f"as {DEFAULT}"), {})[agent] = g.runs
+    for run in varied:
+        setting = settings.setdefault((run.evaluation["env"], changed_in(run)), {})
+        setting.setdefault(run.evaluation["agent"], []).append(run)
+    claims: list = []
+    groups: list[Group] = []
+    for (env, changed), agents in sorted(
+        settings.items(), key=lambda item: (task_of(item[0][0]), item[0][1] != f"as {DEFAULT}")
+    ):
+        suffix = f", {changed}" if changed else ""
+        for agent, runs in agents.items():
+            groups.append(Group(f"{agent}{suffix}", runs))
+        where = env.removeprefix("famarl/RobotHand-") + suffix
+        for words, agent, judge in CLAIMS.get(task_of(env), ()):
+            runs = agents.get(agent)
+            claims.append(judge(f"{words} [{where}]", Group(f"{agent}{suffix}", runs) if runs else None))
+    tables = [
+        "Each claim of pipelines/robothand judged again under one constant changed at a time (in brackets: the env "
+        "and the keyword arguments its runs were made with; pipelines/robothand's own runs are the default).\n\n"
+        + results_table(groups)
+    ]
+    figure = curves(groups, out / "robothand-sensitivity-curves.png", "RobotHand: training success per setting")
+    title = "RobotHand claims under the constants the paper leaves open (ours)"
+    return Section(title, claims, tables, [figure], groups)
