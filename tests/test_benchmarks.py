@@ -68,6 +68,7 @@ def test_robothand_sparsity_counts_each_setting_from_one_pass(tmp_path):
     assert len(json.loads(measured.read_text())) == 4
 
 
+@pytest.mark.slow  # 19 interpreters, each importing torch
 def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     import os
 
