@@ -1,5 +1,5 @@
-"""What every benchmark shares: torch on one thread, the peak RSS, a JSON result with the machine beside it, and
-the figure each run records in benchmarks/measured.json."""
+"""What every benchmark shares: torch on one thread, the peak RSS, a JSON result with the machine beside it, the
+figure each run records in benchmarks/measured.json, and famarl's own commands run as the pipelines run them."""
 
 from __future__ import annotations
 
@@ -10,6 +10,8 @@ import os
 import platform
 import resource
 import shlex
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from datetime import UTC, datetime
@@ -53,6 +55,36 @@ def rate(call: Callable[[], object], items_per_call: int, seconds: float) -> flo
             call()
         calls += 10
     return calls * items_per_call / elapsed
+
+
+def famarl(*arguments: str) -> None:
+    """``famarl ARGUMENTS`` in a child process with torch on one thread; a failure ends the benchmark."""
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    subprocess.run([sys.executable, "-m", "famarl_cli", *arguments], check=True, env=env)
+
+
+def seed_list(text: str) -> list[int]:
+    """The replicates of a ``--seeds`` option (``0-9``, ``0,3,7``); a bad one ends the benchmark in one error line,
+    before any work."""
+    from famarl_cli.core.errors import UsageError
+    from famarl_cli.sweep.plan import parse_values
+
+    try:
+        return [int(s) for s in parse_values(text)]
+    except (UsageError, ValueError) as exc:
+        raise SystemExit(f"error: --seeds {text!r}: {exc}") from None
+
+
+def train_and_evaluate(out: Path, seeds: str, options: list[str], episodes: int, seed: int) -> list[tuple[Path, dict]]:
+    """``famarl sweep train`` of ``options`` over ``seeds`` into ``out`` (a run ``seedS`` per replicate), then
+    ``famarl evaluate`` of those runs into ``OUT-eval`` on ``episodes`` layouts drawn from ``seed``, as the
+    pipelines evaluate; what is finished is reused. Per replicate: its run folder and its evaluation."""
+    from famarl_cli.artifacts.runs import read_evaluation
+
+    famarl("sweep", "train", "--seeds", seeds, "--name", "seed{seed}", "--out", str(out), "--", *options)
+    evaluated = out.with_name(out.name + "-eval")
+    famarl("evaluate", "--run", str(out), "--out", str(evaluated), "--episodes", str(episodes), "--seed", str(seed))
+    return [(out / f"seed{s}", read_evaluation(evaluated / f"seed{s}/eval.json")) for s in seed_list(seeds)]
 
 
 def write_result(path: Path, payload: dict) -> None:

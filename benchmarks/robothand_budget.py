@@ -17,18 +17,13 @@ shows them) and writes benchmarks/results/robothand_budget.json. Run it alone: i
 from __future__ import annotations
 
 import argparse
-import os
-import subprocess
-import sys
 from pathlib import Path
 
-from common import RESULTS, ROOT, command_line, record, write_result
+from common import RESULTS, ROOT, command_line, record, seed_list, train_and_evaluate, write_result
 
-from famarl_cli.artifacts.runs import read_evaluation, read_run_file
-from famarl_cli.core.errors import UsageError
+from famarl_cli.artifacts.runs import read_run_file
 from famarl_cli.core.statistics import mean_interval
 from famarl_cli.report.experiments.robothand import REACHING
-from famarl_cli.sweep.plan import parse_values
 
 SETTINGS = {
     "300k": ["--steps", "300000"],
@@ -43,20 +38,6 @@ per-decision discount and under semi-MDP discounting, ours)."""
 EPISODES, EVALUATION_SEED = 100, 100
 
 
-def train_and_evaluate(setting: str, seeds: str, data: Path) -> list[tuple[Path, Path]]:
-    """The setting's runs over ``seeds``, trained and evaluated where they are not yet: (run, evaluation) folders."""
-    out, evaluated = data / "robothand-budget" / setting, data / "robothand-budget" / f"{setting}-eval"
-    famarl = [sys.executable, "-m", "famarl_cli"]
-    env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    favae = str(data / "robothand/macros/seed{seed}/favae.pt")
-    command = [*famarl, "sweep", "train", "--seeds", seeds, "--name", "seed{seed}", "--out", str(out), "--"]
-    command += ["--env", REACHING, "--agent", "famarl", "--favae", favae, "--label", f"famarl-{setting}"]
-    subprocess.run([*command, *SETTINGS[setting]], check=True, env=env)
-    evaluate = [*famarl, "evaluate", "--run", str(out), "--out", str(evaluated)]
-    subprocess.run([*evaluate, "--episodes", str(EPISODES), "--seed", str(EVALUATION_SEED)], check=True, env=env)
-    return [(out / f"seed{s}", evaluated / f"seed{s}") for s in parse_values(seeds)]
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", default="0-4", help="Replicates (FAVAE and RL seed).")
@@ -67,10 +48,7 @@ def main() -> None:
     settings = args.settings.split(",")
     if unknown := [s for s in settings if s not in SETTINGS]:
         raise SystemExit(f"error: unknown setting {unknown[0]!r} (known: {', '.join(SETTINGS)})")
-    try:
-        seeds = [int(s) for s in parse_values(args.seeds)]
-    except (UsageError, ValueError) as exc:
-        raise SystemExit(f"error: --seeds {args.seeds!r}: {exc}") from None
+    seeds = seed_list(args.seeds)
     if missing := [s for s in seeds if not (args.data / f"robothand/macros/seed{s}/favae.pt").is_file()]:
         raise SystemExit(
             f"error: no pegging FAVAE of replicate {missing[0]} in {args.data}/robothand/macros: dvc repro "
@@ -79,9 +57,12 @@ def main() -> None:
     line = command_line("robothand_budget.py", parser, args, shown=("seeds", "settings"), hidden=("out", "data"))
     rows = {}
     for setting in settings:
-        folders = train_and_evaluate(setting, args.seeds, args.data)
-        success = [float(read_evaluation(e / "eval.json")["sampled"]["success_rate"]) for _, e in folders]
-        updates = [int(read_run_file(run)["updates"]) for run, _ in folders]
+        favae = str(args.data / "robothand/macros/seed{seed}/favae.pt")
+        options = ["--env", REACHING, "--agent", "famarl", "--favae", favae, "--label", f"famarl-{setting}"]
+        out = args.data / "robothand-budget" / setting
+        runs = train_and_evaluate(out, args.seeds, [*options, *SETTINGS[setting]], EPISODES, EVALUATION_SEED)
+        success = [float(evaluation["sampled"]["success_rate"]) for _, evaluation in runs]
+        updates = [int(read_run_file(run)["updates"]) for run, _ in runs]
         interval = mean_interval(success, EPISODES)
         rows[setting] = {"success": success, "updates": updates, "interval": interval.text()}
         record(

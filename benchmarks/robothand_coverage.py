@@ -25,14 +25,13 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import torch
-from common import RESULTS, ROOT, command_line, record, write_result
+from common import RESULTS, ROOT, command_line, record, seed_list, write_result
 
 import famarl_cli  # noqa: F401  (registers the envs)
 from famarl_cli.core.statistics import mean_interval
 from famarl_cli.envs.robot_hand import OBSERVATION_NAMES, traversal_paths
 from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.report.experiments.robothand import REACHING
-from famarl_cli.sweep.plan import parse_values
 
 SECTORS, LEAST_MOVE, COVERED = 8, 0.5, 0.02
 MACROS = {"pegging": "robothand/macros", "pegging-varied": "robothand-demos/pegging-varied/macros"}
@@ -78,7 +77,7 @@ def main() -> None:
         "--out", type=Path, help="Result file [default: benchmarks/results/robothand_coverage-DEMOS.json]"
     )
     args = parser.parse_args()
-    seeds = [int(s) for s in parse_values(args.seeds)]
+    seeds = seed_list(args.seeds)
     favaes = [args.data / MACROS[args.demos] / f"seed{s}/favae.pt" for s in seeds]
     if missing := [path for path in favaes if not path.is_file()]:
         made_by = "dvc repro pipelines/robothand/dvc.yaml" if args.demos == "pegging" else "robothand_demos.py"

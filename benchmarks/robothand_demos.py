@@ -25,28 +25,17 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import yaml
-from common import RESULTS, ROOT, command_line, record, write_result
+from common import RESULTS, ROOT, command_line, famarl, record, seed_list, train_and_evaluate, write_result
 
-from famarl_cli.artifacts.runs import read_evaluation
-from famarl_cli.core.errors import UsageError
 from famarl_cli.core.statistics import mean_interval
-from famarl_cli.sweep.plan import parse_values
 
 DEMOS = {"pegging": "the pipeline's pegging demos", "pegging-varied": "pegging demos with raised baskets"}
 DISCOUNTS = {"decision": "the paper's per-decision discount", "steps": "semi-MDP discounting"}
 PARAMS = ROOT / "pipelines/robothand/params.yaml"
 EPISODES, EVALUATION_SEED = 100, 100
-
-
-def famarl(*arguments: str) -> None:
-    env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    subprocess.run([sys.executable, "-m", "famarl_cli", *arguments], check=True, env=env)
 
 
 def macros(demos: str, seeds: str, params: dict, data: Path) -> Path:
@@ -65,27 +54,20 @@ def macros(demos: str, seeds: str, params: dict, data: Path) -> Path:
     return folder / "macros"
 
 
-def train_and_evaluate(cell: Path, task: str, discount: str, favaes: Path, seeds: str, train: dict) -> list[float]:
+def success(cell: Path, task: str, discount: str, favaes: Path, seeds: str, train: dict) -> list[float]:
     """Sampled-policy success of the cell's runs over ``seeds``, trained and evaluated where they are not yet."""
-    famarl("sweep", "train", "--seeds", seeds, "--name", "seed{seed}", "--out", str(cell), "--",
-           "--env", f"famarl/RobotHand-{task}", "--agent", "famarl", "--favae", str(favaes / "seed{seed}/favae.pt"),
-           "--steps", str(train["steps"]), "--lr", str(train["lr"]),
-           "--macro-discount", discount, "--label", f"famarl-{discount}")  # fmt: skip
-    evaluated = cell.with_name(cell.name + "-eval")
-    famarl("evaluate", "--run", str(cell), "--out", str(evaluated), "--episodes", str(EPISODES),
-           "--seed", str(EVALUATION_SEED))  # fmt: skip
-    return [float(read_evaluation(evaluated / f"seed{s}/eval.json")["sampled"]["success_rate"]) for s in _seeds(seeds)]
+    options = ["--env", f"famarl/RobotHand-{task}", "--agent", "famarl", "--favae", str(favaes / "seed{seed}/favae.pt"),
+               "--steps", str(train["steps"]), "--lr", str(train["lr"]),
+               "--macro-discount", discount, "--label", f"famarl-{discount}"]  # fmt: skip
+    runs = train_and_evaluate(cell, seeds, options, EPISODES, EVALUATION_SEED)
+    return [float(evaluation["sampled"]["success_rate"]) for _, evaluation in runs]
 
 
 def oracle(cell: Path, seeds: str, episodes: int) -> list[float]:
     """The oracle's share of layouts per replicate, searched in the macro space of the cell's runs."""
     out = cell.with_name(cell.name + "-oracle")
     famarl("oracle", "--run", str(cell), "--episodes", str(episodes), "--out", str(out))
-    return [float(json.loads((out / f"seed{s}/oracle.json").read_text())["success_rate"]) for s in _seeds(seeds)]
-
-
-def _seeds(seeds: str) -> list[int]:
-    return [int(s) for s in parse_values(seeds)]
+    return [float(json.loads((out / f"seed{s}/oracle.json").read_text())["success_rate"]) for s in seed_list(seeds)]
 
 
 def _choices(value: str, known: dict, option: str) -> list[str]:
@@ -109,10 +91,7 @@ def main() -> None:
     args = parser.parse_args()
     demo_sets = _choices(args.demos, DEMOS, "--demos")
     discounts = _choices(args.discounts, DISCOUNTS, "--discounts")
-    try:
-        seeds = _seeds(args.seeds)
-    except (UsageError, ValueError) as exc:
-        raise SystemExit(f"error: --seeds {args.seeds!r}: {exc}") from None
+    seeds = seed_list(args.seeds)
     if args.oracle_episodes < 0:
         raise SystemExit(f"error: --oracle-episodes {args.oracle_episodes}: not a count of layouts")
     if (args.steps is not None and args.steps < 1) or (args.lr is not None and not 0 < args.lr < 1):
@@ -136,9 +115,9 @@ def main() -> None:
         for task in tasks:
             for discount in discounts:
                 cell = args.data / "robothand-demos" / demos / f"{task}-{discount}{changed}"
-                success = train_and_evaluate(cell, task, discount, favaes, args.seeds, train)
-                interval = mean_interval(success, EPISODES)
-                rows[f"{demos}/{task}/{discount}{changed}"] = {"success": success, "interval": interval.text()}
+                rates = success(cell, task, discount, favaes, args.seeds, train)
+                interval = mean_interval(rates, EPISODES)
+                rows[f"{demos}/{task}/{discount}{changed}"] = {"success": rates, "interval": interval.text()}
                 record(
                     f"robothand_demos_{demos}_{task}_{discount}{changed}".replace("-", "_").replace(".", "_").lower(),
                     f"RobotHand-{task}, FaMARL with macros from {DEMOS[demos]}, {DISCOUNTS[discount]}, {budget}: "

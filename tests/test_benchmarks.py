@@ -68,7 +68,7 @@ def test_robothand_sparsity_counts_each_setting_from_one_pass(tmp_path):
     assert len(json.loads(measured.read_text())) == 4
 
 
-@pytest.mark.slow  # 19 interpreters, each importing torch
+@pytest.mark.slow  # 20 interpreters, each importing torch
 def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     import os
 
@@ -93,5 +93,6 @@ def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     one_error_line(run_with("robothand_demos.py", "--lr", 2), "--lr in (0, 1)")
     one_error_line(run_with("robothand_demos.py", "--tasks", "Walking-v0"), "--tasks: unknown 'Walking-v0'")
     one_error_line(run_with("robothand_demos.py", "--demos", "pegging", "--data", tmp_path), "no pegging FAVAE there")
+    one_error_line(run_with("robothand_coverage.py", "--seeds", "abc"), "--seeds 'abc'")
     assert not out.exists() and not measured.exists()
     assert not (tmp_path / "robothand-budget").exists() and not (tmp_path / "robothand-demos").exists()
