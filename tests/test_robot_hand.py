@@ -264,6 +264,6 @@ def test_ball_placing_cup_range_is_an_env_argument_checked_at_make():
     wide = make("ball-placing", cup_x=[5.0, 6.5])
     cups = [wide.reset(seed=seed)[0][16] for seed in range(30)]
     assert 5.0 <= min(cups) and max(cups) <= 6.5
-    for bad in ([4.0, 2.0], [0.2, 3.0], "near", [1.5]):
+    for bad in ([4.0, 2.0], [0.2, 3.0], [float("nan"), 3.0], [1.5, float("inf")], "near", [1.5]):
         with pytest.raises(ValueError, match="cup_x"):
             make("ball-placing", cup_x=bad)

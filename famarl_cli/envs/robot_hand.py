@@ -452,7 +452,7 @@ class RobotHandEnv(gym.Env):
         return render_scene(self)
 
 
-def rod_in_basket(rod: pymunk.Body, basket_x: float, floor_y: float = 0.0) -> bool:
+def rod_in_basket(rod: pymunk.Body, basket_x: float, floor_y: float) -> bool:
     """Whether the rod stands upright inside the basket centred at ``basket_x`` with its floor at ``floor_y``
     (resting on its floor, slowly)."""
     bottom = rod.position.y - floor_y - ROD_SIZE[1] / 2 * np.cos(rod.angle)

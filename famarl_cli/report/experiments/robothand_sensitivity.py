@@ -26,7 +26,8 @@ CLAIMS = {
     ),
 }
 """pipelines/robothand's claims about each task alone, with the agent each names and its rule."""
-DEFAULT = "pipelines/robothand"
+AS_PIPELINE = "as pipelines/robothand"
+"""What the default setting's runs, pipelines/robothand's own, are named by in place of changed keyword arguments."""
 
 
 def task_of(env_id: str) -> str:
@@ -54,14 +55,14 @@ def robothand_sensitivity(data: Path, out: Path):
     default = gather([data / "robothand" / "eval"])
     for env in (REACHING, BALL_PLACING):
         for agent, g in by_agent(group(default, env)).items():
-            settings.setdefault((env, f"as {DEFAULT}"), {})[agent] = g.runs
+            settings.setdefault((env, AS_PIPELINE), {})[agent] = g.runs
     for run in varied:
         setting = settings.setdefault((run.evaluation["env"], changed_in(run)), {})
         setting.setdefault(run.evaluation["agent"], []).append(run)
     claims: list = []
     groups: list[Group] = []
     for (env, changed), agents in sorted(
-        settings.items(), key=lambda item: (task_of(item[0][0]), item[0][1] != f"as {DEFAULT}")
+        settings.items(), key=lambda item: (task_of(item[0][0]), item[0][1] != AS_PIPELINE)
     ):
         suffix = f", {changed}" if changed else ""
         for agent, runs in agents.items():
