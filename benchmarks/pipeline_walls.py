@@ -1,11 +1,13 @@
 """Wall time of each stage of the named pipelines, run in place (this checkout's data/ and dvc.lock), one stage at
 a time in DVC's order, and the pipeline's total: the walls docs/pipelines.md and the README show.
 
-    python benchmarks/pipeline_walls.py [default] [scripts ...] [--force]
+    python benchmarks/pipeline_walls.py [default] [scripts ...] [--force] [--stages NAME ...]
 
 Records each pipeline's stages, total, date, machine and revision in benchmarks/pipeline_walls.json (committed:
 ``famarl docs`` reads it), replacing that pipeline's previous entry. A stage DVC finds up to date takes
-seconds; --force runs every stage again. Run one CPU-heavy job at a time, or the walls mean nothing.
+seconds; --force runs every stage again. --stages runs only the named stages (new ones, say) and replaces only
+their walls in the pipeline's entry, which keeps the others and says, in its note, when and where each part was
+measured. Run one CPU-heavy job at a time, or the walls mean nothing.
 """
 
 from __future__ import annotations
@@ -33,10 +35,18 @@ def main() -> None:
     parser.add_argument("pipelines", nargs="+", help="default, or a folder name under pipelines/")
     parser.add_argument("--force", action="store_true", help="Run every stage, up to date or not.")
     parser.add_argument("--note", default=None, help="What else ran on the machine meanwhile, for the table.")
+    parser.add_argument(
+        "--stages",
+        nargs="+",
+        default=None,
+        help="Run only these stages of one pipeline (names without the file).",
+    )
     args = parser.parse_args()
     known = {name: definition for name, definition, _ in definitions(ROOT)}
     if unknown := [name for name in args.pipelines if name not in known]:
         parser.error(f"unknown pipeline {', '.join(unknown)} (known: {', '.join(known)})")
+    if args.stages and len(args.pipelines) > 1:
+        parser.error("--stages takes one pipeline")
     env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
     env |= {"DVC_NO_ANALYTICS": "1", "MPLBACKEND": "Agg"}
     for name in args.pipelines:
@@ -49,19 +59,37 @@ def main() -> None:
             check=True,
         )
         revision = source_revision(str(ROOT))
+        stages = every = listing.stdout.split()
+        walls = json.loads(WALLS.read_text()) if WALLS.is_file() else {}
+        before = walls.get(name)
+        if args.stages:
+            if before is None:
+                parser.error(f"{name} has no entry to add stages to: run it whole first")
+            chosen = [f"{known[name]}:{stage}" for stage in args.stages]
+            if missing := [stage for stage in chosen if stage not in stages]:
+                parser.error(f"{name} has no stage {', '.join(missing)} (its stages: {', '.join(stages)})")
+            stages = chosen
         rows = []
-        for stage in listing.stdout.split():
+        for stage in stages:
             rows.append(run_stage(stage, ROOT, env, force=args.force))
             print(f"{name:<14} {stage:<40} {rows[-1]['seconds']:>8.1f} s", flush=True)
-        walls = json.loads(WALLS.read_text()) if WALLS.is_file() else {}
+        date = datetime.now(UTC).strftime("%Y-%m-%d")
+        measured = {row["stage"]: round(row["seconds"], 1) for row in rows}
+        note = args.note
+        if args.stages:
+            measured = {stage: measured.get(stage, before["stages"].get(stage)) for stage in every}
+            measured = {stage: seconds for stage, seconds in measured.items() if seconds is not None}
+            part = f"{', '.join(s.rsplit(':', 1)[1] for s in stages)} measured {date} at {revision}"
+            note = "; ".join(filter(None, [before.get("note"), args.note, part]))
+            date, revision = before["date"], before["revision"]
         walls[name] = {
-            "stages": {row["stage"]: round(row["seconds"], 1) for row in rows},
-            "total_s": round(sum(row["seconds"] for row in rows), 1),
-            "date": datetime.now(UTC).strftime("%Y-%m-%d"),
+            "stages": measured,
+            "total_s": round(sum(measured.values()), 1),
+            "date": date,
             "machine": machine(),
             "revision": revision,
-            "force": args.force,
-            **({"note": args.note} if args.note else {}),
+            "force": before["force"] if args.stages else args.force,
+            **({"note": note} if note else {}),
         }
         # Not write_json: it would sort each pipeline's stages, which keep DVC's order.
         with atomic_path(WALLS) as temp:
