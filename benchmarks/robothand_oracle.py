@@ -30,12 +30,8 @@ from famarl_cli.core.statistics import mean_interval
 
 TASKS = ("Reaching-v1", "BallPlacing-v0")
 """The pipeline's tasks, as its run folders name them."""
-RUNS = {
-    "famarl": "robothand/runs/{task}-famarl-seed{seed}",
-    "figar": "robothand/runs/{task}-figar-seed{seed}",
-    "ppo": "robothand/runs/{task}-ppo-seed{seed}",
-    "famarl-ours": "robothand/ours/runs/{task}-famarl-ours-seed{seed}",
-}
+RUNS = {agent: f"robothand/runs/{{task}}-{agent}-seed{{seed}}" for agent in ("famarl", "figar", "ppo")}
+RUNS["famarl-ours"] = "robothand/ours/runs/{task}-famarl-ours-seed{seed}"
 """Each agent's run folders in the pipeline's data, by label."""
 SEARCH = {"candidates": 64, "iterations": 4}
 """The pipeline's search (famarl oracle's defaults)."""
