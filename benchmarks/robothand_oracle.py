@@ -1,12 +1,15 @@
 """Can RobotHand's action spaces solve its tasks at all? ``famarl oracle`` on the committed robothand runs of the
-given replicates, FaMARL's pegging macros, FiGAR's repeated actions and PPO's actions on Reaching and BallPlacing,
-and the share of layouts a plan solved per space and task, with its 95% interval over replicates.
+given replicates, FaMARL's pegging macros, FiGAR's repeated actions and PPO's actions on Reaching and BallPlacing
+(``famarl-ours``: the pipeline's FaMARL beyond the paper, with the macros of the raised-basket demos), and the share
+of layouts a plan solved per space and task, with its 95% interval over replicates.
 
     python benchmarks/robothand_oracle.py [--seeds 0-2] [--episodes 10] [--jobs 2] [--data data]
+        [--tasks Reaching-v1,BallPlacing-v0] [--agents famarl,figar,ppo] [--candidates 64] [--iterations 4]
 
 Needs ``dvc repro pipelines/robothand/dvc.yaml`` first (its runs). Each share is a lower bound of what the space
-can reach (the search is finite; docs/robothand.md). Run it alone (one CPU-heavy job at a time): it uses --jobs
-cores. Records one row per task and agent in benchmarks/measured.json (docs/robothand.md shows them) and writes
+can reach (the search is finite; docs/robothand.md): --candidates and --iterations above the pipeline's (64 and 4)
+say whether a larger search finds more. Run it alone (one CPU-heavy job at a time): it uses --jobs cores. Records
+one row per task and agent in benchmarks/measured.json (docs/robothand.md shows them) and writes
 benchmarks/results/robothand_oracle.json.
 """
 
@@ -21,13 +24,17 @@ import tempfile
 import time
 from pathlib import Path
 
-from common import RESULTS, ROOT, command_line, record, write_result
+from common import RESULTS, ROOT, command_line, record, seed_list, write_result
 
 from famarl_cli.core.statistics import mean_interval
-from famarl_cli.sweep.plan import parse_values
 
-TASKS, AGENTS = ("Reaching-v1", "BallPlacing-v0"), ("famarl", "figar", "ppo")
+TASKS = ("Reaching-v1", "BallPlacing-v0")
 """The pipeline's tasks, as its run folders name them."""
+RUNS = {agent: f"robothand/runs/{{task}}-{agent}-seed{{seed}}" for agent in ("famarl", "figar", "ppo")}
+RUNS["famarl-ours"] = "robothand/ours/runs/{task}-famarl-ours-seed{seed}"
+"""Each agent's run folders in the pipeline's data, by label."""
+SEARCH = {"candidates": 64, "iterations": 4}
+"""The pipeline's search (famarl oracle's defaults)."""
 
 
 def main() -> None:
@@ -37,39 +44,56 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--data", type=Path, default=ROOT / "data")
     parser.add_argument("--out", type=Path, default=RESULTS / "robothand_oracle.json")
+    parser.add_argument("--tasks", default=",".join(TASKS), help="The pipeline's tasks to search.")
+    parser.add_argument("--agents", default="famarl,figar,ppo", help=f"Action spaces, of {', '.join(RUNS)}.")
+    parser.add_argument("--candidates", type=int, default=SEARCH["candidates"], help="Plans per iteration.")
+    parser.add_argument("--iterations", type=int, default=SEARCH["iterations"], help="Iterations per layout.")
     args = parser.parse_args()
-    seeds = [int(s) for s in parse_values(args.seeds)]
-    runs = [args.data / "robothand/runs" / f"{t}-{a}-seed{s}" for t in TASKS for a in AGENTS for s in seeds]
-    if missing := [run for run in runs if not (run / "run.json").is_file()]:
-        parser.error(f"{missing[0]} is not a run folder: dvc repro pipelines/robothand/dvc.yaml first")
+    seeds = seed_list(args.seeds)
+    tasks, agents = args.tasks.split(","), args.agents.split(",")
+    if unknown := [t for t in tasks if t not in TASKS] + [a for a in agents if a not in RUNS]:
+        raise SystemExit(
+            f"error: unknown task or agent {', '.join(unknown)} (tasks: {', '.join(TASKS)}; agents: {', '.join(RUNS)})"
+        )
+    if args.episodes < 1 or args.candidates < 2 or args.iterations < 1:
+        raise SystemExit("error: --episodes and --iterations must be at least 1, --candidates at least 2")
+    runs = {(t, a, s): args.data / RUNS[a].format(task=t, seed=s) for t in tasks for a in agents for s in seeds}
+    if missing := [run for run in runs.values() if not (run / "run.json").is_file()]:
+        raise SystemExit(f"error: {missing[0]} is not a run folder: dvc repro pipelines/robothand/dvc.yaml first")
+    search = {"candidates": args.candidates, "iterations": args.iterations}
     with tempfile.TemporaryDirectory() as folder:
         options = ["--episodes", str(args.episodes), "--jobs", str(args.jobs), "--out", folder]
-        command = [sys.executable, "-m", "famarl_cli", "oracle", *[a for run in runs for a in ("--run", str(run))]]
+        options += ["--candidates", str(args.candidates), "--iterations", str(args.iterations)]
+        command = [sys.executable, "-m", "famarl_cli", "oracle"]
+        command += [a for run in runs.values() for a in ("--run", str(run))]
         start = time.perf_counter()
         subprocess.run([*command, *options], check=True, env={**os.environ, "OMP_NUM_THREADS": "1"})
         wall = time.perf_counter() - start
-        found = {run.name: json.loads((Path(folder) / run.name / "oracle.json").read_text()) for run in runs}
+        found = {key: json.loads((Path(folder) / run.name / "oracle.json").read_text()) for key, run in runs.items()}
     line = command_line(
         "robothand_oracle.py", parser, args, shown=("seeds", "episodes", "jobs"), hidden=("out", "data")
     )
+    # the pipeline's search keeps its records' names; a larger one is a row of its own beside them
+    larger = "" if search == SEARCH else f"_{args.candidates}x{args.iterations}"
+    budget = "" if search == SEARCH else f", {args.candidates} plans x {args.iterations} iterations"
     rows = {}
-    for task in TASKS:
-        for agent in AGENTS:
-            shares = [found[f"{task}-{agent}-seed{s}"]["success_rate"] for s in seeds]
+    for task in tasks:
+        for agent in agents:
+            shares = [found[(task, agent, s)]["success_rate"] for s in seeds]
             interval = mean_interval(shares, args.episodes)
             rows[f"{task}-{agent}"] = {"shares": shares, "mean": interval.estimate, "interval": interval.text()}
             record(
-                f"robothand_oracle_{task.lower().replace('-', '_')}_{agent}",
+                f"robothand_oracle_{task.lower().replace('-', '_')}_{agent.replace('-', '_')}{larger}",
                 f"RobotHand {task}: share of layouts an open-loop plan in {agent}'s action space solved (famarl "
-                f"oracle, lower bound), replicates {args.seeds}, {args.episodes} layouts each; mean over replicates "
-                "[95% CI]",
+                f"oracle{budget}, lower bound), replicates {args.seeds}, {args.episodes} layouts each; mean over "
+                "replicates [95% CI]",
                 line,
                 interval.text(),
             )
     per_layout = wall * args.jobs / (len(runs) * args.episodes)
     record(
-        "robothand_oracle_wall",
-        "famarl oracle's core-seconds per layout, every RobotHand run above together (successes stop early)",
+        f"robothand_oracle_wall{larger}",
+        f"famarl oracle's core-seconds per layout{budget}, every RobotHand run above together (successes stop early)",
         line,
         f"{per_layout:.1f} s",
     )

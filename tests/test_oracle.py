@@ -75,8 +75,19 @@ def test_famarl_oracle_writes_each_runs_share_of_solved_layouts(tmp_path):
         ("{not json", "oracle.json"),
         (json.dumps({"schema": "famarl.run"}), "is not a famarl.oracle file"),
         (json.dumps({"schema": "famarl.oracle", "env": "x", "agent": "ppo", "success_rate": "NaN"}), "has no"),
+        (json.dumps({"schema": "famarl.oracle", "env": "x", "agent": "ppo"}), "has no 'label'"),
         (
-            json.dumps({"schema": "famarl.oracle", "env": "x", "agent": "ppo", "success_rate": 2.0, "episodes": [1]}),
+            json.dumps(
+                {
+                    "schema": "famarl.oracle",
+                    "env": "x",
+                    "agent": "ppo",
+                    "label": "ppo",
+                    "seed": 0,
+                    "success_rate": 2.0,
+                    "episodes": [1],
+                }
+            ),
             "has no share in [0, 1]",
         ),
     ],

@@ -199,6 +199,46 @@ def test_robothand_aggregates_both_tasks(tmp_path):
     assert "Positive controls" not in text  # none has run
 
 
+def write_oracle(folder: Path, env: str, label: str, solved: list[bool]) -> None:
+    """An ``oracle.json`` as ``famarl oracle`` leaves it for one run, in ``folder``; its seed is the number that ends
+    the folder's name."""
+    seed = int(re.search(r"(\d+)$", folder.name)[1])
+    searched = {"schema": "famarl.oracle", "schema_version": 1, "env": env, "agent": "famarl", "label": label}
+    searched["seed"] = seed
+    folder.mkdir(parents=True)
+    (folder / "oracle.json").write_text(json.dumps(searched | {"success_rate": np.mean(solved), "episodes": solved}))
+
+
+@pytest.mark.slow
+def test_robothand_judges_ours_beside_the_papers_famarl_never_in_its_place(tmp_path):
+    from famarl_cli.report.experiments.robothand import OURS, OURS_WHAT
+
+    data = tmp_path / "data"
+    for task in (REACHING, BALL_PLACING):
+        short = task.split("-")[1]
+        for seed, jitter in zip(SEEDS, JITTER, strict=True):
+            for agent, success in (("famarl", 0.1), ("ppo", 0.6), ("figar", 0.6)):
+                make_run(data, "robothand", f"{short}-{agent}-seed{seed}", agent, agent, success + jitter, task)
+            make_run(data, "robothand/ours", f"{short}-ours-seed{seed}", OURS, "famarl", 0.95 + jitter, task)
+            # the paper's macros solve one BallPlacing layout in ten, ours every one
+            write_oracle(data / f"robothand/oracle/{short}-famarl-seed{seed}", task, "famarl", [True] + [False] * 9)
+            write_oracle(data / f"robothand/ours/oracle/{short}-ours-seed{seed}", task, OURS, [True] * 10)
+    section = write_report(["robothand"], data, tmp_path / "report", "test")["robothand"]
+    judged = verdicts(section)
+    assert judged["FaMARL completes Reaching"] == judged["FaMARL completes BallPlacing"] == Verdict.DOES_NOT
+    assert judged[f"FaMARL completes Reaching ({OURS_WHAT})"] == Verdict.REPRODUCES
+    assert judged["FaMARL is the only algorithm that completes both tasks"] == Verdict.DOES_NOT
+    assert judged["The pegging task contains all macro actions BallPlacing needs (the macro-space oracle)"] == (
+        Verdict.DOES_NOT
+    )
+    text = (tmp_path / "report/report.md").read_text()
+    assert "P(famarl > ppo)" in text and f"P(famarl > {OURS})" not in text  # ours is no rival of the paper's
+    summary = json.loads((tmp_path / "report/summary.json").read_text())["robothand"]
+    assert summary["oracle"]["ballplacing"]["famarl"]["share"] == 0.1
+    assert summary["oracle"]["ballplacing"][OURS]["share"] == 1.0
+    assert summary["headline"][f"{OURS} (RobotHand-Reaching-v1)"]["n"] == 5
+
+
 def test_robothand_shows_each_tasks_positive_control_and_oracle_and_keeps_them_in_the_summary(tmp_path):
     from famarl_cli.artifacts import write_demos
     from famarl_cli.experts import Script
@@ -210,10 +250,7 @@ def test_robothand_shows_each_tasks_positive_control_and_oracle_and_keeps_them_i
         make_run(data, "robothand", f"reaching-famarl-seed{seed}", "famarl", "famarl", 0.5 + jitter, REACHING)
     write_demos(data / "robothand/controls/reaching.h5", record_demos(Script.REACHING, n_episodes=4, seed=100))
     for seed, solved in ((0, [True, True, False, True]), (1, [True, False, False, False])):
-        searched = {"schema": "famarl.oracle", "schema_version": 1, "env": REACHING, "agent": "famarl"}
-        searched |= {"success_rate": sum(solved) / 4, "episodes": solved}
-        (data / f"robothand/oracle/reaching-famarl-seed{seed}").mkdir(parents=True)
-        (data / f"robothand/oracle/reaching-famarl-seed{seed}/oracle.json").write_text(json.dumps(searched))
+        write_oracle(data / f"robothand/oracle/reaching-famarl-seed{seed}", REACHING, "famarl", solved)
     write_report(["robothand"], data, tmp_path / "report", "test")
     text = (tmp_path / "report/report.md").read_text()
     assert "| reaching | 1.00 [0.51, 1.00] | 4 |" in text and "| yes |" in text
@@ -222,6 +259,7 @@ def test_robothand_shows_each_tasks_positive_control_and_oracle_and_keeps_them_i
     # the oracle's shares, 0.75 and 0.25 of 4 layouts: their mean over the two replicates
     searched = summary["oracle"]["reaching"]["famarl"]
     assert searched["n"] == 2 and searched["layouts"] == 4 and searched["share"] == 0.5
+    assert searched["per_replicate"] == {"0": 0.75, "1": 0.25}
     assert searched["share_low"] < 0.5 < searched["share_high"] and "| reaching | famarl | 2 | 4 | 0.50 [" in text
     failing = {"success": 0.5, "success_low": 0.3, "success_high": 0.7, "episodes": 20, "steps": 300.0}
     assert "| ballplacing | 0.50 [0.30, 0.70] | 20 | 300 | **no**: no controller solves it here |" in controls_table(

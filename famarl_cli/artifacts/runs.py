@@ -114,12 +114,12 @@ ORACLE_SCHEMA, ORACLE_SCHEMA_VERSION = "famarl.oracle", 1
 
 
 def read_oracle(path: str | os.PathLike) -> dict:
-    """An ``oracle.json`` written by ``famarl oracle``: its env, agent, share solved and layouts."""
+    """An ``oracle.json`` written by ``famarl oracle``: its env, agent, label, seed, share solved and layouts."""
     path = Path(path)
     values = _read_json(path, f"{path}: no such oracle result (has famarl oracle run?)")
     check(isinstance(values, dict) and values.get("schema") == ORACLE_SCHEMA, path, f"is not a {ORACLE_SCHEMA} file")
     check(int(values.get("schema_version", 0)) <= ORACLE_SCHEMA_VERSION, path, "is newer than this famarl reads")
-    for key in ("env", "agent", "success_rate", "episodes"):
+    for key in ("env", "agent", "label", "seed", "success_rate", "episodes"):
         check(key in values, path, f"has no {key!r}")
     check(_finite(values["success_rate"]) and 0 <= values["success_rate"] <= 1, path, "has no share in [0, 1]")
     check(isinstance(values["episodes"], list) and values["episodes"], path, "has no searched layouts")

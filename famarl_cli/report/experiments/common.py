@@ -338,32 +338,38 @@ def ratio_goal(
     return Claim(goal, measure, Judgement(verdict, rule, (estimate,)))
 
 
-def oracle(folder: Path, tasks: dict[str, str]) -> dict[str, dict]:
-    """Per task (``tasks``: name -> env id) and agent whose runs ``famarl oracle`` searched
-    (``<folder>/<run>/oracle.json``): the share of layouts a plan in the agent's action space solved, its mean over
-    replicates with the 95% interval (the variance floored at the layouts' binomial noise), n and the layouts per
-    run."""
+def oracle_shares(folder: Path, tasks: dict[str, str]) -> dict[str, dict[str, tuple[dict[int, float], int]]]:
+    """Per task (``tasks``: name -> env id) and label whose runs ``famarl oracle`` searched
+    (``<folder>/<run>/oracle.json``): the share of layouts a plan in the run's action space solved, by replicate
+    (the run's seed), and the layouts searched per run."""
     from famarl_cli.artifacts.runs import ORACLE_FILE, read_oracle
-    from famarl_cli.core.statistics import mean_interval
 
-    shares: dict[tuple[str, str], list[float]] = {}
-    layouts = 0
+    shares: dict[str, dict[str, tuple[dict[int, float], int]]] = {}
     for path in sorted(folder.glob(f"*/{ORACLE_FILE}")):
         found = read_oracle(path)
         task = next((name for name, env in tasks.items() if env == found["env"]), None)
         if task is not None:
-            shares.setdefault((task, found["agent"]), []).append(found["success_rate"])
-            layouts = len(found["episodes"])
+            by_seed, _ = shares.setdefault(task, {}).setdefault(found["label"], ({}, 0))
+            by_seed[int(found["seed"])] = float(found["success_rate"])
+            shares[task][found["label"]] = (by_seed, len(found["episodes"]))
+    return shares
+
+
+def oracle(shares: dict[str, dict[str, tuple[dict[int, float], int]]]) -> dict[str, dict]:
+    """:func:`oracle_shares` summarised per task and label: each replicate's share, their mean with the 95% interval
+    over replicates (the variance floored at the layouts' binomial noise), n and the layouts per run."""
     result: dict[str, dict] = {}
-    for (task, agent), values in shares.items():
-        interval = mean_interval(values, layouts)
-        result.setdefault(task, {})[agent] = {
-            "n": len(values),
-            "layouts": layouts,
-            "share": round(interval.estimate, 4),
-            "share_low": round(interval.low, 4),
-            "share_high": round(interval.high, 4),
-        }
+    for task, labels in shares.items():
+        for label, (by_seed, layouts) in labels.items():
+            interval = mean_interval(list(by_seed.values()), layouts)
+            result.setdefault(task, {})[label] = {
+                "n": len(by_seed),
+                "layouts": layouts,
+                "share": round(interval.estimate, 4),
+                "share_low": round(interval.low, 4),
+                "share_high": round(interval.high, 4),
+                "per_replicate": {str(seed): round(share, 4) for seed, share in sorted(by_seed.items())},
+            }
     return result
 
 
@@ -378,8 +384,8 @@ def oracle_table(found: dict[str, dict]) -> str:
         "| task | action space | n | layouts per run | share solved [95% CI over replicates] |",
         "|---|---|---|---|---|",
     ]
-    for task, agents in found.items():
-        for agent, o in sorted(agents.items()):
+    for task, labels in found.items():
+        for label, o in sorted(labels.items()):
             interval = f"{o['share']:.2f} [{o['share_low']:.2f}, {o['share_high']:.2f}]"
-            rows.append(f"| {task} | {agent} | {o['n']} | {o['layouts']} | {interval} |")
+            rows.append(f"| {task} | {label} | {o['n']} | {o['layouts']} | {interval} |")
     return "\n".join(rows)
