@@ -10,7 +10,7 @@ Needs ``dvc repro pipelines/robothand/dvc.yaml`` first (its runs). Each share is
 can reach (the search is finite; docs/robothand.md): --candidates and --iterations above the pipeline's (64 and 4)
 say whether a larger search finds more. Run it alone (one CPU-heavy job at a time): it uses --jobs cores. Records
 one row per task and agent in benchmarks/measured.json (docs/robothand.md shows them) and writes
-benchmarks/results/robothand_oracle.json.
+benchmarks/results/robothand_oracle.json (robothand_oracle_CxI.json for a search of C plans x I iterations).
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=10, help="Layouts per run.")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--data", type=Path, default=ROOT / "data")
-    parser.add_argument("--out", type=Path, default=RESULTS / "robothand_oracle.json")
+    parser.add_argument("--out", type=Path, default=None, help="[default: results/robothand_oracle[_CxI].json]")
     parser.add_argument("--tasks", default=",".join(TASKS), help="The pipeline's tasks to search.")
     parser.add_argument("--agents", default="famarl,figar,ppo", help=f"Action spaces, of {', '.join(RUNS)}.")
     parser.add_argument("--candidates", type=int, default=SEARCH["candidates"], help="Plans per iteration.")
@@ -61,6 +61,9 @@ def main() -> None:
     if missing := [run for run in runs.values() if not (run / "run.json").is_file()]:
         raise SystemExit(f"error: {missing[0]} is not a run folder: dvc repro pipelines/robothand/dvc.yaml first")
     search = {"candidates": args.candidates, "iterations": args.iterations}
+    # the pipeline's search keeps its records' names; a larger one is a row of its own beside them
+    larger = "" if search == SEARCH else f"_{args.candidates}x{args.iterations}"
+    out = args.out or RESULTS / f"robothand_oracle{larger}.json"
     with tempfile.TemporaryDirectory() as folder:
         options = ["--episodes", str(args.episodes), "--jobs", str(args.jobs), "--out", folder]
         options += ["--candidates", str(args.candidates), "--iterations", str(args.iterations)]
@@ -73,8 +76,7 @@ def main() -> None:
     line = command_line(
         "robothand_oracle.py", parser, args, shown=("seeds", "episodes", "jobs"), hidden=("out", "data")
     )
-    # the pipeline's search keeps its records' names; a larger one is a row of its own beside them
-    larger = "" if search == SEARCH else f"_{args.candidates}x{args.iterations}"
+
     budget = "" if search == SEARCH else f", {args.candidates} plans x {args.iterations} iterations"
     rows = {}
     for task in tasks:
@@ -97,7 +99,7 @@ def main() -> None:
         line,
         f"{per_layout:.1f} s",
     )
-    write_result(args.out, {"command": line, "wall_s": round(wall, 1), "rows": rows})
+    write_result(out, {"command": line, "wall_s": round(wall, 1), "rows": rows})
     for name, row in rows.items():
         print(f"{name:<22} {row['interval']}  {row['shares']}")
 

@@ -15,6 +15,7 @@ from famarl_cli.report.verdicts import (
     faster,
     fastest,
     improves,
+    reaches,
     solves,
 )
 
@@ -29,6 +30,14 @@ SPREAD = [0.2, 0.9, 0.5, 1.0, 0.6]
 )
 def test_solves(values, expected):
     assert solves("a", values, 0.8, episodes=100).verdict == expected
+
+
+@pytest.mark.parametrize(
+    ("values", "expected"),
+    [(HIGH, Verdict.REPRODUCES), (LOW, Verdict.INCONCLUSIVE), (SPREAD, Verdict.INCONCLUSIVE)],
+)
+def test_reaches_a_lower_bound_never_refutes(values, expected):
+    assert reaches("c", values, 0.8, episodes=10).verdict == expected
 
 
 @pytest.mark.parametrize(

@@ -97,6 +97,19 @@ def solves(
     )
 
 
+def reaches(
+    name: str, values: Sequence[float], tau: float, episodes: int | None = None, level: float = LEVEL
+) -> Judgement:
+    """:func:`solves` for a measure that is a lower bound (a search's share of solved layouts): the lower end at or
+    above ``tau`` reproduces; a bound under ``tau`` says only that the search found less, so nothing does not."""
+    interval = mean_interval(values, episodes, level)
+    return Judgement(
+        three_way(interval.low >= tau, False),
+        f"mean >= {tau:g}: lower end >= {tau:g} reproduces; a lower bound cannot show less, so never does not",
+        (Estimate(name, interval, tuple(values), tau),),
+    )
+
+
 def fails(
     name: str, values: Sequence[float], tau: float, episodes: int | None = None, level: float = LEVEL
 ) -> Judgement:
