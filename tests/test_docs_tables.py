@@ -125,13 +125,14 @@ def test_tables_carry_each_claim_with_its_interval_n_rule_and_where_it_was_made(
 def test_a_pipelines_positive_controls_and_oracle_are_shown_under_its_claims(project):
     summary = _summary()
     control = {"success": 0.97, "success_low": 0.92, "success_high": 0.99, "episodes": 100, "steps": 140.0}
+    control |= {"return": -396.0, "return_low": -420.5, "return_high": -371.5}
     summary["maze"]["controls"] = {"ballplacing": control}
     searched = {"n": 10, "layouts": 10, "share": 0.8, "share_low": 0.7, "share_high": 0.9}
     summary["maze"]["oracle"] = {"ballplacing": {"figar": searched}}
     (project / "summary.json").write_text(json.dumps(summary))
     docs.write_docs(project)
     pipelines = (project / "docs/pipelines.md").read_text()
-    assert "| ballplacing | 0.97 [0.92, 0.99] | 100 |" in pipelines
+    assert "| ballplacing | 0.97 [0.92, 0.99] | 100 | -396.0 [-420.5, -371.5] |" in pipelines
     assert "| ballplacing | figar | 10 | 0.80 [0.70, 0.90] |" in pipelines
 
 

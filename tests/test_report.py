@@ -243,6 +243,7 @@ def test_robothand_judges_ours_beside_the_papers_famarl_never_in_its_place(tmp_p
 
 def test_robothand_shows_each_tasks_positive_control_and_oracle_and_keeps_them_in_the_summary(tmp_path):
     from famarl_cli.artifacts import write_demos
+    from famarl_cli.artifacts.demos import read_demos
     from famarl_cli.experts import Script
     from famarl_cli.report.experiments.robothand import controls_table
     from famarl_cli.stages.demos import record_demos
@@ -263,10 +264,14 @@ def test_robothand_shows_each_tasks_positive_control_and_oracle_and_keeps_them_i
     assert searched["n"] == 2 and searched["layouts"] == 4 and searched["share"] == 0.5
     assert searched["per_replicate"] == {"0": 0.75, "1": 0.25}
     assert searched["share_low"] < 0.5 < searched["share_high"] and "| reaching | famarl | 2 | 4 | 0.50 [" in text
+    episodes = read_demos(data / "robothand/controls/reaching.h5").episodes
+    assert summary["controls"]["reaching"]["return"] == round(np.mean([e.rewards.sum() for e in episodes]), 1)
     failing = {"success": 0.5, "success_low": 0.3, "success_high": 0.7, "episodes": 20, "steps": 300.0}
-    assert "| ballplacing | 0.50 [0.30, 0.70] | 20 | 300 | **no**: no controller solves it here |" in controls_table(
-        {"ballplacing": failing}
-    )
+    failing |= {"return": -400.0, "return_low": -450.0, "return_high": -350.0}
+    # PPO (never solving) earns more than the controller, FaMARL less
+    table = controls_table({"ballplacing": failing}, {"ballplacing": {"famarl": -1100.0, "ppo": -257.0}})
+    assert "| ballplacing | 0.50 [0.30, 0.70] | 20 | 300 | **no**: no controller solves it here |" in table
+    assert "| -400 [-450, -350] | ppo (-257) |" in table
 
 
 def test_traversal_claims_are_over_favae_seeds(tmp_path):

@@ -255,11 +255,15 @@ def headline_table(found: list[Pipeline], name: str = "default") -> str:
     lines += ["", "| claim | estimate [95% CI unless marked] | verdict |", "|---|---|---|"]
     lines += [f"| {c['claim']} | {_estimates(c)} | {c['verdict']} |" for c in section.get("judged", [])]
     if section.get("controls"):
-        lines += ["", "| task | scripted controller's success [95% Wilson CI over episodes] | episodes |"]
-        lines.append("|---|---|---|")
+        lines += [
+            "",
+            "| task | scripted controller's success [95% Wilson CI over episodes] | episodes | return [95% CI] |",
+        ]
+        lines.append("|---|---|---|---|")
         for task, c in section["controls"].items():
             interval = Interval(c["success"], c["success_low"], c["success_high"]).text()
-            lines.append(f"| {task} | {interval} | {c['episodes']} |")
+            earned = Interval(c["return"], c["return_low"], c["return_high"]).text("{:.1f}") if "return" in c else ""
+            lines.append(f"| {task} | {interval} | {c['episodes']} | {earned} |")
     if section.get("oracle"):
         lines += ["", "| task | action space | n | share of layouts the oracle solved [95% CI over replicates] |"]
         lines.append("|---|---|---|---|")

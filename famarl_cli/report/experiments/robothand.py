@@ -42,9 +42,10 @@ ORACLE_MEASURE = (
 
 def controls(folder: Path) -> dict[str, dict]:
     """Per task whose controller has run: its success over its episodes with a 95% Wilson interval (the episodes are
-    the replicates of one fixed policy), the episodes and their mean length."""
+    the replicates of one fixed policy), its return with a 95% t interval over them, the episodes and their mean
+    length."""
     from famarl_cli.artifacts.demos import read_demos
-    from famarl_cli.core.statistics import proportion_interval
+    from famarl_cli.core.statistics import mean_interval, proportion_interval
 
     found = {}
     for task, name in CONTROLS.items():
@@ -52,29 +53,41 @@ def controls(folder: Path) -> dict[str, dict]:
             continue
         episodes = read_demos(folder / name).episodes
         interval = proportion_interval(sum(bool(e.success) for e in episodes), len(episodes))
+        returns = mean_interval([float(e.rewards.sum()) for e in episodes])
         found[task] = {
             "success": interval.estimate,
             "success_low": round(interval.low, 4),
             "success_high": round(interval.high, 4),
+            "return": round(returns.estimate, 1),
+            "return_low": round(returns.low, 1),
+            "return_high": round(returns.high, 1),
             "episodes": len(episodes),
             "steps": round(sum(e.length for e in episodes) / len(episodes), 1),
         }
     return found
 
 
-def controls_table(found: dict[str, dict]) -> str:
+def controls_table(found: dict[str, dict], returns: dict[str, dict[str, float]]) -> str:
+    """The controls, and per task the agents (``returns``: task -> label -> mean return over replicates) whose return
+    lies above the controller's interval: where they do not solve the task, its reward pays more for what they do
+    than for solving it."""
     rows = [
         "Positive controls: a scripted controller per task (`famarl demos --script reaching`, `--script "
         "ball-placing`), on episodes drawn from the evaluation's seed, in the pipeline's own world and time limit. "
-        f"A task whose controller succeeds in less than {CONTROL_BAR:.0%} of them is no test of the agents.",
+        f"A task whose controller succeeds in less than {CONTROL_BAR:.0%} of them is no test of the agents; one "
+        "where agents that do not solve it earn more than the controller rewards something other than solving it.",
         "",
-        "| task | controller's success [95% Wilson CI over episodes] | episodes | mean steps | a test of the agents |",
-        "|---|---|---|---|---|",
+        "| task | controller's success [95% Wilson CI over episodes] | episodes | mean steps | a test of the agents "
+        "| controller's return [95% CI over episodes] | agents whose mean return is above it |",
+        "|---|---|---|---|---|---|---|",
     ]
     for task, c in found.items():
         test = "yes" if c["success"] >= CONTROL_BAR else "**no**: no controller solves it here"
         interval = f"{c['success']:.2f} [{c['success_low']:.2f}, {c['success_high']:.2f}]"
-        rows.append(f"| {task} | {interval} | {c['episodes']} | {c['steps']:.0f} | {test} |")
+        earned = f"{c['return']:.0f} [{c['return_low']:.0f}, {c['return_high']:.0f}]"
+        above = [f"{label} ({r:.0f})" for label, r in returns.get(task, {}).items() if r > c["return_high"]]
+        row = f"| {task} | {interval} | {c['episodes']} | {c['steps']:.0f} | {test} | {earned} "
+        rows.append(row + f"| {', '.join(above) or 'none'} |")
     return "\n".join(rows)
 
 
@@ -101,7 +114,11 @@ def robothand(data: Path, out: Path):
     tables, figures = [], []
     found = controls(data / "robothand" / "controls")
     if found:
-        tables.append(controls_table(found))
+        returns = {
+            task: {label: float(g.values("return_mean").mean()) for label, g in by.items()}
+            for task, by in tasks.items()
+        }
+        tables.append(controls_table(found, returns))
     searched = oracle(shares)
     if searched:
         tables.append(oracle_table(searched))
