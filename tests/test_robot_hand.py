@@ -267,3 +267,17 @@ def test_ball_placing_cup_range_is_an_env_argument_checked_at_make():
     for bad in ([4.0, 2.0], [0.2, 3.0], [float("nan"), 3.0], [1.5, float("inf")], "near", [1.5]):
         with pytest.raises(ValueError, match="cup_x"):
             make("ball-placing", cup_x=bad)
+
+
+def test_ball_placing_arrival_reward_is_an_env_argument_checked_at_make():
+    rewards = {}
+    for bonus in (rh.BALL_REWARD, 1000.0):
+        env = make("ball-placing", ball_reward=bonus)
+        env.reset(seed=0)
+        env.unwrapped.object.position = tuple(env.unwrapped.layout.target)  # the ball at the goal
+        rewards[bonus], terminated, success = env.unwrapped._outcome()
+        assert terminated and success
+    assert rewards[1000.0] - rewards[rh.BALL_REWARD] == pytest.approx(1000.0 - rh.BALL_REWARD)
+    for bad in (-1.0, float("nan"), float("inf"), "big", None):
+        with pytest.raises(ValueError, match="ball_reward"):
+            make("ball-placing", ball_reward=bad)

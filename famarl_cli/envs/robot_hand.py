@@ -322,9 +322,11 @@ class RobotHandEnv(gym.Env):
         time_penalty: bool = True,
         render_mode: str | None = None,
         cup_x: tuple[float, float] = CUP_X,
+        ball_reward: float = BALL_REWARD,
     ) -> None:
         """``cup_x``: BallPlacing's range of the cup's centre, where the ball starts (the paper does not say; the
-        sensitivity pipeline varies it)."""
+        sensitivity pipeline varies it). ``ball_reward``: BallPlacing's reward on arrival (the paper's +200), weighed
+        against ``-|b - g|`` a step, whose scale the paper's unstated world size sets."""
         if task not in TASKS:
             raise ValueError(f"unknown RobotHand task {task!r}; expected one of {sorted(TASKS)}")
         if render_mode not in (None, "rgb_array"):
@@ -336,6 +338,9 @@ class RobotHandEnv(gym.Env):
         if not CUP_MARGIN <= low <= high <= WIDTH - CUP_MARGIN:
             raise ValueError(f"cup_x must satisfy {CUP_MARGIN} <= low <= high <= {WIDTH - CUP_MARGIN}, got {cup_x!r}")
         self.cup_x = (low, high)
+        if not (isinstance(ball_reward, int | float) and np.isfinite(ball_reward) and ball_reward >= 0):
+            raise ValueError(f"ball_reward must be a finite number >= 0, got {ball_reward!r}")
+        self.ball_reward = float(ball_reward)
         self.task = TASKS[task]
         self.time_penalty = time_penalty and self.task.time_penalty
         self.render_mode = render_mode
@@ -422,7 +427,7 @@ class RobotHandEnv(gym.Env):
             return (REACH_REWARD if success else -1.0 if self.time_penalty else 0.0), success, success
         distance = float(np.linalg.norm(self._object_position() - self.layout.target))
         success = distance < GOAL_RADIUS
-        reward = -distance + (BALL_REWARD if success else 0.0)
+        reward = -distance + (self.ball_reward if success else 0.0)
         return reward, success or ball_hits_edge(self._object_position()), success
 
     def _object_position(self) -> np.ndarray:
