@@ -102,11 +102,11 @@ def reaches(
 ) -> Judgement:
     """:func:`solves` for a measure that is a lower bound (a search's share of solved layouts): the lower end at or
     above ``tau`` reproduces; a bound under ``tau`` says only that the search found less, so nothing does not."""
-    interval = mean_interval(values, episodes, level)
+    judged = solves(name, values, tau, episodes, level)
     return Judgement(
-        three_way(interval.low >= tau, False),
+        three_way(judged.verdict == Verdict.REPRODUCES, False),
         f"mean >= {tau:g}: lower end >= {tau:g} reproduces; a lower bound cannot show less, so never does not",
-        (Estimate(name, interval, tuple(values), tau),),
+        judged.estimates,
     )
 
 

@@ -338,18 +338,18 @@ def ratio_goal(
     return Claim(goal, measure, Judgement(verdict, rule, (estimate,)))
 
 
-def oracle_shares(folder: Path, tasks: dict[str, str]) -> dict[str, dict[str, tuple[dict[int, float], int]]]:
+def oracle_shares(folders: list[Path], tasks: dict[str, str]) -> dict[str, dict[str, tuple[dict[int, float], int]]]:
     """Per task (``tasks``: name -> env id) and label whose runs ``famarl oracle`` searched
-    (``<folder>/<run>/oracle.json``): the share of layouts a plan in the run's action space solved, by replicate
-    (the run's seed), and the layouts searched per run."""
+    (``<folder>/<run>/oracle.json``, for each of ``folders``): the share of layouts a plan in the run's action space
+    solved, by replicate (the run's seed), and the layouts searched per run."""
     from famarl_cli.artifacts.runs import ORACLE_FILE, read_oracle
 
     shares: dict[str, dict[str, tuple[dict[int, float], int]]] = {}
-    for path in sorted(folder.glob(f"*/{ORACLE_FILE}")):
+    for path in (path for folder in folders for path in sorted(folder.glob(f"*/{ORACLE_FILE}"))):
         found = read_oracle(path)
         task = next((name for name, env in tasks.items() if env == found["env"]), None)
         if task is not None:
-            by_seed, _ = shares.setdefault(task, {}).setdefault(found["label"], ({}, 0))
+            by_seed, _ = shares.setdefault(task, {}).get(found["label"], ({}, 0))
             by_seed[int(found["seed"])] = float(found["success_rate"])
             shares[task][found["label"]] = (by_seed, len(found["episodes"]))
     return shares

@@ -42,7 +42,7 @@ def maze(data: Path, out: Path):
     tables = [results_table(present)]
     favae = favae_table(data / "maze" / "macros")
     tables += [favae] if favae else []
-    searched = oracle(oracle_shares(data / "maze" / "oracle", {"maze": MAZE}))
+    searched = oracle(oracle_shares([data / "maze" / "oracle"], {"maze": MAZE}))
     tables += [oracle_table(searched)] if searched else []
     figures = [curves(present, out / "maze-curves.png", "Maze")]
     if famarl is not None:

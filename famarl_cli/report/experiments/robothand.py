@@ -102,9 +102,7 @@ def robothand(data: Path, out: Path):
         return None
     tasks = {name: group(results, env) for name, env in TASKS.items()}
     reaching, ball = tasks["reaching"], tasks["ballplacing"]
-    shares = oracle_shares(data / "robothand" / "oracle", TASKS)
-    for task, labels in oracle_shares(data / "robothand" / "ours" / "oracle", TASKS).items():
-        shares.setdefault(task, {}).update(labels)
+    shares = oracle_shares([data / "robothand" / "oracle", data / "robothand" / "ours" / "oracle"], TASKS)
     claims = [
         solves_claim("FaMARL completes Reaching", reaching.get("famarl")),
         fails_claim("PPO with primitive actions fails Reaching (sparse reward)", reaching.get("ppo")),
