@@ -46,7 +46,7 @@ def main() -> None:
     if unknown := [name for name in args.pipelines if name not in known]:
         parser.error(f"unknown pipeline {', '.join(unknown)} (known: {', '.join(known)})")
     if args.stages and len(args.pipelines) > 1:
-        parser.error("--stages takes one pipeline")
+        raise SystemExit("error: --stages takes one pipeline")
     env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
     env |= {"DVC_NO_ANALYTICS": "1", "MPLBACKEND": "Agg"}
     for name in args.pipelines:
@@ -64,10 +64,10 @@ def main() -> None:
         before = walls.get(name)
         if args.stages:
             if before is None:
-                parser.error(f"{name} has no entry to add stages to: run it whole first")
+                raise SystemExit(f"error: {name} has no entry to add stages to: run it whole first")
             chosen = [f"{known[name]}:{stage}" for stage in args.stages]
             if missing := [stage for stage in chosen if stage not in stages]:
-                parser.error(f"{name} has no stage {', '.join(missing)} (its stages: {', '.join(stages)})")
+                raise SystemExit(f"error: {name} has no stage {', '.join(missing)} (its stages: {', '.join(stages)})")
             stages = chosen
         rows = []
         for stage in stages:

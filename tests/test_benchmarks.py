@@ -100,3 +100,14 @@ def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     one_error_line(run_with("robothand_oracle.py", "--data", tmp_path), "is not a run folder")
     assert not out.exists() and not measured.exists()
     assert not (tmp_path / "robothand-budget").exists() and not (tmp_path / "robothand-demos").exists()
+
+
+@pytest.mark.slow
+def test_pipeline_walls_refuses_stages_it_cannot_time_and_writes_nothing():
+    walls = BENCHMARKS / "pipeline_walls.json"
+    before = walls.read_text()
+    one_error_line(
+        run("pipeline_walls.py", "robothand", "default", "--stages", "report"), "--stages takes one pipeline"
+    )
+    one_error_line(run("pipeline_walls.py", "robothand", "--stages", "nope"), "robothand has no stage")
+    assert walls.read_text() == before
