@@ -98,6 +98,9 @@ def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     one_error_line(run_with("robothand_oracle.py", "--seeds", "abc"), "--seeds 'abc'")
     one_error_line(run_with("robothand_oracle.py", "--candidates", 1), "--candidates at least 2")
     one_error_line(run_with("robothand_oracle.py", "--data", tmp_path), "is not a run folder")
+    one_error_line(run_with("robothand_chance.py", "--tasks", "Walking-v0"), "unknown task or agent Walking-v0")
+    one_error_line(run_with("robothand_chance.py", "--plans", 0), "--plans and --jobs must be at least 1")
+    one_error_line(run_with("robothand_chance.py", "--data", tmp_path), "is not a run folder")
     assert not out.exists() and not measured.exists()
     assert not (tmp_path / "robothand-budget").exists() and not (tmp_path / "robothand-demos").exists()
 

@@ -9,7 +9,7 @@ from cli_helpers import famarl, one_line_error
 
 from famarl_cli.core.errors import UsageError
 from famarl_cli.rl.action_modes import HybridActions, LatentMacroActions, PrimitiveActions, RepeatedActions
-from famarl_cli.rl.oracle import OracleOptions, rollout, search, start_of
+from famarl_cli.rl.oracle import OracleOptions, by_chance, rollout, search, start_of
 from famarl_cli.rl.vector import GymBatch
 
 REACHING = "famarl/RobotHand-Reaching-v0"
@@ -33,6 +33,21 @@ def test_a_plan_the_search_reports_runs_again_to_the_same_end():
     assert found.plans in (16, 32, 48) and found.u.shape == (60, 4)
     success, returns = rollout(_batch(1), mode, found.u[None], found.index[None], 7)
     assert bool(success[0]) == found.success and returns[0] == pytest.approx(found.best_return)
+
+
+def test_chance_runs_the_plans_of_the_searchs_first_iteration():
+    """by_chance draws what the search's first iteration draws (FiGAR's space: an action and a repeat count), so a
+    search of one iteration from the same draws succeeds exactly where some plan drawn by chance does."""
+    batch = _batch(16)
+    mode = RepeatedActions(*batch.action_bounds, 4)
+    options = OracleOptions(episodes=1, candidates=16, iterations=1, decisions=60)
+    solved = []
+    for layout in (0, 1):  # chance solves layout 1 and not layout 0 from these draws
+        chance = by_chance(batch, mode, start_of(mode), layout, 60, np.random.default_rng(layout))
+        first = search(batch, mode, start_of(mode), layout, options, np.random.default_rng(layout))
+        assert chance.shape == (16,) and chance.dtype == bool and first.success == chance.any()
+        solved.append(int(chance.sum()))
+    assert solved[0] == 0 < solved[1], solved  # both outcomes occur, so the agreement above is not vacuous
 
 
 def test_the_search_starts_in_each_spaces_middle_and_refuses_the_hybrid():

@@ -123,6 +123,28 @@ def test_ball_placing_rewards_and_ends():
     assert terminated and not info["success"] and reward < 0
 
 
+def test_ball_placing_v1_charges_a_dropped_ball_for_the_steps_left():
+    """v1: knocking the ball off costs what leaving it there would have cost until the time limit; v0 stops the
+    cost at the edge; a ball placed or still held costs the same in both."""
+    limit = rh.TASKS["ball-placing-no-escape"].max_episode_steps
+    costs = {}
+    for task in ("ball-placing", "ball-placing-no-escape"):
+        env = make(task)
+        env.reset(seed=2)
+        env.step(STILL)
+        env.unwrapped.object.position = (5.0, rh.BALL_RADIUS)  # on the floor at the second step
+        _, reward, terminated, _, info = env.step(STILL)
+        assert terminated and not info["success"]
+        distance = np.linalg.norm(np.asarray(env.unwrapped.object.position) - rh.BALL_GOAL)
+        costs[task] = (reward, distance)
+        env.reset(seed=2)
+        env.unwrapped.object.position, env.unwrapped.object.velocity = (rh.BALL_GOAL[0] + 0.2, rh.BALL_GOAL[1]), (0, 0)
+        placed = env.step(STILL)
+        assert placed[2] and placed[4]["success"] and placed[1] == pytest.approx(rh.BALL_REWARD - 0.2, abs=0.05)
+    (v0, distance), (v1, _) = costs["ball-placing"], costs["ball-placing-no-escape"]
+    assert v0 == pytest.approx(-distance) and v1 == pytest.approx(-distance * (1 + limit - 2))
+
+
 def test_base_succeeds_only_once_the_rod_is_let_go_in_the_red_basket():
     env = make("base")
     expert, trace = run_expert_until(env, seed=4, last_phase="place")

@@ -21,7 +21,8 @@ Tasks:
   (``time_penalty=False`` removes the -1).
 - **BallPlacing**: carry a ball from a cup (at a random place) to a fixed goal; reward ``-|b - g|`` each step,
   +200 on arrival within GOAL_RADIUS. The episode also ends, unsuccessfully, when the ball touches an edge of
-  the world (floor, side walls or ceiling).
+  the world (floor, side walls or ceiling). **BallPlacing-v1** charges that end for the steps left of the time
+  limit, so that knocking the ball off never pays (``TaskSpec.drop_costs_rest``).
 
 Steps report ``info["success"]``: in BallPlacing an episode can terminate without success.
 """
@@ -142,6 +143,11 @@ class TaskSpec:
     """Reaching: goals are drawn at least this far from the grip's start (m)."""
     basket_floor: tuple[float, float] = (0.0, 0.0)
     """Base: range of each basket's floor height (m); a raised basket stands on a post."""
+    drop_costs_rest: bool = False
+    """BallPlacing: a ball that hits an edge ends the episode with ``-|b - g|`` for each step left of the task's own
+    ``max_episode_steps`` at once (a limit passed to ``gym.make`` does not change it), so that knocking the ball off
+    never costs less than leaving it where it fell (v1; in v0, the paper's words read literally, the episode's end
+    stops the cost, and dropping the ball pays: docs/robothand.md)."""
 
 
 FAR_GOAL = 2.0
@@ -158,6 +164,7 @@ TASKS = {
     "reaching-far": TaskSpec("reaching", 200, min_goal_distance=FAR_GOAL),
     "reaching-far-no-penalty": TaskSpec("reaching", 200, time_penalty=False, min_goal_distance=FAR_GOAL),
     "ball-placing": TaskSpec("ball-placing", 300),
+    "ball-placing-no-escape": TaskSpec("ball-placing", 300, drop_costs_rest=True),
 }
 
 
@@ -347,6 +354,8 @@ class RobotHandEnv(gym.Env):
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, shape=(len(OBSERVATION_NAMES),), dtype=np.float32)
         self.action_space = ACTION_SPACE
         self.space: pymunk.Space | None = None
+        self.steps = 0
+        """Steps since reset: BallPlacing-v1 charges a dropped ball for the steps left."""
         self.hand: Hand | None = None
         self.object: pymunk.Body | None = None
         self.layout: Layout | None = None
@@ -385,6 +394,7 @@ class RobotHandEnv(gym.Env):
             self.object = self._add_ball(cup)
         self.layout = Layout(grip=grip, target=target, source=source)
         self.hand = Hand(self.space, tuple(grip))
+        self.steps = 0
         return self._observe(), self._info(False)
 
     def _add_rod(self, x: float, floor_y: float) -> pymunk.Body:
@@ -414,6 +424,7 @@ class RobotHandEnv(gym.Env):
         if not np.isfinite(action).all():
             raise ValueError(f"action must be finite, got {action}")
         self.hand.step(self.space, action)
+        self.steps += 1
         reward, terminated, success = self._outcome()
         return self._observe(), reward, terminated, False, self._info(success)
 
@@ -427,8 +438,10 @@ class RobotHandEnv(gym.Env):
             return (REACH_REWARD if success else -1.0 if self.time_penalty else 0.0), success, success
         distance = float(np.linalg.norm(self._object_position() - self.layout.target))
         success = distance < GOAL_RADIUS
-        reward = -distance + (self.ball_reward if success else 0.0)
-        return reward, success or ball_hits_edge(self._object_position()), success
+        dropped = not success and ball_hits_edge(self._object_position())
+        rest = max(self.task.max_episode_steps - self.steps, 0) if dropped and self.task.drop_costs_rest else 0
+        reward = -distance * (1 + rest) + (self.ball_reward if success else 0.0)
+        return reward, success or dropped, success
 
     def _object_position(self) -> np.ndarray:
         return np.asarray(self.object.position, dtype=np.float64)

@@ -71,17 +71,12 @@ def search(
     """CEM over open-loop plans on the layout of ``layout_seed`` (module doc). ``start`` is the Gaussian's initial
     mean and spread per policy output; a mode with a categorical head (FiGAR's repeat count) searches its choice as
     a continuous value in [0, choices), floored."""
-    mean = np.broadcast_to(start[0], (options.decisions, len(start[0]))).copy()
-    std = np.broadcast_to(start[1], mean.shape).copy()
     choices = mode.choices
-    choice_mean = np.full(options.decisions, choices / 2.0)
-    choice_std = np.full(options.decisions, choices / 2.0)
+    mean, std, choice_mean, choice_std = initial(start, options.decisions, choices)
     best, plans = None, 0
     elites = max(2, int(round(ELITE_SHARE * options.candidates)))
     for _ in range(options.iterations):
-        u = mean + std * rng.standard_normal((options.candidates, *mean.shape))
-        picked = choice_mean + choice_std * rng.standard_normal((options.candidates, options.decisions))
-        index = np.clip(np.floor(picked), 0, max(choices - 1, 0)).astype(np.int64)
+        u, picked, index = draw(mean, std, choice_mean, choice_std, choices, options.candidates, rng)
         success, returns = rollout(batch, mode, u, index, layout_seed)
         plans += options.candidates
         # a success first, then the best return
@@ -95,6 +90,50 @@ def search(
         if choices:
             choice_mean, choice_std = picked[order].mean(axis=0), np.maximum(picked[order].std(axis=0), MIN_STD)
     return Searched(best.success, best.best_return, plans, best.u, best.index)
+
+
+def initial(
+    start: tuple[np.ndarray, np.ndarray], decisions: int, choices: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The search's first Gaussians over a plan of ``decisions``: ``start`` (mean, spread per output) at every
+    decision, and a categorical choice's continuous value centred in [0, choices) with half its width as spread."""
+    mean = np.broadcast_to(start[0], (decisions, len(start[0]))).copy()
+    std = np.broadcast_to(start[1], mean.shape).copy()
+    return mean, std, np.full(decisions, choices / 2.0), np.full(decisions, choices / 2.0)
+
+
+def by_chance(
+    batch: GymBatch,
+    mode: ActionMode,
+    start: tuple[np.ndarray, np.ndarray],
+    layout_seed: int,
+    decisions: int,
+    rng: np.random.Generator,
+) -> np.ndarray:
+    """Success (n_envs,) of as many plans drawn from the search's first Gaussians (:func:`initial`) on the layout
+    of ``layout_seed``: how often chance alone solves it in ``mode``'s action space, which is where an untrained
+    agent's policy starts (FaMARL's latents at N(0, 1), PPO's actions at mean 0 and spread 1, clipped) and what its
+    first updates have to learn from."""
+    u, _, index = draw(*initial(start, decisions, mode.choices), mode.choices, batch.n_envs, rng)
+    return rollout(batch, mode, u, index, layout_seed)[0]
+
+
+def draw(
+    mean: np.ndarray,
+    std: np.ndarray,
+    choice_mean: np.ndarray,
+    choice_std: np.ndarray,
+    choices: int,
+    candidates: int,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``candidates`` plans from the search's Gaussians: outputs u (candidates, decisions, outputs) of mean ``mean``
+    and spread ``std`` (decisions, outputs), the categorical choice as a continuous value ``picked`` (candidates,
+    decisions) and its floor ``index``, clipped to [0, choices)."""
+    u = mean + std * rng.standard_normal((candidates, *mean.shape))
+    picked = choice_mean + choice_std * rng.standard_normal((candidates, len(choice_mean)))
+    index = np.clip(np.floor(picked), 0, max(choices - 1, 0)).astype(np.int64)
+    return u, picked, index
 
 
 def rollout(

@@ -1,0 +1,105 @@
+"""How often does chance solve a RobotHand task in each agent's action space? For the committed robothand runs of
+the given replicates (FaMARL's pegging macros, ``famarl-ours``' raised-basket ones, FiGAR's repeated actions, PPO's
+actions), plans drawn from the spread an untrained policy samples (the oracle search's start: FaMARL's latents from
+N(0, 1), an action of mean 0 and spread 1, clipped) run open-loop on each of the evaluation's layouts; the share of
+plans that succeed, per replicate, with its 95% interval over replicates.
+
+    python benchmarks/robothand_chance.py [--seeds 0-9] [--episodes 5] [--plans 64] [--jobs 2] [--data data]
+        [--tasks Reaching-v1,BallPlacing-v0] [--agents famarl,famarl-ours,figar,ppo]
+
+It is the rate at which a learner's first rollouts meet the success it has to learn from, where the oracle
+(benchmarks/robothand_oracle.py) searches thousands of plans per layout from the layout's own reset. Needs
+``dvc repro pipelines/robothand/dvc.yaml`` first (its runs; only their action spaces are used, not their policies).
+Run it alone (one CPU-heavy job at a time): it uses --jobs cores. Records one row per task and agent in
+benchmarks/measured.json (docs/robothand.md shows them) and writes benchmarks/results/robothand_chance.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+from multiprocessing import Pool
+from pathlib import Path
+
+from common import RESULTS, ROOT, command_line, record, seed_list, write_result
+from robothand_oracle import RUNS, TASKS
+
+from famarl_cli.core.statistics import mean_interval
+
+EVALUATION_SEED = 100
+"""The pipeline's evaluation seed: the layouts are those its evaluation and oracle draw for each replicate."""
+
+
+def chance_of(job: tuple[str, int, int]) -> tuple[int, int]:
+    """(successes, plans) of ``plans`` plans drawn by chance on each of ``episodes`` layouts of the run ``job[0]``."""
+    import torch
+
+    from famarl_cli.core.seeding import Stream, generator, seed_of
+    from famarl_cli.rl.oracle import by_chance, start_of
+    from famarl_cli.rl.training import build_mode, load_agent
+    from famarl_cli.rl.vector import GymBatch
+
+    torch.set_num_threads(1)
+    run, episodes, plans = job
+    agent = load_agent(run)
+    spec = agent.spec
+    batch = GymBatch.make(spec.env_id, plans, EVALUATION_SEED, spec.env_kwargs, spec.success_return)
+    batch.autoreset = False
+    mode = build_mode(spec, batch, agent.favae, agent.skills)
+    first = seed_of(spec.seed, Stream.EVALUATION_LAYOUTS, EVALUATION_SEED)
+    rng = generator(spec.seed, Stream.ORACLE, EVALUATION_SEED)
+    limit = batch.envs[0].spec.max_episode_steps
+    hits = sum(int(by_chance(batch, mode, start_of(mode), first + e, limit, rng).sum()) for e in range(episodes))
+    return hits, plans * episodes
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--seeds", default="0-9", help="Replicates whose runs' action spaces are tried.")
+    parser.add_argument("--episodes", type=int, default=5, help="Layouts per run.")
+    parser.add_argument("--plans", type=int, default=64, help="Plans drawn per layout.")
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--data", type=Path, default=ROOT / "data")
+    parser.add_argument("--out", type=Path, default=RESULTS / "robothand_chance.json")
+    parser.add_argument("--tasks", default=",".join(TASKS), help="The pipeline's tasks.")
+    parser.add_argument("--agents", default="famarl,famarl-ours,figar,ppo", help=f"Of {', '.join(RUNS)}.")
+    args = parser.parse_args()
+    seeds = seed_list(args.seeds)
+    tasks, agents = args.tasks.split(","), args.agents.split(",")
+    if unknown := [t for t in tasks if t not in TASKS] + [a for a in agents if a not in RUNS]:
+        raise SystemExit(
+            f"error: unknown task or agent {', '.join(unknown)} (tasks: {', '.join(TASKS)}; agents: {', '.join(RUNS)})"
+        )
+    if args.episodes < 1 or args.plans < 1 or args.jobs < 1:
+        raise SystemExit("error: --episodes, --plans and --jobs must be at least 1")
+    runs = {(t, a, s): args.data / RUNS[a].format(task=t, seed=s) for t in tasks for a in agents for s in seeds}
+    if missing := [run for run in runs.values() if not (run / "run.json").is_file()]:
+        raise SystemExit(f"error: {missing[0]} is not a run folder: dvc repro pipelines/robothand/dvc.yaml first")
+    with Pool(args.jobs) as pool:
+        found = pool.map(chance_of, [(str(run), args.episodes, args.plans) for run in runs.values()])
+    counts = dict(zip(runs, found, strict=True))
+    line = command_line(
+        "robothand_chance.py", parser, args, shown=("seeds", "episodes", "plans", "jobs"), hidden=("out", "data")
+    )
+    rows = {}
+    for task in tasks:
+        for agent in agents:
+            hits = [counts[(task, agent, s)] for s in seeds]
+            shares = [h / n for h, n in hits]
+            interval = mean_interval(shares, hits[0][1])
+            text = interval.text("{:.4f}")
+            rows[f"{task}-{agent}"] = {"successes": [h for h, _ in hits], "plans": hits[0][1], "interval": text}
+            record(
+                f"robothand_chance_{task.lower().replace('-', '_')}_{agent.replace('-', '_')}",
+                f"RobotHand {task}: share of plans drawn by chance in {agent}'s action space (an untrained policy's "
+                f"spread, open-loop) that succeed, replicates {args.seeds}, {args.episodes} layouts x {args.plans} "
+                "plans each; mean over replicates [95% CI]",
+                line,
+                text,
+            )
+    write_result(args.out, {"command": line, "rows": rows})
+    for name, row in rows.items():
+        print(f"{name:<26} {row['interval']:<28} successes per replicate {row['successes']} of {row['plans']}")
+
+
+if __name__ == "__main__":
+    main()
