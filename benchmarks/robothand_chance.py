@@ -21,7 +21,7 @@ from multiprocessing import Pool
 from pathlib import Path
 
 from common import RESULTS, ROOT, command_line, record, seed_list, write_result
-from robothand_oracle import RUNS, TASKS
+from robothand_oracle import RUNS, TASKS, pipeline_runs
 
 from famarl_cli.core.statistics import mean_interval
 
@@ -64,16 +64,10 @@ def main() -> None:
     parser.add_argument("--agents", default="famarl,famarl-ours,figar,ppo", help=f"Of {', '.join(RUNS)}.")
     args = parser.parse_args()
     seeds = seed_list(args.seeds)
-    tasks, agents = args.tasks.split(","), args.agents.split(",")
-    if unknown := [t for t in tasks if t not in TASKS] + [a for a in agents if a not in RUNS]:
-        raise SystemExit(
-            f"error: unknown task or agent {', '.join(unknown)} (tasks: {', '.join(TASKS)}; agents: {', '.join(RUNS)})"
-        )
     if args.episodes < 1 or args.plans < 1 or args.jobs < 1:
         raise SystemExit("error: --episodes, --plans and --jobs must be at least 1")
-    runs = {(t, a, s): args.data / RUNS[a].format(task=t, seed=s) for t in tasks for a in agents for s in seeds}
-    if missing := [run for run in runs.values() if not (run / "run.json").is_file()]:
-        raise SystemExit(f"error: {missing[0]} is not a run folder: dvc repro pipelines/robothand/dvc.yaml first")
+    tasks, agents = args.tasks.split(","), args.agents.split(",")
+    runs = pipeline_runs(args.data, tasks, agents, seeds)
     with Pool(args.jobs) as pool:
         found = pool.map(chance_of, [(str(run), args.episodes, args.plans) for run in runs.values()])
     counts = dict(zip(runs, found, strict=True))

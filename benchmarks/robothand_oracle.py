@@ -37,6 +37,19 @@ SEARCH = {"candidates": 64, "iterations": 4}
 """The pipeline's search (famarl oracle's defaults)."""
 
 
+def pipeline_runs(data: Path, tasks: list[str], agents: list[str], seeds: list[int]) -> dict[tuple, Path]:
+    """The pipeline's run folder of each (task, agent, seed) under ``data``; an unknown task or agent, or a folder
+    that holds no run, ends the benchmark in one error line."""
+    if unknown := [t for t in tasks if t not in TASKS] + [a for a in agents if a not in RUNS]:
+        raise SystemExit(
+            f"error: unknown task or agent {', '.join(unknown)} (tasks: {', '.join(TASKS)}; agents: {', '.join(RUNS)})"
+        )
+    runs = {(t, a, s): data / RUNS[a].format(task=t, seed=s) for t in tasks for a in agents for s in seeds}
+    if missing := [run for run in runs.values() if not (run / "run.json").is_file()]:
+        raise SystemExit(f"error: {missing[0]} is not a run folder: dvc repro pipelines/robothand/dvc.yaml first")
+    return runs
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", default="0-2", help="Replicates whose runs are searched.")
@@ -50,16 +63,10 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=SEARCH["iterations"], help="Iterations per layout.")
     args = parser.parse_args()
     seeds = seed_list(args.seeds)
-    tasks, agents = args.tasks.split(","), args.agents.split(",")
-    if unknown := [t for t in tasks if t not in TASKS] + [a for a in agents if a not in RUNS]:
-        raise SystemExit(
-            f"error: unknown task or agent {', '.join(unknown)} (tasks: {', '.join(TASKS)}; agents: {', '.join(RUNS)})"
-        )
     if args.episodes < 1 or args.candidates < 2 or args.iterations < 1:
         raise SystemExit("error: --episodes and --iterations must be at least 1, --candidates at least 2")
-    runs = {(t, a, s): args.data / RUNS[a].format(task=t, seed=s) for t in tasks for a in agents for s in seeds}
-    if missing := [run for run in runs.values() if not (run / "run.json").is_file()]:
-        raise SystemExit(f"error: {missing[0]} is not a run folder: dvc repro pipelines/robothand/dvc.yaml first")
+    tasks, agents = args.tasks.split(","), args.agents.split(",")
+    runs = pipeline_runs(args.data, tasks, agents, seeds)
     search = {"candidates": args.candidates, "iterations": args.iterations}
     # the pipeline's search keeps its records' names; a larger one is a row of its own beside them
     larger = "" if search == SEARCH else f"_{args.candidates}x{args.iterations}"
