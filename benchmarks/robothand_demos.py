@@ -24,12 +24,12 @@ use the policy). Finished work is reused. Records one row per cell and oracle in
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import yaml
 from common import RESULTS, ROOT, command_line, famarl, record, seed_list, train_and_evaluate, write_result
 
+from famarl_cli.artifacts.runs import ORACLE_FILE, read_oracle
 from famarl_cli.core.statistics import mean_interval
 
 DEMOS = {"pegging": "the pipeline's pegging demos", "pegging-varied": "pegging demos with raised baskets"}
@@ -67,7 +67,7 @@ def oracle(cell: Path, seeds: str, episodes: int) -> list[float]:
     """The oracle's share of layouts per replicate, searched in the macro space of the cell's runs."""
     out = cell.with_name(cell.name + "-oracle")
     famarl("oracle", "--run", str(cell), "--episodes", str(episodes), "--out", str(out))
-    return [float(json.loads((out / f"seed{s}/oracle.json").read_text())["success_rate"]) for s in seed_list(seeds)]
+    return [float(read_oracle(out / f"seed{s}" / ORACLE_FILE)["success_rate"]) for s in seed_list(seeds)]
 
 
 def _choices(value: str, known: dict, option: str) -> list[str]:

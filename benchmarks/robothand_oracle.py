@@ -16,7 +16,6 @@ benchmarks/results/robothand_oracle.json (robothand_oracle_CxI.json for a search
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import subprocess
 import sys
@@ -26,6 +25,7 @@ from pathlib import Path
 
 from common import RESULTS, ROOT, command_line, record, seed_list, write_result
 
+from famarl_cli.artifacts.runs import ORACLE_FILE, read_oracle
 from famarl_cli.core.statistics import mean_interval
 
 TASKS = ("Reaching-v1", "BallPlacing-v0")
@@ -79,7 +79,7 @@ def main() -> None:
         start = time.perf_counter()
         subprocess.run([*command, *options], check=True, env={**os.environ, "OMP_NUM_THREADS": "1"})
         wall = time.perf_counter() - start
-        found = {key: json.loads((Path(folder) / run.name / "oracle.json").read_text()) for key, run in runs.items()}
+        found = {key: read_oracle(Path(folder) / run.name / ORACLE_FILE) for key, run in runs.items()}
     line = command_line(
         "robothand_oracle.py", parser, args, shown=("seeds", "episodes", "jobs"), hidden=("out", "data")
     )

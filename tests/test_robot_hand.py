@@ -300,6 +300,6 @@ def test_ball_placing_arrival_reward_is_an_env_argument_checked_at_make():
         rewards[bonus], terminated, success = env.unwrapped._outcome()
         assert terminated and success
     assert rewards[1000.0] - rewards[rh.BALL_REWARD] == pytest.approx(1000.0 - rh.BALL_REWARD)
-    for bad in (-1.0, float("nan"), float("inf"), "big", None):
+    for bad in (-1.0, float("nan"), float("inf"), "big", None, True):
         with pytest.raises(ValueError, match="ball_reward"):
             make("ball-placing", ball_reward=bad)

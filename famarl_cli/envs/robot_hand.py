@@ -345,7 +345,10 @@ class RobotHandEnv(gym.Env):
         if not CUP_MARGIN <= low <= high <= WIDTH - CUP_MARGIN:
             raise ValueError(f"cup_x must satisfy {CUP_MARGIN} <= low <= high <= {WIDTH - CUP_MARGIN}, got {cup_x!r}")
         self.cup_x = (low, high)
-        if not (isinstance(ball_reward, int | float) and np.isfinite(ball_reward) and ball_reward >= 0):
+        # a bool is an int to Python; True as a reward is a mistake, not 1.0
+        if isinstance(ball_reward, bool) or not (
+            isinstance(ball_reward, int | float) and np.isfinite(ball_reward) and ball_reward >= 0
+        ):
             raise ValueError(f"ball_reward must be a finite number >= 0, got {ball_reward!r}")
         self.ball_reward = float(ball_reward)
         self.task = TASKS[task]
