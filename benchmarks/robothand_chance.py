@@ -4,12 +4,19 @@ actions), plans drawn from the spread an untrained policy samples (the oracle se
 N(0, 1), an action of mean 0 and spread 1, clipped) run open-loop on each of the evaluation's layouts; the share of
 plans that succeed, per replicate, with its 95% interval over replicates.
 
+With a state-conditioned prior (``--starts``: pipelines/skills' prior p(z | s) fitted on the pipeline's pegging
+demos, open or closed loop) FaMARL's untrained policy is the prior itself, which reads the state: its chance is
+its success on the evaluation's 100 layouts per replicate, as ``famarl evaluate`` draws them, from a run of one
+rollout at learning rate 0 (into data/robothand-chance; finished runs are reused).
+
     python benchmarks/robothand_chance.py [--seeds 0-9] [--episodes 5] [--plans 64] [--jobs 2] [--data data]
         [--tasks Reaching-v1,BallPlacing-v0] [--agents famarl,famarl-ours,figar,ppo]
+        [--starts famarl+prior,famarl+prior+closed]
 
 It is the rate at which a learner's first rollouts meet the success it has to learn from, where the oracle
 (benchmarks/robothand_oracle.py) searches thousands of plans per layout from the layout's own reset. Needs
-``dvc repro pipelines/robothand/dvc.yaml`` first (its runs; only their action spaces are used, not their policies).
+``dvc repro pipelines/robothand/dvc.yaml`` first (its runs; only their action spaces are used, not their policies),
+and for --starts ``dvc repro pipelines/skills/dvc.yaml`` (its priors).
 Run it alone (one CPU-heavy job at a time): it uses --jobs cores. Records one row per task and agent in
 benchmarks/measured.json (docs/robothand.md shows them) and writes benchmarks/results/robothand_chance.json.
 """
@@ -20,13 +27,20 @@ import argparse
 from multiprocessing import Pool
 from pathlib import Path
 
-from common import RESULTS, ROOT, command_line, record, seed_list, write_result
+from common import RESULTS, ROOT, command_line, record, seed_list, train_and_evaluate, write_result
 from robothand_oracle import RUNS, TASKS, pipeline_runs
 
 from famarl_cli.core.statistics import mean_interval
 
 EVALUATION_SEED = 100
 """The pipeline's evaluation seed: the layouts are those its evaluation and oracle draw for each replicate."""
+START_EPISODES = 100
+"""Layouts per replicate on which a prior's start is evaluated: the pipeline's evaluation's."""
+STARTS = {"famarl+prior": "open", "famarl+prior+closed": "closed"}
+"""FaMARL at a state-conditioned prior, by label: the loop its macros run in (closed: the prior's closed-loop
+decoder acts from each state reached)."""
+PRIOR = "skills/reaching/prior/seed{seed}/prior.pt"
+"""pipelines/skills' prior of replicate ``seed``, fitted on the pipeline's pegging demos and FAVAE."""
 
 
 def chance_of(job: tuple[str, int, int]) -> tuple[int, int]:
@@ -62,17 +76,29 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=RESULTS / "robothand_chance.json")
     parser.add_argument("--tasks", default=",".join(TASKS), help="The pipeline's tasks.")
     parser.add_argument("--agents", default="famarl,famarl-ours,figar,ppo", help=f"Of {', '.join(RUNS)}.")
+    parser.add_argument("--starts", default=",".join(STARTS), help=f"Priors' starts, of {', '.join(STARTS)} ('' none).")
     args = parser.parse_args()
     seeds = seed_list(args.seeds)
     if args.episodes < 1 or args.plans < 1 or args.jobs < 1:
         raise SystemExit("error: --episodes, --plans and --jobs must be at least 1")
     tasks, agents = args.tasks.split(","), args.agents.split(",")
+    starts = [start for start in args.starts.split(",") if start]
+    if unknown := [start for start in starts if start not in STARTS]:
+        raise SystemExit(f"error: unknown start {unknown[0]!r} (starts: {', '.join(STARTS)})")
     runs = pipeline_runs(args.data, tasks, agents, seeds)
+    if starts and (missing := [s for s in seeds if not (args.data / PRIOR.format(seed=s)).is_file()]):
+        raise SystemExit(
+            f"error: no prior of replicate {missing[0]} in {args.data}: dvc repro pipelines/skills/dvc.yaml first"
+        )
     with Pool(args.jobs) as pool:
         found = pool.map(chance_of, [(str(run), args.episodes, args.plans) for run in runs.values()])
     counts = dict(zip(runs, found, strict=True))
     line = command_line(
-        "robothand_chance.py", parser, args, shown=("seeds", "episodes", "plans", "jobs"), hidden=("out", "data")
+        "robothand_chance.py",
+        parser,
+        args,
+        shown=("seeds", "episodes", "plans", "jobs", "starts"),
+        hidden=("out", "data"),
     )
     rows = {}
     for task in tasks:
@@ -90,9 +116,28 @@ def main() -> None:
                 line,
                 text,
             )
+    for task in tasks:
+        for start in starts:
+            options = ["--env", f"famarl/RobotHand-{task}", "--agent", "famarl", "--loop", STARTS[start]]
+            options += ["--favae", str(args.data / "robothand/macros/seed{seed}/favae.pt")]
+            options += ["--prior", str(args.data / PRIOR), "--steps", "1", "--lr", "0", "--label", start]
+            out = args.data / "robothand-chance" / f"{task}-{start}"
+            evaluated = train_and_evaluate(out, args.seeds, options, START_EPISODES, EVALUATION_SEED)
+            shares = [float(evaluation["sampled"]["success_rate"]) for _, evaluation in evaluated]
+            interval = mean_interval(shares, START_EPISODES)
+            text = interval.text("{:.4f}")
+            rows[f"{task}-{start}"] = {"shares": shares, "episodes": START_EPISODES, "interval": text}
+            record(
+                f"robothand_chance_{task.lower().replace('-', '_')}_{start.replace('+', '_')}",
+                f"RobotHand {task}: success of FaMARL's untrained policy at the state-conditioned prior of the "
+                f"pipeline's pegging demos ({STARTS[start]} loop; pipelines/skills' priors), {START_EPISODES} layouts "
+                f"per replicate, replicates {args.seeds}; mean [95% CI]",
+                line,
+                text,
+            )
     write_result(args.out, {"command": line, "rows": rows})
     for name, row in rows.items():
-        print(f"{name:<26} {row['interval']:<28} successes per replicate {row['successes']} of {row['plans']}")
+        print(f"{name:<34} {row['interval']:<28} {row.get('successes', row.get('shares'))}")
 
 
 if __name__ == "__main__":

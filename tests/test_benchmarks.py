@@ -101,8 +101,14 @@ def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     one_error_line(run_with("robothand_chance.py", "--tasks", "Walking-v0"), "unknown task or agent Walking-v0")
     one_error_line(run_with("robothand_chance.py", "--plans", 0), "--plans and --jobs must be at least 1")
     one_error_line(run_with("robothand_chance.py", "--data", tmp_path), "is not a run folder")
+    one_error_line(run_with("robothand_chance.py", "--starts", "famarl+nope"), "unknown start 'famarl+nope'")
+    (tmp_path / "robothand/runs/Reaching-v1-famarl-seed0").mkdir(parents=True)
+    (tmp_path / "robothand/runs/Reaching-v1-famarl-seed0/run.json").write_text("{}")
+    only = ("--seeds", 0, "--tasks", "Reaching-v1", "--agents", "famarl", "--data", tmp_path)
+    one_error_line(run_with("robothand_chance.py", *only), "no prior of replicate 0")
     assert not out.exists() and not measured.exists()
     assert not (tmp_path / "robothand-budget").exists() and not (tmp_path / "robothand-demos").exists()
+    assert not (tmp_path / "robothand-chance").exists()
 
 
 @pytest.mark.slow
