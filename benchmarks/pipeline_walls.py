@@ -30,6 +30,22 @@ ROOT = Path(__file__).resolve().parents[1]
 WALLS = Path(__file__).parent / "pipeline_walls.json"
 
 
+def merged_note(before: str | None, extra: str | None, stages: list[str], when: str) -> str:
+    """The note of an entry whose ``stages`` were just measured ``when``: the earlier note's parts that say when
+    stages were measured lose these stages (a part left with none goes, so a stage timed twice is named once),
+    then ``extra`` and the new part."""
+    parts = []
+    for part in filter(None, (before or "").split("; ")):
+        named, measured, rest = part.partition(" measured ")
+        if measured:
+            kept = [stage for stage in named.split(", ") if stage not in stages]
+            if not kept:
+                continue
+            part = f"{', '.join(kept)} measured {rest}"
+        parts.append(part)
+    return "; ".join([*parts, *filter(None, [extra]), f"{', '.join(stages)} measured {when}"])
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("pipelines", nargs="+", help="default, or a folder name under pipelines/")
@@ -79,8 +95,8 @@ def main() -> None:
         if args.stages:
             measured = {stage: measured.get(stage, before["stages"].get(stage)) for stage in every}
             measured = {stage: seconds for stage, seconds in measured.items() if seconds is not None}
-            part = f"{', '.join(s.rsplit(':', 1)[1] for s in stages)} measured {date} at {revision}"
-            note = "; ".join(filter(None, [before.get("note"), args.note, part]))
+            named = [stage.rsplit(":", 1)[1] for stage in stages]
+            note = merged_note(before.get("note"), args.note, named, f"{date} at {revision}")
             date, revision = before["date"], before["revision"]
         walls[name] = {
             "stages": measured,

@@ -111,6 +111,24 @@ def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     assert not (tmp_path / "robothand-chance").exists()
 
 
+def test_a_stage_timed_again_is_named_once_in_its_pipelines_note():
+    sys.path.insert(0, str(BENCHMARKS))
+    try:
+        from pipeline_walls import merged_note
+    finally:
+        sys.path.remove(str(BENCHMARKS))
+    before = "a machine busy meanwhile; train@x, evaluate@x measured 2026-12-01 at abc; "
+    before += "train@y measured 2026-12-02 at def"
+    assert merged_note(before, None, ["evaluate@x"], "2026-12-05 at 123") == (
+        "a machine busy meanwhile; train@x measured 2026-12-01 at abc; train@y measured 2026-12-02 at def; "
+        "evaluate@x measured 2026-12-05 at 123"
+    )
+    assert merged_note(before, "quiet", ["train@y"], "today") == (
+        "a machine busy meanwhile; train@x, evaluate@x measured 2026-12-01 at abc; quiet; train@y measured today"
+    )
+    assert merged_note(None, None, ["report"], "today") == "report measured today"
+
+
 @pytest.mark.slow
 def test_pipeline_walls_refuses_stages_it_cannot_time_and_writes_nothing():
     walls = BENCHMARKS / "pipeline_walls.json"
