@@ -47,21 +47,13 @@ def chance_of(job: tuple[str, int, int]) -> tuple[int, int]:
     """(successes, plans) of ``plans`` plans drawn by chance on each of ``episodes`` layouts of the run ``job[0]``."""
     import torch
 
-    from famarl_cli.core.seeding import Stream, generator, seed_of
-    from famarl_cli.rl.oracle import by_chance, start_of
-    from famarl_cli.rl.training import build_mode, load_agent
-    from famarl_cli.rl.vector import GymBatch
+    from famarl_cli.rl.oracle import by_chance, start_of, streams
+    from famarl_cli.stages.oracle import searched_space
 
     torch.set_num_threads(1)
     run, episodes, plans = job
-    agent = load_agent(run)
-    spec = agent.spec
-    batch = GymBatch.make(spec.env_id, plans, EVALUATION_SEED, spec.env_kwargs, spec.success_return)
-    batch.autoreset = False
-    mode = build_mode(spec, batch, agent.favae, agent.skills)
-    first = seed_of(spec.seed, Stream.EVALUATION_LAYOUTS, EVALUATION_SEED)
-    rng = generator(spec.seed, Stream.ORACLE, EVALUATION_SEED)
-    limit = batch.envs[0].spec.max_episode_steps
+    spec, batch, mode, limit = searched_space(run, plans, EVALUATION_SEED)
+    first, rng = streams(spec.seed, EVALUATION_SEED)
     hits = sum(int(by_chance(batch, mode, start_of(mode), first + e, limit, rng).sum()) for e in range(episodes))
     return hits, plans * episodes
 

@@ -170,6 +170,12 @@ def start_of(mode: ActionMode) -> tuple[np.ndarray, np.ndarray]:
     raise UsageError("the oracle searches the action spaces of famarl, ppo and figar runs")
 
 
+def streams(replicate: int, seed: int) -> tuple[int, np.random.Generator]:
+    """The reset seed of ``replicate``'s first layout (the next ones follow it, as an evaluation of that replicate
+    in a gymnasium batch draws them from ``seed``) and the oracle's own generator of plans."""
+    return seed_of(replicate, Stream.EVALUATION_LAYOUTS, seed), generator(replicate, Stream.ORACLE, seed)
+
+
 def oracle(
     batch: GymBatch,
     mode: ActionMode,
@@ -180,8 +186,7 @@ def oracle(
 ) -> list[Searched]:
     """Search each of ``options.episodes`` layouts (reset seeds from ``options.seed`` and ``replicate``, as an
     evaluation of that replicate in a gymnasium batch draws them); the CEM draws from the oracle's own stream."""
-    first = seed_of(replicate, Stream.EVALUATION_LAYOUTS, options.seed)
-    rng = generator(replicate, Stream.ORACLE, options.seed)
+    first, rng = streams(replicate, options.seed)
     found = []
     for episode in range(options.episodes):
         searched = search(batch, mode, start, first + episode, options, rng)

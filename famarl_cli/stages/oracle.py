@@ -4,12 +4,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from famarl_cli.artifacts import provenance, write_json
 from famarl_cli.artifacts.made import Replaceable, made_result, making
 from famarl_cli.core.declare import option, same_as
 from famarl_cli.core.errors import UsageError
 from famarl_cli.stages.evaluate import EvaluateOptions
+
+if TYPE_CHECKING:  # named in annotations only: reading this module does not load torch
+    from famarl_cli.rl.action_modes import ActionMode
+    from famarl_cli.rl.training import RunSpec
+    from famarl_cli.rl.vector import GymBatch
 
 
 @dataclass(frozen=True)
@@ -38,6 +44,22 @@ class OracleStageOptions(Replaceable):
     out: Path = option(Path("data/oracle"), "Folder for OUT/<run folder name>/oracle.json.", path="dir", affects=False)
 
 
+def searched_space(run: str, plans: int, seed: int) -> tuple[RunSpec, GymBatch, ActionMode, int | None]:
+    """The action space of the run folder ``run`` as the oracle searches it: the run's spec, a batch of ``plans``
+    of its envs (made from ``seed``) that do not reset themselves, the mode that decodes its decisions, and the
+    env's time limit (None where it has none). Only the run's action space is used, not its policy."""
+    from famarl_cli.rl.training import build_mode, load_agent
+    from famarl_cli.rl.vector import GymBatch
+
+    agent = load_agent(run)
+    spec = agent.spec
+    batch = GymBatch.make(spec.env_id, plans, seed, spec.env_kwargs, spec.success_return)
+    batch.autoreset = False
+    mode = build_mode(spec, batch, agent.favae, agent.skills)
+    limit = batch.envs[0].spec.max_episode_steps if batch.envs[0].spec is not None else None
+    return spec, batch, mode, limit
+
+
 def oracle_run(
     run: str,
     into: str,
@@ -55,8 +77,6 @@ def oracle_run(
     from famarl_cli.artifacts.runs import CHECKPOINT_FILE, ORACLE_FILE, ORACLE_SCHEMA, ORACLE_SCHEMA_VERSION
     from famarl_cli.core.statistics import proportion_interval
     from famarl_cli.rl.oracle import OracleOptions, oracle, start_of
-    from famarl_cli.rl.training import build_mode, load_agent
-    from famarl_cli.rl.vector import GymBatch
 
     stage = OracleStageOptions(
         episodes=episodes, seed=seed, candidates=candidates, iterations=iterations, decisions=decisions
@@ -65,12 +85,7 @@ def oracle_run(
     done = made_result(Path(into) / ORACLE_FILE, made, overwrite)
     if done is not None:
         return {**done, "reused": True}
-    agent = load_agent(run)
-    spec = agent.spec
-    batch = GymBatch.make(spec.env_id, candidates, seed, spec.env_kwargs, spec.success_return)
-    batch.autoreset = False
-    mode = build_mode(spec, batch, agent.favae, agent.skills)
-    limit = batch.envs[0].spec.max_episode_steps if batch.envs[0].spec is not None else None
+    spec, batch, mode, limit = searched_space(run, candidates, seed)
     if decisions is None and limit is None:
         raise UsageError(f"{spec.env_id} has no time limit: give --decisions")
     decisions = decisions or limit
