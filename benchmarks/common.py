@@ -78,12 +78,25 @@ def seed_list(text: str) -> list[int]:
 def train_and_evaluate(out: Path, seeds: str, options: list[str], episodes: int, seed: int) -> list[tuple[Path, dict]]:
     """``famarl sweep train`` of ``options`` over ``seeds`` into ``out`` (a run ``seedS`` per replicate), then
     ``famarl evaluate`` of those runs into ``OUT-eval`` on ``episodes`` layouts drawn from ``seed``, as the
-    pipelines evaluate; what is finished is reused. Per replicate: its run folder and its evaluation."""
+    pipelines evaluate; finished runs are reused, their evaluations made again (the sweep trains a run again when
+    famarl's source has changed, and an evaluation of the run it replaced must not stand for it). Per replicate:
+    its run folder and its evaluation."""
     from famarl_cli.artifacts.runs import read_evaluation
 
     famarl("sweep", "train", "--seeds", seeds, "--name", "seed{seed}", "--out", str(out), "--", *options)
     evaluated = out.with_name(out.name + "-eval")
-    famarl("evaluate", "--run", str(out), "--out", str(evaluated), "--episodes", str(episodes), "--seed", str(seed))
+    famarl(
+        "evaluate",
+        "--run",
+        str(out),
+        "--out",
+        str(evaluated),
+        "--episodes",
+        str(episodes),
+        "--seed",
+        str(seed),
+        "--overwrite",
+    )
     return [(out / f"seed{s}", read_evaluation(evaluated / f"seed{s}/eval.json")) for s in seed_list(seeds)]
 
 

@@ -2,7 +2,10 @@
 the given replicates (FaMARL's pegging macros, ``famarl-ours``' raised-basket ones, FiGAR's repeated actions, PPO's
 actions), plans drawn from the spread an untrained policy samples (the oracle search's start: FaMARL's latents from
 N(0, 1), an action of mean 0 and spread 1, clipped) run open-loop on each of the evaluation's layouts; the share of
-plans that succeed, per replicate, with its 95% interval over replicates.
+plans that succeed, per replicate, with its 95% interval over replicates. On BallPlacing it also counts the plans
+that reach the task's two milestones before success, step by step: the ball moved from its rest in the cup (until
+then the reward -|b - g| is the same for every plan, so it tells a learner nothing) and the ball lifted off the cup
+(a grasp that holds).
 
 With a state-conditioned prior (``--starts``: pipelines/skills' prior p(z | s) fitted on the pipeline's pegging
 demos, open or closed loop) FaMARL's untrained policy is the prior itself, which reads the state: its chance is
@@ -27,10 +30,13 @@ import argparse
 from multiprocessing import Pool
 from pathlib import Path
 
+import gymnasium as gym
+import numpy as np
 from common import RESULTS, ROOT, command_line, record, seed_list, train_and_evaluate, write_result
 from robothand_oracle import RUNS, TASKS, pipeline_runs
 
 from famarl_cli.core.statistics import mean_interval
+from famarl_cli.envs.robot_hand import OBSERVATION_NAMES
 
 EVALUATION_SEED = 100
 """The pipeline's evaluation seed: the layouts are those its evaluation and oracle draw for each replicate."""
@@ -41,10 +47,32 @@ STARTS = {"famarl+prior": "open", "famarl+prior+closed": "closed"}
 decoder acts from each state reached)."""
 PRIOR = "skills/reaching/prior/seed{seed}/prior.pt"
 """pipelines/skills' prior of replicate ``seed``, fitted on the pipeline's pegging demos and FAVAE."""
+MOVED = 0.05
+"""BallPlacing: the ball has moved once its centre is this far (m) from where it rested at reset."""
+LIFTED = 0.3
+"""BallPlacing: the ball is lifted once its centre is this far (m) above where it rested, twice the cup's rim above
+its centre: only a hand that holds it (or flings it) raises it so far."""
+BALL = slice(OBSERVATION_NAMES.index("object_x"), OBSERVATION_NAMES.index("object_y") + 1)
 
 
-def chance_of(job: tuple[str, int, int]) -> tuple[int, int]:
-    """(successes, plans) of ``plans`` plans drawn by chance on each of ``episodes`` layouts of the run ``job[0]``."""
+class BallWatch(gym.Wrapper):
+    """Notes, at every step since the last reset, how far the ball has moved from its rest and how high it rose."""
+
+    def reset(self, **kwargs):
+        obs, info = self.env.reset(**kwargs)
+        self.rest, self.moved, self.risen = np.asarray(obs[BALL], dtype=np.float64), 0.0, 0.0
+        return obs, info
+
+    def step(self, action):
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        offset = np.asarray(obs[BALL], dtype=np.float64) - self.rest
+        self.moved, self.risen = max(self.moved, float(np.hypot(*offset))), max(self.risen, float(offset[1]))
+        return obs, reward, terminated, truncated, info
+
+
+def chance_of(job: tuple[str, int, int]) -> tuple[int, int, int, int]:
+    """(successes, plans that moved the ball, plans that lifted it, plans) of ``plans`` plans drawn by chance on each
+    of ``episodes`` layouts of the run ``job[0]`` (the ball's counts are 0 in a task without one)."""
     import torch
 
     from famarl_cli.rl.oracle import by_chance, start_of, streams
@@ -53,9 +81,14 @@ def chance_of(job: tuple[str, int, int]) -> tuple[int, int]:
     torch.set_num_threads(1)
     run, episodes, plans = job
     spec, batch, mode, limit = searched_space(run, plans, EVALUATION_SEED)
+    batch.envs = watches = [BallWatch(env) for env in batch.envs]
     first, rng = streams(spec.seed, EVALUATION_SEED)
-    hits = sum(int(by_chance(batch, mode, start_of(mode), first + e, limit, rng).sum()) for e in range(episodes))
-    return hits, plans * episodes
+    hits = moved = lifted = 0
+    for e in range(episodes):
+        hits += int(by_chance(batch, mode, start_of(mode), first + e, limit, rng).sum())
+        moved += sum(watch.moved >= MOVED for watch in watches)
+        lifted += sum(watch.risen >= LIFTED for watch in watches)
+    return hits, moved, lifted, plans * episodes
 
 
 def main() -> None:
@@ -95,19 +128,27 @@ def main() -> None:
     rows = {}
     for task in tasks:
         for agent in agents:
-            hits = [counts[(task, agent, s)] for s in seeds]
-            shares = [h / n for h, n in hits]
-            interval = mean_interval(shares, hits[0][1])
-            text = interval.text("{:.4f}")
-            rows[f"{task}-{agent}"] = {"successes": [h for h, _ in hits], "plans": hits[0][1], "interval": text}
-            record(
-                f"robothand_chance_{task.lower().replace('-', '_')}_{agent.replace('-', '_')}",
-                f"RobotHand {task}: share of plans drawn by chance in {agent}'s action space (an untrained policy's "
-                f"spread, open-loop) that succeed, replicates {args.seeds}, {args.episodes} layouts x {args.plans} "
-                "plans each; mean over replicates [95% CI]",
-                line,
-                text,
-            )
+            found = np.array([counts[(task, agent, s)] for s in seeds])
+            plans = int(found[0, 3])
+            rows[f"{task}-{agent}"] = {"successes": found[:, 0].tolist(), "plans": plans}
+            key = f"robothand_chance_{task.lower().replace('-', '_')}_{agent.replace('-', '_')}"
+            milestones = [("interval", "succeed", 0)]
+            if task.startswith("BallPlacing"):
+                milestones += [("moved", f"move the ball at least {MOVED} m", 1)]
+                milestones += [("lifted", f"lift the ball at least {LIFTED} m above its rest", 2)]
+            for name, what, column in milestones:
+                text = mean_interval((found[:, column] / plans).tolist(), plans).text("{:.4f}")
+                rows[f"{task}-{agent}"][name] = text
+                if column:
+                    rows[f"{task}-{agent}"][f"{name}_counts"] = found[:, column].tolist()
+                record(
+                    key + ("" if name == "interval" else f"_{name}"),
+                    f"RobotHand {task}: share of plans drawn by chance in {agent}'s action space (an untrained "
+                    f"policy's spread, open-loop) that {what}, replicates {args.seeds}, {args.episodes} layouts x "
+                    f"{args.plans} plans each; mean over replicates [95% CI]",
+                    line,
+                    text,
+                )
     for task in tasks:
         for start in starts:
             options = ["--env", f"famarl/RobotHand-{task}", "--agent", "famarl", "--loop", STARTS[start]]
@@ -129,7 +170,8 @@ def main() -> None:
             )
     write_result(args.out, {"command": line, "rows": rows})
     for name, row in rows.items():
-        print(f"{name:<34} {row['interval']:<28} {row.get('successes', row.get('shares'))}")
+        milestones = "".join(f"  {m} {row[m]}" for m in ("moved", "lifted") if m in row)
+        print(f"{name:<34} {row['interval']:<28} {row.get('successes', row.get('shares'))}{milestones}")
 
 
 if __name__ == "__main__":

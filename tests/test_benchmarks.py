@@ -68,6 +68,32 @@ def test_robothand_sparsity_counts_each_setting_from_one_pass(tmp_path):
     assert len(json.loads(measured.read_text())) == 4
 
 
+@pytest.mark.slow  # 12 episodes of a 300-step task
+def test_robothand_grasp_finds_the_window_the_control_holds_in(tmp_path):
+    """Aimed at the ball's centre the control solves every layout; 0.3 m to either side or above it, none (the
+    window is about 0.1 m wide and reaches 0.05 m above the centre): the record says the window ends there."""
+    import json
+    import os
+
+    out, measured, picture = tmp_path / "grasp.json", tmp_path / "measured.json", tmp_path / "grasp.png"
+    args = ["--layouts", 2, "--dx=-0.3,0,0.3", "--dy=0,0.3", "--jobs", 1, "--out", out, "--picture", picture]
+    result = subprocess.run(
+        [sys.executable, str(BENCHMARKS / "robothand_grasp.py"), *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "FAMARL_MEASURED": str(measured)},
+    )
+    assert result.returncode == 0, result.stderr
+    assert json.loads(out.read_text())["solved"] == [[0, 2, 0], [0, 0, 0]]
+    rows = {name: row["measured"] for name, row in json.loads(measured.read_text()).items()}
+    assert rows == {
+        "robothand_grasp_robothand_ballplacing_v0_sideways": "0.00 m",
+        "robothand_grasp_robothand_ballplacing_v0_height": "+0.00 or lower to +0.00 m",
+    }
+    assert picture.read_bytes()[:4] == b"\x89PNG"
+
+
 @pytest.mark.slow  # 20 interpreters, each importing torch
 def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     import os
@@ -102,6 +128,10 @@ def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     one_error_line(run_with("robothand_chance.py", "--plans", 0), "--plans and --jobs must be at least 1")
     one_error_line(run_with("robothand_chance.py", "--data", tmp_path), "is not a run folder")
     one_error_line(run_with("robothand_chance.py", "--starts", "famarl+nope"), "unknown start 'famarl+nope'")
+    one_error_line(run_with("robothand_grasp.py", "--layouts", 0), "--layouts and --jobs must be at least 1")
+    one_error_line(run_with("robothand_grasp.py", "--dx=0.1,0.2"), "must include 0")
+    one_error_line(run_with("robothand_grasp.py", "--dy=0,up"), "expected numbers")
+    one_error_line(run_with("robothand_grasp.py", "--env", "famarl/RobotHand-Reaching-v1"), "a famarl RobotHand Ball")
     (tmp_path / "robothand/runs/Reaching-v1-famarl-seed0").mkdir(parents=True)
     (tmp_path / "robothand/runs/Reaching-v1-famarl-seed0/run.json").write_text("{}")
     only = ("--seeds", 0, "--tasks", "Reaching-v1", "--agents", "famarl", "--data", tmp_path)
