@@ -149,16 +149,17 @@ def main() -> None:
     wide = f"{half_width:.2f}" + (" or more" if half_width in (dx[-1], -dx[0]) else "")
     line = command_line(__file__, parser, args, shown=("layouts", "jobs"), hidden=("out", "picture"))
     task = args.env.split("/")[-1]
+    key = "robothand_grasp_" + task.removeprefix("RobotHand-").lower().replace("-", "_")
     where = f"{args.layouts} layouts per aim, an aim holding where at least {HOLDS:.0%} are solved"
     record(
-        f"robothand_grasp_{task.lower().replace('-', '_')}_sideways",
+        f"{key}_sideways",
         f"{task}: how far sideways (either way) from the ball's centre the scripted control's grasp may be aimed, at "
         f"the centre's height, and still solve the task; {where}",
         line,
         f"{wide} m",
     )
     record(
-        f"robothand_grasp_{task.lower().replace('-', '_')}_height",
+        f"{key}_height",
         f"{task}: the heights, from the ball's centre, between which the scripted control's grasp may be aimed, right "
         f"above the centre, and still solve the task; {where}",
         line,

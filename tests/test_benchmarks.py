@@ -17,6 +17,19 @@ def run(script: str, *args) -> subprocess.CompletedProcess:
     )
 
 
+def run_recording(script: str, measured: Path, *args) -> subprocess.CompletedProcess:
+    """``script`` run with ``args``, its figures recorded in ``measured`` rather than benchmarks/measured.json."""
+    import os
+
+    return subprocess.run(
+        [sys.executable, str(BENCHMARKS / script), *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "FAMARL_MEASURED": str(measured)},
+    )
+
+
 def one_error_line(result: subprocess.CompletedProcess, needle: str) -> None:
     assert result.returncode != 0
     lines = result.stderr.strip().split("\n")
@@ -48,17 +61,10 @@ def test_pipeline_stages_against_a_revision_that_is_not_there(tmp_path):
 
 def test_robothand_sparsity_counts_each_setting_from_one_pass(tmp_path):
     import json
-    import os
 
     out, measured = tmp_path / "sparsity.json", tmp_path / "measured.json"
     args = ["--episodes", 12, "--limits", "20,80", "--radii", "0.5,3", "--min-distances", "0", "--out", out]
-    result = subprocess.run(
-        [sys.executable, str(BENCHMARKS / "robothand_sparsity.py"), *map(str, args)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        env={**os.environ, "FAMARL_MEASURED": str(measured)},
-    )
+    result = run_recording("robothand_sparsity.py", measured, *args)
     assert result.returncode == 0, result.stderr
     rows = json.loads(out.read_text())["rows"]
     hits = {name: row["hits"] for name, row in rows.items()}
@@ -73,23 +79,16 @@ def test_robothand_grasp_finds_the_window_the_control_holds_in(tmp_path):
     """Aimed at the ball's centre the control solves every layout; 0.3 m to either side or above it, none (the
     window is about 0.1 m wide and reaches 0.05 m above the centre): the record says the window ends there."""
     import json
-    import os
 
     out, measured, picture = tmp_path / "grasp.json", tmp_path / "measured.json", tmp_path / "grasp.png"
     args = ["--layouts", 2, "--dx=-0.3,0,0.3", "--dy=0,0.3", "--jobs", 1, "--out", out, "--picture", picture]
-    result = subprocess.run(
-        [sys.executable, str(BENCHMARKS / "robothand_grasp.py"), *map(str, args)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        env={**os.environ, "FAMARL_MEASURED": str(measured)},
-    )
+    result = run_recording("robothand_grasp.py", measured, *args)
     assert result.returncode == 0, result.stderr
     assert json.loads(out.read_text())["solved"] == [[0, 2, 0], [0, 0, 0]]
     rows = {name: row["measured"] for name, row in json.loads(measured.read_text()).items()}
     assert rows == {
-        "robothand_grasp_robothand_ballplacing_v0_sideways": "0.00 m",
-        "robothand_grasp_robothand_ballplacing_v0_height": "+0.00 or lower to +0.00 m",
+        "robothand_grasp_ballplacing_v0_sideways": "0.00 m",
+        "robothand_grasp_ballplacing_v0_height": "+0.00 or lower to +0.00 m",
     }
     assert picture.read_bytes()[:4] == b"\x89PNG"
 
