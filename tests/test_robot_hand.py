@@ -303,3 +303,25 @@ def test_ball_placing_arrival_reward_is_an_env_argument_checked_at_make():
     for bad in (-1.0, float("nan"), float("inf"), "big", None, True):
         with pytest.raises(ValueError, match="ball_reward"):
             make("ball-placing", ball_reward=bad)
+
+
+def test_ball_placing_hand_near_starts_the_grip_over_the_ball_and_leaves_the_layout_as_it_was():
+    """``hand_near`` draws the grip's start near the ball and nothing else: the cup (and so the ball) of each
+    layout is the default's, and a start never puts the open fingertips into the ball."""
+    default, near = make("ball-placing"), make("ball-placing", hand_near=0.5)
+    ball_y = rh.CUP_HEIGHT + rh.BASKET_WALL + rh.BALL_RADIUS
+    offsets = []
+    for seed in range(30):
+        plain, close = default.reset(seed=seed)[0], near.reset(seed=seed)[0]
+        assert np.array_equal(plain[8:], close[8:])  # ball, goal and cup as drawn without it
+        offsets.append(close[0:2] - close[8:10])
+        assert close[9] == pytest.approx(ball_y)
+    offsets = np.array(offsets)
+    assert np.abs(offsets[:, 0]).max() <= 0.5 + 1e-6
+    assert offsets[:, 1].min() >= rh.NEAR_CLEARANCE - 1e-6 and offsets[:, 1].max() <= rh.NEAR_CLEARANCE + 0.5 + 1e-6
+    assert np.ptp(offsets, axis=0).min() > 0.2  # drawn, not fixed
+    for bad in (0.0, -1.0, float("nan"), 20.0, "near", True):
+        with pytest.raises(ValueError, match="hand_near"):
+            make("ball-placing", hand_near=bad)
+    with pytest.raises(ValueError, match="BallPlacing's"):
+        make("reaching", hand_near=1.0)

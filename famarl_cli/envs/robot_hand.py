@@ -22,7 +22,8 @@ Tasks:
 - **BallPlacing**: carry a ball from a cup (at a random place) to a fixed goal; reward ``-|b - g|`` each step,
   +200 on arrival within GOAL_RADIUS. The episode also ends, unsuccessfully, when the ball touches an edge of
   the world (floor, side walls or ceiling). **BallPlacing-v1** charges that end for the steps left of the time
-  limit, so that knocking the ball off never pays (``TaskSpec.drop_costs_rest``).
+  limit, so that knocking the ball off never pays (``TaskSpec.drop_costs_rest``). ``hand_near`` starts the hand
+  near the ball instead of anywhere in the upper world.
 
 Steps report ``info["success"]``: in BallPlacing an episode can terminate without success.
 """
@@ -119,6 +120,9 @@ CUP_MARGIN = 1.0
 """The least distance of the cup's centre from a side wall (m): room for the hand to reach round it."""
 BALL_GOAL = (7.5, 2.5)
 """BallPlacing's fixed goal (m)."""
+NEAR_CLEARANCE = 0.25
+"""BallPlacing with ``hand_near``: the lowest start of the grip point above the ball's centre (m), the open
+fingertips 0.1 m over the ball."""
 REACH_REWARD, BALL_REWARD = 100.0, 200.0
 
 OBSERVATION_NAMES = (
@@ -330,10 +334,14 @@ class RobotHandEnv(gym.Env):
         render_mode: str | None = None,
         cup_x: tuple[float, float] = CUP_X,
         ball_reward: float = BALL_REWARD,
+        hand_near: float | None = None,
     ) -> None:
         """``cup_x``: BallPlacing's range of the cup's centre, where the ball starts (the paper does not say; the
         sensitivity pipeline varies it). ``ball_reward``: BallPlacing's reward on arrival (the paper's +200), weighed
-        against ``-|b - g|`` a step, whose scale the paper's unstated world size sets."""
+        against ``-|b - g|`` a step, whose scale the paper's unstated world size sets. ``hand_near``: BallPlacing's
+        grip starts within this distance (m) sideways of the cup's centre and up to this far above NEAR_CLEARANCE
+        over the ball's centre (within the start box's x range and under its top), not anywhere in the start box:
+        where the hand starts is not in the paper, and it decides how often random actions touch the ball."""
         if task not in TASKS:
             raise ValueError(f"unknown RobotHand task {task!r}; expected one of {sorted(TASKS)}")
         if render_mode not in (None, "rgb_array"):
@@ -352,6 +360,13 @@ class RobotHandEnv(gym.Env):
             raise ValueError(f"ball_reward must be a finite number >= 0, got {ball_reward!r}")
         self.ball_reward = float(ball_reward)
         self.task = TASKS[task]
+        if hand_near is not None and (
+            isinstance(hand_near, bool) or not isinstance(hand_near, int | float) or not 0 < hand_near < WIDTH
+        ):
+            raise ValueError(f"hand_near must be a distance in (0, {WIDTH:g}) m, got {hand_near!r}")
+        if hand_near is not None and self.task.name != "ball-placing":
+            raise ValueError(f"hand_near is BallPlacing's; the task is {task!r}")
+        self.hand_near = None if hand_near is None else float(hand_near)
         self.time_penalty = time_penalty and self.task.time_penalty
         self.render_mode = render_mode
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, shape=(len(OBSERVATION_NAMES),), dtype=np.float32)
@@ -393,6 +408,10 @@ class RobotHandEnv(gym.Env):
         else:
             cup = rng.uniform(*self.cup_x)
             source, target = np.array([cup, CUP_HEIGHT]), np.array(BALL_GOAL)
+            if self.hand_near is not None:  # drawn only here, so the default's episodes stay as they were
+                ball_y = CUP_HEIGHT + BASKET_WALL + BALL_RADIUS
+                x = np.clip(cup + rng.uniform(-self.hand_near, self.hand_near), *HAND_START_X)
+                grip = np.array([x, min(ball_y + NEAR_CLEARANCE + rng.uniform(0, self.hand_near), HAND_START_Y[1])])
             self._add_cup(cup)
             self.object = self._add_ball(cup)
         self.layout = Layout(grip=grip, target=target, source=source)
