@@ -74,6 +74,30 @@ def test_robothand_sparsity_counts_each_setting_from_one_pass(tmp_path):
     assert len(json.loads(measured.read_text())) == 4
 
 
+@pytest.mark.slow  # 40 episodes of a 300-step task
+def test_robothand_sparsity_counts_the_ball_moved_and_the_hand_near_it_moves_it_more(tmp_path):
+    """BallPlacing's rows count the episodes in which random actions move the ball, never fewer in a longer limit,
+    and a hand that starts near the ball moves it in more of them than one that starts anywhere."""
+    import json
+
+    hits = {}
+    for kwargs in ("{}", '{"hand_near": 0.5}'):
+        out, measured = tmp_path / "sparsity.json", tmp_path / "measured.json"
+        args = ["--episodes", 20, "--limits", "50,300", "--env", "famarl/RobotHand-BallPlacing-v0", "--out", out]
+        result = run_recording("robothand_sparsity.py", measured, *args, "--env-kwargs", kwargs)
+        assert result.returncode == 0, result.stderr
+        hits.update({name: row["hits"] for name, row in json.loads(out.read_text())["rows"].items()})
+    assert set(hits) == {"v0-50", "v0-300", "v0_hand_near_0p5-50", "v0_hand_near_0p5-300"}
+    assert hits["v0-50"] <= hits["v0-300"] and hits["v0_hand_near_0p5-50"] <= hits["v0_hand_near_0p5-300"]
+    assert hits["v0_hand_near_0p5-300"] > hits["v0-300"]
+    assert set(json.loads(measured.read_text())) == {
+        "robothand_sparsity_ballplacing_v0_50",
+        "robothand_sparsity_ballplacing_v0_300",
+        "robothand_sparsity_ballplacing_v0_hand_near_0p5_50",
+        "robothand_sparsity_ballplacing_v0_hand_near_0p5_300",
+    }
+
+
 @pytest.mark.slow  # 12 episodes of a 300-step task
 def test_robothand_grasp_finds_the_window_the_control_holds_in(tmp_path):
     """Aimed at the ball's centre the control solves every layout; 0.3 m to either side or above it, none (the
@@ -111,6 +135,8 @@ def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     one_error_line(run_with("robothand_sparsity.py", "--episodes", 0), "--episodes and --limits must be at least 1")
     one_error_line(run_with("robothand_sparsity.py", "--radii", "nan"), "--radii above 0")
     one_error_line(run_with("robothand_sparsity.py", "--limits", "abc"), "take numbers")
+    one_error_line(run_with("robothand_sparsity.py", "--env-kwargs", "[1]"), "expected a JSON object")
+    one_error_line(run_with("robothand_sparsity.py", "--env-kwargs", '{"hand_near": 1}'), "is for BallPlacing envs")
     one_error_line(run_with("robothand_demos.py", "--demos", "nope"), "--demos: unknown 'nope'")
     one_error_line(run_with("robothand_demos.py", "--discounts", "gamma"), "--discounts: unknown 'gamma'")
     one_error_line(run_with("robothand_demos.py", "--seeds", "abc"), "--seeds 'abc'")
