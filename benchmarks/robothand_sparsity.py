@@ -44,7 +44,7 @@ RULE = 0.02
 
 
 REACHING = "famarl/RobotHand-Reaching-v0"
-BALL_PLACING = "famarl/RobotHand-BallPlacing-"
+BALL_PLACING = "famarl/RobotHand-BallPlacing"
 
 
 def closest(env_id: str, episodes: int, steps: int) -> tuple[np.ndarray, np.ndarray]:

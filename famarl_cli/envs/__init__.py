@@ -25,7 +25,7 @@ ROBOT_HAND_IDS = {
     "reaching-far": "famarl/RobotHand-Reaching-v1",
     "reaching-far-no-penalty": "famarl/RobotHand-ReachingNoPenalty-v1",
     "ball-placing": "famarl/RobotHand-BallPlacing-v0",
-    "ball-placing-no-escape": "famarl/RobotHand-BallPlacing-v1",
+    "ball-placing-no-escape": "famarl/RobotHand-BallPlacingNoEscape-v0",
 }
 ENV_IDS = {**CONTINUOUS_WORLD_IDS, **{f"robot-hand-{task}": env_id for task, env_id in ROBOT_HAND_IDS.items()}}
 WORLDS = {"continuous-world": continuous_world, "robot-hand": robot_hand}

@@ -21,7 +21,7 @@ Tasks:
   (``time_penalty=False`` removes the -1).
 - **BallPlacing**: carry a ball from a cup (at a random place) to a fixed goal; reward ``-|b - g|`` each step,
   +200 on arrival within GOAL_RADIUS. The episode also ends, unsuccessfully, when the ball touches an edge of
-  the world (floor, side walls or ceiling). **BallPlacing-v1** charges that end for the steps left of the time
+  the world (floor, side walls or ceiling). **BallPlacingNoEscape** charges that end for the steps left of the time
   limit, so that knocking the ball off never pays (``TaskSpec.drop_costs_rest``). ``hand_near`` starts the hand
   near the ball instead of anywhere in the upper world.
 
@@ -150,8 +150,8 @@ class TaskSpec:
     drop_costs_rest: bool = False
     """BallPlacing: a ball that hits an edge ends the episode with ``-|b - g|`` for each step left of the task's own
     ``max_episode_steps`` at once (a limit passed to ``gym.make`` does not change it), so that knocking the ball off
-    never costs less than leaving it where it fell (v1; in v0, the paper's words read literally, the episode's end
-    stops the cost, and dropping the ball pays: docs/robothand.md)."""
+    never costs less than leaving it where it fell (BallPlacingNoEscape; in BallPlacing-v0, the paper's words read
+    literally, the episode's end stops the cost, and dropping the ball pays: docs/robothand.md)."""
 
 
 FAR_GOAL = 2.0
@@ -373,7 +373,7 @@ class RobotHandEnv(gym.Env):
         self.action_space = ACTION_SPACE
         self.space: pymunk.Space | None = None
         self.steps = 0
-        """Steps since reset: BallPlacing-v1 charges a dropped ball for the steps left."""
+        """Steps since reset: BallPlacingNoEscape charges a dropped ball for the steps left."""
         self.hand: Hand | None = None
         self.object: pymunk.Body | None = None
         self.layout: Layout | None = None
