@@ -431,16 +431,17 @@ def test_the_plots_csv_keeps_a_few_evenly_spaced_points_per_run_and_the_last(tmp
 
 def test_robothand_sensitivity_judges_each_claim_under_each_setting_read_from_its_runs(tmp_path):
     """Each setting is named by its runs' env and keyword arguments; pipelines/robothand's runs are the default;
-    each task's claims are judged per setting, an agent a setting did not train is a claim not run."""
+    each task's claims are judged per setting, a variant env's (BallPlacingNoEscape) under its task's, and an agent
+    a setting did not train is a claim not run."""
     data = tmp_path / "data"
     for seed, jitter in zip(SEEDS, JITTER, strict=True):
         for agent, success in (("famarl", 0.2), ("ppo", 0.95)):
             make_run(data, "robothand", f"Reaching-v1-{agent}-seed{seed}", agent, agent, success + jitter, REACHING)
-        for setting, kwargs, famarl in (
-            ("limit", {"max_episode_steps": 400}, 0.9),
-            ("cup", {"cup_x": [1.5, 6.5]}, 0.1),
+        for setting, kwargs, famarl, task in (
+            ("limit", {"max_episode_steps": 400}, 0.9, REACHING),
+            ("cup", {"cup_x": [1.5, 6.5]}, 0.1, BALL_PLACING),
+            ("no-escape", {}, 0.05, "famarl/RobotHand-BallPlacingNoEscape-v0"),
         ):
-            task = REACHING if setting == "limit" else BALL_PLACING
             name = f"{setting}-famarl-seed{seed}"
             make_run(data, f"robothand-sensitivity/{setting}", name, "famarl", "famarl", famarl + jitter, task)
             run = data / f"robothand-sensitivity/{setting}/runs/{name}/run.json"
@@ -454,7 +455,8 @@ def test_robothand_sensitivity_judges_each_claim_under_each_setting_read_from_it
         Verdict.INCONCLUSIVE  # no ppo runs in that setting
     )
     assert judged["FaMARL completes BallPlacing [BallPlacing-v0, cup_x [1.5, 6.5]]"] == Verdict.DOES_NOT
-    assert len(judged) == 6  # two claims per setting of each task; BallPlacing's default has no runs here
+    assert judged["FaMARL completes BallPlacing [BallPlacingNoEscape-v0]"] == Verdict.DOES_NOT
+    assert len(judged) == 8  # two claims per setting of each task; BallPlacing's default has no runs here
     headline = json.loads((tmp_path / "report/summary.json").read_text())["robothand-sensitivity"]["headline"]
     assert headline["famarl, max_episode_steps 400 (RobotHand-Reaching-v1)"]["n"] == 5
     assert headline["ppo, as pipelines/robothand (RobotHand-Reaching-v1)"]["n"] == 5

@@ -16,23 +16,28 @@ from famarl_cli.report.experiments.robothand import BALL_PLACING, REACHING
 from famarl_cli.report.results import Group, RunResult, by_agent, gather, group, results_table
 
 CLAIMS = {
-    "Reaching": (
+    "reaching": (
         ("FaMARL completes Reaching", "famarl", solves_claim),
         ("PPO with primitive actions fails Reaching (sparse reward)", "ppo", fails_claim),
     ),
-    "BallPlacing": (
+    "ball-placing": (
         ("FaMARL completes BallPlacing", "famarl", solves_claim),
         ("FiGAR fails BallPlacing (no precise control)", "figar", fails_claim),
     ),
 }
-"""pipelines/robothand's claims about each task alone, with the agent each names and its rule."""
+"""pipelines/robothand's claims about each task alone (by the name of the env's task, whatever its variant), with the
+agent each names and its rule."""
 AS_PIPELINE = "as pipelines/robothand"
 """What the default setting's runs, pipelines/robothand's own, are named by in place of changed keyword arguments."""
 
 
 def task_of(env_id: str) -> str:
-    """``famarl/RobotHand-Reaching-v0`` -> ``Reaching``."""
-    return env_id.removeprefix("famarl/RobotHand-").partition("-")[0]
+    """The task a RobotHand env runs, its variants included: ``famarl/RobotHand-Reaching-v1`` -> ``reaching``,
+    ``famarl/RobotHand-BallPlacingNoEscape-v0`` -> ``ball-placing`` ("" for an env that is not famarl's)."""
+    from famarl_cli.envs import ROBOT_HAND_IDS, robot_hand
+
+    key = next((task for task, known in ROBOT_HAND_IDS.items() if known == env_id), None)
+    return robot_hand.TASKS[key].name if key else ""
 
 
 def changed_in(run: RunResult) -> str:
