@@ -7,6 +7,7 @@ parameter re-runs only the stages that depend on it."""
 from __future__ import annotations
 
 import ast
+import functools
 import itertools
 import json
 import shlex
@@ -276,7 +277,8 @@ def _is_plumbing(name: str, path: Path) -> bool:
     return path.name == "__init__.py" and all(isinstance(node, ast.Expr) for node in body)
 
 
-def _code_reached(entries: list[str]) -> set[Path]:
+@functools.cache  # many stages run the same commands: each set of entries is followed once
+def _code_reached(entries: tuple[str, ...]) -> frozenset[Path]:
     """The famarl_cli files the entry modules import, directly or through others (every import in a module,
     function-level ones too: an over-estimate, never an under-estimate), less :data:`PLUMBING`."""
     reached, todo = set(), list(entries)
@@ -293,7 +295,7 @@ def _code_reached(entries: list[str]) -> set[Path]:
                 todo += [node.module] + [f"{node.module}.{alias.name}" for alias in node.names]
                 parts = node.module.split(".")
                 todo += [".".join(parts[:i]) for i in range(2, len(parts))]
-    return reached
+    return frozenset(reached)
 
 
 @pytest.mark.filterwarnings("ignore:_NoneStep.value:DeprecationWarning")  # DVC's own, of pygtrie
@@ -316,7 +318,7 @@ def test_every_stage_declares_the_code_it_runs(tmp_path, monkeypatch):
             entries = sorted({job.runner.partition(":")[0] for job in jobs} | {"famarl_cli.sweep.driver"})
         else:
             entries = ENTRIES[tuple(names)]
-        for path in sorted(_code_reached(entries)):
+        for path in sorted(_code_reached(tuple(entries))):
             module = PurePosixPath(path.relative_to(ROOT))
             if not any(module == d or d in module.parents for d in declared):
                 faults.append(f"{stage.addressing} runs {module}, not among its deps")
