@@ -130,7 +130,7 @@ def main() -> None:
         for agent in agents:
             found = np.array([counts[(task, agent, s)] for s in seeds])
             plans = int(found[0, 3])
-            rows[f"{task}-{agent}"] = {"successes": found[:, 0].tolist(), "plans": plans}
+            row = rows[f"{task}-{agent}"] = {"successes": found[:, 0].tolist(), "plans": plans}
             key = f"robothand_chance_{task.lower().replace('-', '_')}_{agent.replace('-', '_')}"
             milestones = [("interval", "succeed", 0)]
             if task.startswith("BallPlacing"):
@@ -138,9 +138,9 @@ def main() -> None:
                 milestones += [("lifted", f"lift the ball at least {LIFTED} m above its rest", 2)]
             for name, what, column in milestones:
                 text = mean_interval((found[:, column] / plans).tolist(), plans).text("{:.4f}")
-                rows[f"{task}-{agent}"][name] = text
+                row[name] = text
                 if column:
-                    rows[f"{task}-{agent}"][f"{name}_counts"] = found[:, column].tolist()
+                    row[f"{name}_counts"] = found[:, column].tolist()
                 record(
                     key + ("" if name == "interval" else f"_{name}"),
                     f"RobotHand {task}: share of plans drawn by chance in {agent}'s action space (an untrained "

@@ -52,26 +52,23 @@ class AimedBallPlacing(BallPlacingControl):
 
 def solved(job: tuple[str, float, float, int, int]) -> int:
     """How many of ``layouts`` layouts (reset seeds from ``seed``) the control aimed at (dx, dy) solves."""
+    from famarl_cli.envs.success import success_rule
+    from famarl_cli.stages.demos import record_episode
+
     env_id, dx, dy, layouts, seed = job
     env = gym.make(env_id)
-    successes = 0
-    for layout in range(layouts):
-        obs, _ = env.reset(seed=seed + layout)
-        control = AimedBallPlacing((dx, dy))
-        control.reset(obs)
-        done, info = False, {"success": False}
-        while not done:
-            obs, _, terminated, truncated, info = env.step(control.act(obs))
-            done = terminated or truncated
-        successes += bool(info["success"])
-    return successes
+    rule = success_rule(env.spec)
+    episodes = (record_episode(env, AimedBallPlacing((dx, dy)), seed + layout, rule)[0] for layout in range(layouts))
+    return sum(bool(episode.success) for episode in episodes)
 
 
 def offsets(text: str, option: str) -> list[float]:
     try:
         values = sorted({round(float(v), 6) for v in text.split(",")})
+        if not all(np.isfinite(values)):
+            raise ValueError
     except ValueError:
-        raise SystemExit(f"error: {option} {text!r}: expected numbers separated by commas") from None
+        raise SystemExit(f"error: {option} {text!r}: expected finite numbers separated by commas") from None
     if 0.0 not in values:
         raise SystemExit(f"error: {option} {text!r}: must include 0 (the ball's centre)")
     return values

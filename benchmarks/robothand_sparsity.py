@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 from pathlib import Path
 
 import gymnasium as gym
@@ -147,17 +148,23 @@ def main() -> None:
 def ball_rows(env_id: str, kwargs: dict, moved: np.ndarray, limits: list[int], line: str, out: Path) -> None:
     """BallPlacing's rows: per time limit, the share of episodes in which the ball moved, judged by the rule."""
     rows = {}
-    setting = "".join(f"_{key}_{value:g}" for key, value in sorted(kwargs.items())).replace(".", "p")
+    shown = "".join(f", {key} {_value(value)}" for key, value in sorted(kwargs.items()))
+    setting = re.sub(r"\W+", "_", shown.replace(".", "p")).rstrip("_")
     version = env_id.rpartition("-")[2] + setting
-    shown = "".join(f", {key} {value:g}" for key, value in sorted(kwargs.items()))
+    # the env's name as well as its version: BallPlacing's variants are versions "v0" too
+    recorded = env_id.removeprefix("famarl/RobotHand-").lower().replace("-", "_") + setting
     for limit in limits:
         hits, episodes = int(moved[:, limit - 1].sum()), len(moved)
         interval = proportion_interval(hits, episodes)
         judged = "sparse" if interval.high <= RULE else "not sparse" if interval.low > RULE else "not decided"
-        rows[f"{version}-{limit}"] = {"hits": hits, "layouts": episodes, "interval": interval.text("{:.3f}")}
-        rows[f"{version}-{limit}"]["judged"] = judged
+        rows[f"{version}-{limit}"] = {
+            "hits": hits,
+            "layouts": episodes,
+            "interval": interval.text("{:.3f}"),
+            "judged": judged,
+        }
         record(
-            f"robothand_sparsity_ballplacing_{version}_{limit}",
+            f"robothand_sparsity_{recorded}_{limit}",
             f"{env_id.removeprefix('famarl/')}{shown}, time limit {limit} steps: share of episodes in which "
             f"uniformly random primitive actions move the ball at least {MOVED} m (its reward changes) [95% Wilson "
             f"CI], {episodes} layouts; {judged} by the rule",
@@ -168,6 +175,11 @@ def ball_rows(env_id: str, kwargs: dict, moved: np.ndarray, limits: list[int], l
     write_result(out, {"command": line, "rule": RULE, "rows": rows})
     for name, row in rows.items():
         print(f"version-limit {name:<12} {row['interval']:<24} {row['judged']}")
+
+
+def _value(value) -> str:
+    """A keyword argument's value as a row names it: a number short (1.0 -> 1), anything else as JSON."""
+    return f"{value:g}" if isinstance(value, int | float) and not isinstance(value, bool) else json.dumps(value)
 
 
 if __name__ == "__main__":

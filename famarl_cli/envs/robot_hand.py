@@ -408,12 +408,12 @@ class RobotHandEnv(gym.Env):
         else:
             cup = rng.uniform(*self.cup_x)
             source, target = np.array([cup, CUP_HEIGHT]), np.array(BALL_GOAL)
-            if self.hand_near is not None:  # drawn only here, so the default's episodes stay as they were
-                ball_y = CUP_HEIGHT + BASKET_WALL + BALL_RADIUS
-                x = np.clip(cup + rng.uniform(-self.hand_near, self.hand_near), *HAND_START_X)
-                grip = np.array([x, min(ball_y + NEAR_CLEARANCE + rng.uniform(0, self.hand_near), HAND_START_Y[1])])
             self._add_cup(cup)
             self.object = self._add_ball(cup)
+            if self.hand_near is not None:  # drawn only here, so the default's episodes stay as they were
+                ball_y = self.object.position.y
+                x = np.clip(cup + rng.uniform(-self.hand_near, self.hand_near), *HAND_START_X)
+                grip = np.array([x, min(ball_y + NEAR_CLEARANCE + rng.uniform(0, self.hand_near), HAND_START_Y[1])])
         self.layout = Layout(grip=grip, target=target, source=source)
         self.hand = Hand(self.space, tuple(grip))
         self.steps = 0
