@@ -8,6 +8,7 @@ import json
 import math
 import os
 import platform
+import re
 import resource
 import shlex
 import subprocess
@@ -158,6 +159,32 @@ def command_line(
         else:
             parts += [flag, str(value)]
     return prefix + shlex.join(parts)
+
+
+def env_kwargs(text: str) -> dict:
+    """An ``--env-kwargs`` option: a JSON object of gymnasium.make's keyword arguments, else one line saying why."""
+    try:
+        kwargs = json.loads(text)
+        if not isinstance(kwargs, dict):
+            raise ValueError("not an object")
+    except ValueError as exc:
+        raise SystemExit(f"error: --env-kwargs {text!r}: expected a JSON object ({exc})") from None
+    return kwargs
+
+
+def kwargs_text(kwargs: dict) -> str:
+    """Keyword arguments as a row names its setting: ", key value" each, sorted, a number short (1.0 -> 1), anything
+    else as JSON; "" for none."""
+
+    def value(v) -> str:
+        return f"{v:g}" if isinstance(v, int | float) and not isinstance(v, bool) else json.dumps(v)
+
+    return "".join(f", {key} {value(v)}" for key, v in sorted(kwargs.items()))
+
+
+def kwargs_slug(kwargs: dict) -> str:
+    """``kwargs_text`` as a name may hold it (record names, folders): "_hand_near_1" for {"hand_near": 1.0}."""
+    return re.sub(r"\W+", "_", kwargs_text(kwargs).replace(".", "p")).rstrip("_")
 
 
 def rounded(value: float, digits: int = 3) -> str:

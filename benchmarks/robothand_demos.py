@@ -6,31 +6,49 @@ interval over replicates.
     dvc repro pipelines/robothand/dvc.yaml               # its settings; the pegging set's FAVAEs
     python benchmarks/robothand_demos.py [--seeds 0-9] [--demos pegging-varied] [--discounts decision,steps]
                                          [--steps N] [--lr X] [--tasks Reaching-v1,BallPlacing-v0]
+                                         [--env-kwargs JSON]
 
 Demo sets: ``pegging``, the pipeline's own demos and FAVAEs (data/robothand/macros); ``pegging-varied``, 100 demos of
 the same expert in RobotHand BaseVaried (each basket raised on a post to a floor height drawn in [0, 3] m, so the
 approaches, carries and placings go up, down and across at every slope), segmented and pre-run/fitted with the
 pipeline's settings (pipelines/robothand/params.yaml) into data/robothand-demos/pegging-varied. Each cell (demo set,
 task, discount) is a ``famarl sweep train`` over the seeds at the pipeline's budget and learning rate, or those
-of --steps and --lr (in the cell's folder name then; seed S
-decodes with replicate S's FAVAE) into data/robothand-demos/<demos>/<task>-<discount>, evaluated like the
-pipeline's runs (100 layouts from seed 100, sampled policy); the oracle (``famarl oracle``, the pipeline's 10
-layouts a run) searches each demo set's macro space once per task, on the per-decision runs (the search does not
-use the policy). Finished work is reused. Records one row per cell and oracle in benchmarks/measured.json
-(docs/robothand.md shows them) and writes benchmarks/results/robothand_demos.json. Run it alone: it uses both cores
-(about 25 minutes for pegging-varied at 10 replicates on a 2-core AMD EPYC VM).
+of --steps and --lr, in the env of --tasks (any RobotHand task: the pipeline's by default) made with
+--env-kwargs (the settings in the cell's folder name then; seed S decodes with replicate S's FAVAE) into
+data/robothand-demos/<demos>/<task>-<discount>, evaluated like the pipeline's runs (100 layouts from seed 100,
+sampled policy); the oracle (``famarl oracle``, the pipeline's 10 layouts a run) searches each demo set's macro
+space once per task and env setting, on the first discount's runs (the search uses neither the policy nor the
+budget, so its row is named by the demo set, the task and the env's keyword arguments). Finished work is reused.
+Records one row per cell and oracle in benchmarks/measured.json (docs/robothand.md shows them) and writes
+benchmarks/results/robothand_demos.json. Run it alone: it uses both cores (about 25 minutes for pegging-varied at 10
+replicates on a 2-core AMD EPYC VM).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
+import gymnasium as gym
 import yaml
-from common import RESULTS, ROOT, command_line, famarl, record, seed_list, train_and_evaluate, write_result
+from common import (
+    RESULTS,
+    ROOT,
+    command_line,
+    env_kwargs,
+    famarl,
+    kwargs_slug,
+    kwargs_text,
+    record,
+    seed_list,
+    train_and_evaluate,
+    write_result,
+)
 
 from famarl_cli.artifacts.runs import ORACLE_FILE, read_oracle
 from famarl_cli.core.statistics import mean_interval
+from famarl_cli.envs import ROBOT_HAND_IDS
 
 DEMOS = {"pegging": "the pipeline's pegging demos", "pegging-varied": "pegging demos with raised baskets"}
 DISCOUNTS = {"decision": "the paper's per-decision discount", "steps": "semi-MDP discounting"}
@@ -54,11 +72,13 @@ def macros(demos: str, seeds: str, params: dict, data: Path) -> Path:
     return folder / "macros"
 
 
-def success(cell: Path, task: str, discount: str, favaes: Path, seeds: str, train: dict) -> list[float]:
+def success(cell: Path, task: str, discount: str, favaes: Path, seeds: str, train: dict, kwargs: dict) -> list[float]:
     """Sampled-policy success of the cell's runs over ``seeds``, trained and evaluated where they are not yet."""
     options = ["--env", f"famarl/RobotHand-{task}", "--agent", "famarl", "--favae", str(favaes / "seed{seed}/favae.pt"),
                "--steps", str(train["steps"]), "--lr", str(train["lr"]),
                "--macro-discount", discount, "--label", f"famarl-{discount}"]  # fmt: skip
+    if kwargs:  # braces doubled: the sweep fills {seed} in the options
+        options += ["--env-kwargs", json.dumps(kwargs).replace("{", "{{").replace("}", "}}")]
     runs = train_and_evaluate(cell, seeds, options, EPISODES, EVALUATION_SEED)
     return [float(evaluation["sampled"]["success_rate"]) for _, evaluation in runs]
 
@@ -82,7 +102,8 @@ def main() -> None:
     parser.add_argument("--seeds", default="0-9", help="Replicates (FAVAE and RL seed).")
     parser.add_argument("--demos", default="pegging-varied", help=f"Demo sets, of {', '.join(DEMOS)}.")
     parser.add_argument("--discounts", default=",".join(DISCOUNTS), help=f"Of {', '.join(DISCOUNTS)}.")
-    parser.add_argument("--tasks", help="Of the pipeline's tasks [default: all of them].")
+    parser.add_argument("--tasks", help="RobotHand tasks, as their ids end [default: the pipeline's].")
+    parser.add_argument("--env-kwargs", default="{}", help="The env's keyword arguments, as JSON (gymnasium.make).")
     parser.add_argument("--steps", type=int, help="Env steps per run [default: the pipeline's].")
     parser.add_argument("--lr", type=float, help="Learning rate [default: the pipeline's].")
     parser.add_argument("--oracle-episodes", type=int, default=10, help="Layouts the oracle searches a run (0: none).")
@@ -100,7 +121,15 @@ def main() -> None:
     if missing := [path for path in pegging if not path.is_file()]:
         raise SystemExit(f"error: {missing[0]}: no pegging FAVAE there; dvc repro pipelines/robothand/dvc.yaml first")
     params = yaml.safe_load(PARAMS.read_text(encoding="utf-8"))
-    tasks = _choices(args.tasks or params["tasks"], dict.fromkeys(params["tasks"].split(",")), "--tasks")
+    known = {env_id.removeprefix("famarl/RobotHand-"): env_id for env_id in ROBOT_HAND_IDS.values()}
+    tasks = _choices(args.tasks or params["tasks"], known, "--tasks")
+    kwargs = env_kwargs(args.env_kwargs)
+    for task in tasks:
+        try:
+            gym.make(known[task], **kwargs).close()
+        except (TypeError, ValueError) as exc:
+            raise SystemExit(f"error: {known[task]} with --env-kwargs {args.env_kwargs}: {exc}") from None
+    setting, slug = kwargs_text(kwargs), kwargs_slug(kwargs)
     line = command_line(
         "robothand_demos.py", parser, args, shown=("seeds", "demos", "discounts"), hidden=("out", "data")
     )
@@ -114,27 +143,30 @@ def main() -> None:
         favaes = macros(demos, args.seeds, params, args.data)
         for task in tasks:
             for discount in discounts:
-                cell = args.data / "robothand-demos" / demos / f"{task}-{discount}{changed}"
-                rates = success(cell, task, discount, favaes, args.seeds, train)
+                cell = args.data / "robothand-demos" / demos / f"{task}{slug}-{discount}{changed}"
+                rates = success(cell, task, discount, favaes, args.seeds, train, kwargs)
                 interval = mean_interval(rates, EPISODES)
-                rows[f"{demos}/{task}/{discount}{changed}"] = {"success": rates, "interval": interval.text()}
+                rows[f"{demos}/{task}{slug}/{discount}{changed}"] = {"success": rates, "interval": interval.text()}
                 record(
-                    f"robothand_demos_{demos}_{task}_{discount}{changed}".replace("-", "_").replace(".", "_").lower(),
-                    f"RobotHand-{task}, FaMARL with macros from {DEMOS[demos]}, {DISCOUNTS[discount]}, {budget}: "
-                    f"success of the sampled policy over {EPISODES} layouts, replicates {args.seeds}; mean [95% CI]",
+                    f"robothand_demos_{demos}_{task}{slug}_{discount}{changed}".replace("-", "_")
+                    .replace(".", "_")
+                    .lower(),
+                    f"RobotHand-{task}{setting}, FaMARL with macros from {DEMOS[demos]}, {DISCOUNTS[discount]}, "
+                    f"{budget}: success of the sampled policy over {EPISODES} layouts, replicates {args.seeds}; "
+                    "mean [95% CI]",
                     line,
                     interval.text(),
                 )
-            if args.oracle_episodes and not changed:  # the oracle searches the macro space: no budget in it
-                shares = oracle(args.data / "robothand-demos" / demos / f"{task}-{discounts[0]}", args.seeds,
-                                args.oracle_episodes)  # fmt: skip
+            if args.oracle_episodes and (slug or not changed):  # searched once per env: no policy, no budget in it
+                cell = args.data / "robothand-demos" / demos / f"{task}{slug}-{discounts[0]}{changed}"
+                shares = oracle(cell, args.seeds, args.oracle_episodes)
                 interval = mean_interval(shares, args.oracle_episodes)
-                rows[f"{demos}/{task}/oracle"] = {"shares": shares, "interval": interval.text()}
+                rows[f"{demos}/{task}{slug}/oracle"] = {"shares": shares, "interval": interval.text()}
                 record(
-                    f"robothand_demos_{demos}_{task}_oracle".replace("-", "_").lower(),
-                    f"RobotHand-{task}: share of layouts an open-loop plan of macros from {DEMOS[demos]} solved "
-                    f"(famarl oracle, lower bound), replicates {args.seeds}, {args.oracle_episodes} layouts each; "
-                    "mean [95% CI]",
+                    f"robothand_demos_{demos}_{task}{slug}_oracle".replace("-", "_").lower(),
+                    f"RobotHand-{task}{setting}: share of layouts an open-loop plan of macros from {DEMOS[demos]} "
+                    f"solved (famarl oracle, lower bound), replicates {args.seeds}, {args.oracle_episodes} layouts "
+                    "each; mean [95% CI]",
                     line,
                     interval.text(),
                 )

@@ -25,13 +25,11 @@ benchmarks/results/robothand_sparsity.json.
 from __future__ import annotations
 
 import argparse
-import json
-import re
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-from common import RESULTS, command_line, record, write_result
+from common import RESULTS, command_line, env_kwargs, kwargs_slug, kwargs_text, record, write_result
 from robothand_chance import BALL, MOVED
 
 import famarl_cli  # noqa: F401  (registers the envs)
@@ -104,12 +102,7 @@ def main() -> None:
         raise SystemExit("error: --episodes and --limits must be at least 1, --radii above 0")
     shown = ("episodes", "limits", "radii", "min_distances", "env")
     line = command_line("robothand_sparsity.py", parser, args, shown=shown)
-    try:
-        kwargs = json.loads(args.env_kwargs)
-        if not isinstance(kwargs, dict):
-            raise ValueError("not an object")
-    except ValueError as exc:
-        raise SystemExit(f"error: --env-kwargs {args.env_kwargs!r}: expected a JSON object ({exc})") from None
+    kwargs = env_kwargs(args.env_kwargs)
     if args.env.startswith(BALL_PLACING):
         try:
             moved = ball_moved(args.env, kwargs, args.episodes, max(limits))
@@ -148,8 +141,7 @@ def main() -> None:
 def ball_rows(env_id: str, kwargs: dict, moved: np.ndarray, limits: list[int], line: str, out: Path) -> None:
     """BallPlacing's rows: per time limit, the share of episodes in which the ball moved, judged by the rule."""
     rows = {}
-    shown = "".join(f", {key} {_value(value)}" for key, value in sorted(kwargs.items()))
-    setting = re.sub(r"\W+", "_", shown.replace(".", "p")).rstrip("_")
+    shown, setting = kwargs_text(kwargs), kwargs_slug(kwargs)
     version = env_id.rpartition("-")[2] + setting
     # the env's name as well as its version: BallPlacing's variants are versions "v0" too
     recorded = env_id.removeprefix("famarl/RobotHand-").lower().replace("-", "_") + setting
@@ -175,11 +167,6 @@ def ball_rows(env_id: str, kwargs: dict, moved: np.ndarray, limits: list[int], l
     write_result(out, {"command": line, "rule": RULE, "rows": rows})
     for name, row in rows.items():
         print(f"version-limit {name:<12} {row['interval']:<24} {row['judged']}")
-
-
-def _value(value) -> str:
-    """A keyword argument's value as a row names it: a number short (1.0 -> 1), anything else as JSON."""
-    return f"{value:g}" if isinstance(value, int | float) and not isinstance(value, bool) else json.dumps(value)
 
 
 if __name__ == "__main__":
