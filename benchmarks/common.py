@@ -162,14 +162,15 @@ def command_line(
 
 
 def env_kwargs(text: str) -> dict:
-    """An ``--env-kwargs`` option: a JSON object of gymnasium.make's keyword arguments, else one line saying why."""
+    """An ``--env-kwargs`` option, read as famarl's commands read it (a JSON object of gymnasium.make's keyword
+    arguments), else one ``error:`` line saying why."""
+    from famarl_cli.core.errors import FamarlError
+    from famarl_cli.envs.external import parse_env_kwargs
+
     try:
-        kwargs = json.loads(text)
-        if not isinstance(kwargs, dict):
-            raise ValueError("not an object")
-    except ValueError as exc:
-        raise SystemExit(f"error: --env-kwargs {text!r}: expected a JSON object ({exc})") from None
-    return kwargs
+        return parse_env_kwargs(text)
+    except FamarlError as exc:
+        raise SystemExit(f"error: {exc}") from None
 
 
 def kwargs_text(kwargs: dict) -> str:

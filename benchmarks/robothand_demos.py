@@ -17,8 +17,9 @@ of --steps and --lr, in the env of --tasks (any RobotHand task: the pipeline's b
 --env-kwargs (the settings in the cell's folder name then; seed S decodes with replicate S's FAVAE) into
 data/robothand-demos/<demos>/<task>-<discount>, evaluated like the pipeline's runs (100 layouts from seed 100,
 sampled policy); the oracle (``famarl oracle``, the pipeline's 10 layouts a run) searches each demo set's macro
-space once per task and env setting, on the first discount's runs (the search uses neither the policy nor the
-budget, so its row is named by the demo set, the task and the env's keyword arguments). Finished work is reused.
+space per task on the first discount's runs, at the pipeline's budget or, in an env made with --env-kwargs, at the
+budget given (the search uses neither the policy nor the budget, so its row is named by the demo set, the task and
+the env's keyword arguments, not the budget). Finished work is reused.
 Records one row per cell and oracle in benchmarks/measured.json (docs/robothand.md shows them) and writes
 benchmarks/results/robothand_demos.json. Run it alone: it uses both cores (about 25 minutes for pegging-varied at 10
 replicates on a 2-core AMD EPYC VM).
@@ -30,7 +31,6 @@ import argparse
 import json
 from pathlib import Path
 
-import gymnasium as gym
 import yaml
 from common import (
     RESULTS,
@@ -47,8 +47,10 @@ from common import (
 )
 
 from famarl_cli.artifacts.runs import ORACLE_FILE, read_oracle
+from famarl_cli.core.errors import FamarlError
 from famarl_cli.core.statistics import mean_interval
 from famarl_cli.envs import ROBOT_HAND_IDS
+from famarl_cli.envs.external import make_env
 
 DEMOS = {"pegging": "the pipeline's pegging demos", "pegging-varied": "pegging demos with raised baskets"}
 DISCOUNTS = {"decision": "the paper's per-decision discount", "steps": "semi-MDP discounting"}
@@ -124,11 +126,11 @@ def main() -> None:
     known = {env_id.removeprefix("famarl/RobotHand-"): env_id for env_id in ROBOT_HAND_IDS.values()}
     tasks = _choices(args.tasks or params["tasks"], known, "--tasks")
     kwargs = env_kwargs(args.env_kwargs)
-    for task in tasks:
+    for task in tasks:  # made once here, so that a setting the env refuses stops the run before any work
         try:
-            gym.make(known[task], **kwargs).close()
-        except (TypeError, ValueError) as exc:
-            raise SystemExit(f"error: {known[task]} with --env-kwargs {args.env_kwargs}: {exc}") from None
+            make_env(known[task], kwargs).close()
+        except FamarlError as exc:
+            raise SystemExit(f"error: {exc}") from None
     setting, slug = kwargs_text(kwargs), kwargs_slug(kwargs)
     line = command_line(
         "robothand_demos.py", parser, args, shown=("seeds", "demos", "discounts"), hidden=("out", "data")
@@ -157,7 +159,7 @@ def main() -> None:
                     line,
                     interval.text(),
                 )
-            if args.oracle_episodes and (slug or not changed):  # searched once per env: no policy, no budget in it
+            if args.oracle_episodes and (slug or not changed):  # the search uses no policy and no budget
                 cell = args.data / "robothand-demos" / demos / f"{task}{slug}-{discounts[0]}{changed}"
                 shares = oracle(cell, args.seeds, args.oracle_episodes)
                 interval = mean_interval(shares, args.oracle_episodes)

@@ -117,7 +117,7 @@ def test_robothand_grasp_finds_the_window_the_control_holds_in(tmp_path):
     assert picture.read_bytes()[:4] == b"\x89PNG"
 
 
-@pytest.mark.slow  # 22 interpreters, each importing torch
+@pytest.mark.slow  # 25 interpreters, each importing torch
 def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     import os
 
@@ -135,7 +135,7 @@ def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     one_error_line(run_with("robothand_sparsity.py", "--episodes", 0), "--episodes and --limits must be at least 1")
     one_error_line(run_with("robothand_sparsity.py", "--radii", "nan"), "--radii above 0")
     one_error_line(run_with("robothand_sparsity.py", "--limits", "abc"), "take numbers")
-    one_error_line(run_with("robothand_sparsity.py", "--env-kwargs", "[1]"), "expected a JSON object")
+    one_error_line(run_with("robothand_sparsity.py", "--env-kwargs", "[1]"), "--env-kwargs must be a JSON object")
     one_error_line(run_with("robothand_sparsity.py", "--env-kwargs", '{"hand_near": 1}'), "is for BallPlacing envs")
     ball = ("--episodes", 1, "--env", "famarl/RobotHand-BallPlacing-v0")
     one_error_line(run_with("robothand_sparsity.py", *ball, "--env-kwargs", '{"hand_near": NaN}'), "hand_near must be")
@@ -146,9 +146,13 @@ def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     one_error_line(run_with("robothand_demos.py", "--oracle-episodes", -1), "not a count of layouts")
     one_error_line(run_with("robothand_demos.py", "--lr", 2), "--lr in (0, 1)")
     one_error_line(run_with("robothand_demos.py", "--tasks", "Walking-v0"), "--tasks: unknown 'Walking-v0'")
-    one_error_line(run_with("robothand_demos.py", "--env-kwargs", "[1]"), "expected a JSON object")
+    one_error_line(run_with("robothand_demos.py", "--env-kwargs", "[1]"), "--env-kwargs must be a JSON object")
+    one_error_line(run_with("robothand_demos.py", "--env-kwargs", "[" * 100_000), "nested too deeply")
     reaching = ("--tasks", "Reaching-v1", "--env-kwargs", '{"hand_near": 1}')
     one_error_line(run_with("robothand_demos.py", *reaching), "hand_near is BallPlacing's")
+    ball = ("--tasks", "BallPlacing-v0", "--env-kwargs")
+    one_error_line(run_with("robothand_demos.py", *ball, '{"hand_near": NaN}'), "hand_near must be")
+    one_error_line(run_with("robothand_demos.py", *ball, '{"nope": 1}'), "does not take the keyword arguments")
     one_error_line(run_with("robothand_demos.py", "--demos", "pegging", "--data", tmp_path), "no pegging FAVAE there")
     one_error_line(run_with("robothand_coverage.py", "--seeds", "abc"), "--seeds 'abc'")
     one_error_line(run_with("robothand_oracle.py", "--agents", "famarl,nope"), "unknown task or agent nope")
