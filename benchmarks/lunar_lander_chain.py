@@ -24,6 +24,8 @@ import gymnasium as gym
 import numpy as np
 from common import RESULTS, write_result
 
+from famarl_cli.artifacts.runs import read_evaluation
+
 ENV = "LunarLanderContinuous-v3"
 
 
@@ -101,11 +103,12 @@ def main() -> None:
             "--out", run, "--overwrite",
         )  # fmt: skip
         famarl("evaluate", "--run", run, "--episodes", 100, "--no-film", "--out", work / "eval")
-        evaluation = json.loads((work / "eval" / name / "eval.json").read_text())
+        evaluation = read_evaluation(work / "eval" / name / "eval.json")
+        mode = evaluation["deterministic"]
         results[name] = {
             "env_steps": evaluation["env_steps"],
-            **{key: evaluation[key] for key in ("success_rate", "success_rule", "return_mean", "episode_length")},
-            "sampled": {key: evaluation["sampled"][key] for key in ("success_rate", "return_mean")},
+            **{key: mode[key] for key in ("success_rate", "success_rule", "return_mean", "episode_length")},
+            "sampled": {key: evaluation[key] for key in ("success_rate", "return_mean")},
         }
     print(json.dumps(results, indent=1))
     write_result(args.out, {"dataset_episodes": args.episodes, "epochs": args.epochs, **results})

@@ -61,7 +61,7 @@ def main() -> None:
         options = ["--env", REACHING, "--agent", "famarl", "--favae", favae, "--label", f"famarl-{setting}"]
         out = args.data / "robothand-budget" / setting
         runs = train_and_evaluate(out, args.seeds, [*options, *SETTINGS[setting]], EPISODES, EVALUATION_SEED)
-        success = [float(evaluation["sampled"]["success_rate"]) for _, evaluation in runs]
+        success = [float(evaluation["success_rate"]) for _, evaluation in runs]
         updates = [int(read_run_file(run)["updates"]) for run, _ in runs]
         interval = mean_interval(success, EPISODES)
         rows[setting] = {"success": success, "updates": updates, "interval": interval.text()}

@@ -156,7 +156,7 @@ def main() -> None:
             options += ["--prior", str(args.data / PRIOR), "--steps", "1", "--lr", "0", "--label", start]
             out = args.data / "robothand-chance" / f"{task}-{start}"
             evaluated = train_and_evaluate(out, args.seeds, options, START_EPISODES, EVALUATION_SEED)
-            shares = [float(evaluation["sampled"]["success_rate"]) for _, evaluation in evaluated]
+            shares = [float(evaluation["success_rate"]) for _, evaluation in evaluated]
             interval = mean_interval(shares, START_EPISODES)
             text = interval.text("{:.4f}")
             rows[f"{task}-{start}"] = {"shares": shares, "episodes": START_EPISODES, "interval": text}

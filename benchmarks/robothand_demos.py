@@ -82,7 +82,7 @@ def success(cell: Path, task: str, discount: str, favaes: Path, seeds: str, trai
     if kwargs:  # braces doubled: the sweep fills {seed} in the options
         options += ["--env-kwargs", json.dumps(kwargs).replace("{", "{{").replace("}", "}}")]
     runs = train_and_evaluate(cell, seeds, options, EPISODES, EVALUATION_SEED)
-    return [float(evaluation["sampled"]["success_rate"]) for _, evaluation in runs]
+    return [float(evaluation["success_rate"]) for _, evaluation in runs]
 
 
 def oracle(cell: Path, seeds: str, episodes: int) -> list[float]:

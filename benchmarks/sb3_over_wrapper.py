@@ -110,7 +110,7 @@ def ours(data: Path, seed: int) -> dict:
         "env_steps": int(evaluation["env_steps"]),
         "seconds": evaluation["train_wall_s"],
         "training_success": float(log["episode_success"][-1]),
-        "success": float(evaluation["sampled"]["success_rate"]),
+        "success": float(evaluation["success_rate"]),
     }
 
 

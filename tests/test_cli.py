@@ -361,7 +361,7 @@ def test_train_and_evaluate_bad_inputs(tmp_path, favae_file, segments_file):
     out = tmp_path / "run"
     assert famarl("train", "--agent", "ppo", *TINY_TRAINING, "--out", out).exit_code == 0
     one_line_error(
-        famarl("train", "--agent", "ppo", "--out", out), 2, "made from other inputs or options: ppo.epochs 1 -> 10"
+        famarl("train", "--agent", "ppo", "--out", out), 2, "made from other inputs or options: --update-epochs 1 -> 10"
     )
     assert famarl("train", "--agent", "ppo", *TINY_TRAINING, "--out", out, "--overwrite").exit_code == 0
     kept = (out / "checkpoint.pt").read_bytes()

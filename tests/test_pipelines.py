@@ -423,6 +423,34 @@ def test_a_second_repro_does_nothing(project):
 
 
 @pytest.mark.slow  # DVC repro of real pipelines
+def test_what_a_user_types_after_the_main_job_leaves_it_up_to_date(project, monkeypatch):
+    """The commands a newcomer tries after ``dvc repro``, with their defaults, write beside the pipelines' outputs
+    or are refused before any work: the next ``dvc repro`` has nothing to do."""
+    from cli_helpers import famarl
+
+    monkeypatch.chdir(project)
+    monkeypatch.delenv("DVC_STAGE", raising=False)
+    main_job = sorted((p.relative_to(project), p.stat().st_mtime_ns) for p in (project / "data/maze").rglob("*"))
+    evaluated = famarl("evaluate", "--no-film")
+    assert evaluated.exit_code == 0, evaluated.output
+    assert (project / "data/evaluations/maze-runs/famarl-seed0/eval.json").is_file()
+    for args in (
+        ("inspect", "data/maze/runs/famarl-seed0"),
+        ("inspect", "data/maze/eval/famarl-seed0/eval.json"),
+        ("oracle", "--run", "data/maze/runs/ppo-seed0", "--episodes", 1, "--candidates", 2, "--iterations", 1),
+        ("train", "--agent", "ppo", "--steps", 600, "--n-envs", 2, "--n-steps", 8, "--update-epochs", 1),
+    ):
+        result = famarl(*args)
+        assert result.exit_code == 0, (args, result.output)
+    refused = famarl("evaluate", "--run", "data/maze/runs/ppo-seed0", "--out", "data/maze/eval", "--no-film")
+    assert refused.exit_code == 2 and "the output of the DVC stage evaluate (dvc.yaml)" in refused.stderr
+    assert sorted((p.relative_to(project), p.stat().st_mtime_ns) for p in (project / "data/maze").rglob("*")) == (
+        main_job
+    )
+    assert "Running stage" not in dvc(project, "repro", "-P")
+
+
+@pytest.mark.slow  # DVC repro of real pipelines
 def test_a_changed_parameter_reruns_only_its_dependents(project):
     params = yaml.safe_load((project / "params.yaml").read_text())
     params["evaluate"]["episodes"] += 1

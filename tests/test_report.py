@@ -57,8 +57,10 @@ def make_run(
             writer.writerow([step, success if step > learned_at * BUDGET else 0.0, -100, length, 0.5, 0.9])
     metrics = {"success_rate": success, "return_mean": -100.0, "macro_length": float(lengths[-1])}
     evaluation = {
+        "schema": "famarl.evaluation",
+        "schema_version": 2,
         **metrics,
-        "sampled": metrics,
+        "deterministic": metrics,
         "episodes": 100,
         "label": label,
         "agent": agent,
@@ -323,11 +325,11 @@ def test_cli_refuses_unknown_experiments_and_bad_evaluations(tmp_path):
     assert result.exit_code == 2 and "unknown experiment fig9" in result.output
     make_maze(tmp_path / "data", famarl=0.9, ppo=0.1, figar=0.2)
     broken = tmp_path / "data/maze/eval/ppo-seed0/eval.json"
-    broken.write_text(json.dumps({k: v for k, v in json.loads(broken.read_text()).items() if k != "sampled"}))
+    broken.write_text(json.dumps({k: v for k, v in json.loads(broken.read_text()).items() if k != "deterministic"}))
     result = runner.invoke(app, ["report", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "r")])
     assert result.exit_code == 1
     assert result.output.strip().splitlines()[-1].startswith("error: ")
-    assert "has no 'sampled'" in result.output
+    assert "has no deterministic success" in result.output
     assert not (tmp_path / "r/report.md").exists()
 
 

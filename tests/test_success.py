@@ -75,7 +75,7 @@ def test_a_run_in_an_env_without_success_reports_none_and_says_why(tmp_path):
     result = famarl("evaluate", "--run", run, "--out", tmp_path / "eval", "--episodes", 2, "--no-film")
     assert result.exit_code == 0, result.output
     evaluation = json.loads((tmp_path / "eval" / "run" / "eval.json").read_text())
-    assert evaluation["success_rate"] is None and evaluation["sampled"]["success_rate"] is None
+    assert evaluation["success_rate"] is None and evaluation["deterministic"]["success_rate"] is None
     assert "not defined" in evaluation["success_rule"] and "success: not defined" in result.output
     result = famarl(
         "evaluate", "--run", run, "--out", tmp_path / "judged", "--episodes", 2, "--no-film", "--success-return", -10

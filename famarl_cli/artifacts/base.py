@@ -22,6 +22,7 @@ import h5py
 import numpy as np
 
 from famarl_cli import __version__
+from famarl_cli.artifacts.tracked import refuse_tracked
 from famarl_cli.core.errors import ArtifactError
 
 TEMP_MARKER = ".tmp-"
@@ -37,8 +38,10 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
 
     A reader (or DVC) therefore sees the previous complete file or the new complete one, never a partial one.
     The temporary name carries the writer's process id, so that temporaries left by a killed writer (kill -9
-    gives no chance to clean up) are removed by the next write of the same file.
+    gives no chance to clean up) are removed by the next write of the same file. A path in a DVC stage's output is
+    refused unless DVC runs the command (:mod:`famarl_cli.artifacts.tracked`).
     """
+    refuse_tracked(path)
     path = prepare_output(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)

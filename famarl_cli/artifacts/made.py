@@ -13,9 +13,13 @@ the output                                                 the command
 missing                                                    makes it
 there and complete, made from the same inputs and options  "already complete; nothing to do"
 there but not complete (a file of it missing)              makes it again
-made from other inputs or options                          refused, naming what changed
+made from other inputs or options                          refused, naming what changed (by its option)
 a file that records no making (by hand, or older famarl)   refused
 =========================================================  ===========================================
+
+A *derived* output, a result computed from a run (``famarl evaluate``'s, ``famarl oracle``'s), made by the same
+command and options from inputs that changed since (the run was trained further), is out of date rather than
+another's work: it is made again, not refused.
 
 ``--overwrite`` makes it afresh in every case. famarl's own source is not part of the making (as with any tool, a
 new release is a new version): a sweep's key adds it, because DVC re-runs a sweep's stage when the code changes.
@@ -147,14 +151,13 @@ def _flat(options: dict, prefix: str = "") -> dict:
     return flat
 
 
-def what_changed(before: dict, now: dict) -> list[str]:
-    """How the making ``now`` differs from ``before``, in words: the command, each option (``epochs 2 -> 3``), each
-    input whose content changed, famarl's version."""
+def what_changed(before: dict, now: dict, names: dict[str, str] | None = None) -> list[str]:
+    """How the making ``now`` differs from ``before``, in words: the command, each option (``--update-epochs 10 ->
+    5``: named by ``names``, a setting's dotted name to the command's option, where given; by the setting's name
+    otherwise), each input whose content changed, famarl's version."""
+    names = names or {}
     changes = [] if before.get("command") == now["command"] else [f"the command ({before.get('command')})"]
-    was_options, options = _flat(before.get("options") or {}), _flat(now["options"])
-    for name in sorted(set(was_options) | set(options)):
-        if was_options.get(name) != options.get(name):
-            changes.append(f"{name} {json.dumps(was_options.get(name))} -> {json.dumps(options.get(name))}")
+    changes += _changed_options(before, now, names)
     inputs = before.get("inputs")
     if inputs is None:
         changes.append("its inputs (the record does not hold their contents)")
@@ -168,10 +171,40 @@ def what_changed(before: dict, now: dict) -> list[str]:
     return changes
 
 
-def claim_output(outputs: list[Path], made: dict, overwrite: bool, instead: str = "give another --out") -> bool:
+def _changed_options(before: dict, now: dict, names: dict[str, str]) -> list[str]:
+    """Each option whose value differs, once under the name the user types (two settings of one option, as
+    ``--normalize`` sets both of its, read as one change)."""
+    was_options, options = _flat(before.get("options") or {}), _flat(now["options"])
+    changes = []
+    for name in sorted(set(was_options) | set(options)):
+        if was_options.get(name) != options.get(name):
+            change = f"{names.get(name, name)} {json.dumps(was_options.get(name))} -> {json.dumps(options.get(name))}"
+            if change not in changes:
+                changes.append(change)
+    return changes
+
+
+def option_names(cls: type) -> dict[str, str]:
+    """Each option of the declaration ``cls`` by its setting's name, to its flag (``epochs`` -> ``--update-epochs``):
+    how a refusal names what changed."""
+    return {d.name: d.flag for d in declared(cls)}
+
+
+def claim_output(
+    outputs: list[Path],
+    made: dict,
+    overwrite: bool,
+    instead: str = "give another --out",
+    names: dict[str, str] | None = None,
+    derived: bool = False,
+) -> bool:
     """Whether to make ``outputs`` (the first records the making; all of them make it complete) by the rule of the
     module doc: True to make them, False where they are complete and made so; a usage error otherwise, whose hint
-    offers ``--overwrite`` or ``instead``."""
+    offers ``--overwrite`` or ``instead`` and names the changed options by ``names`` (:func:`what_changed`).
+
+    ``derived``: the output is a result computed from its inputs (an evaluation of a run), so one made by the same
+    command and options from inputs that have changed since (the run trained further) is out of date, not someone
+    else's work: it is made again, not refused."""
     primary = outputs[0]
     if overwrite or not primary.exists():
         return True
@@ -181,7 +214,9 @@ def claim_output(outputs: list[Path], made: dict, overwrite: bool, instead: str 
             f"{primary} exists and does not record what it was made from (made by hand or by an older famarl); "
             f"add --overwrite to replace it, or {instead}"
         )
-    changes = what_changed(recorded, made)
+    changes = what_changed(recorded, made, names)
+    if changes and derived and recorded.get("command") == made["command"] and not _changed_options(recorded, made, {}):
+        return True
     if changes:
         raise UsageError(
             f"{primary} was made from other inputs or options: {'; '.join(changes)}; add --overwrite to make it "
@@ -206,9 +241,12 @@ class Replaceable:
     )
 
 
-def made_result(path: Path, made: dict, overwrite: bool) -> dict | None:
+def made_result(
+    path: Path, made: dict, overwrite: bool, instead: str = "give another --out", names: dict[str, str] | None = None
+) -> dict | None:
     """A JSON result (an evaluation, an oracle's) that ``path`` holds, complete and made so (less its provenance),
-    or None where it is to be made (:func:`claim_output`'s rule)."""
-    if claim_output([path], made, overwrite):
+    or None where it is to be made (:func:`claim_output`'s rule for a derived output: one whose inputs have changed
+    since, the run trained further, is made again)."""
+    if claim_output([path], made, overwrite, instead, names, derived=True):
         return None
     return {key: value for key, value in json.loads(path.read_text()).items() if key != "provenance"}

@@ -10,7 +10,9 @@
       timing.json     the wall time the run took (seconds, over all its sessions): a measurement, kept apart
                       from the other files so that the same run made twice gives them byte for byte (DVC ignores
                       it, .dvcignore)
-      eval.json       from famarl evaluate: success rate, return, lengths, decisions, macro length
+      eval.json       from famarl evaluate: success rate, return, lengths, decisions, macro length of the policy
+                      sampling its actions as in training (what the verdicts judge), and under
+                      ``deterministic`` the same of the policy acting with its mode
       rollouts.png    from famarl evaluate: a few deterministic episodes, each macro action in its own colour
 
 The checkpoint carries the FAVAE weights it was trained with, so a run never depends on a FAVAE file that may
@@ -126,32 +128,54 @@ def read_oracle(path: str | os.PathLike) -> dict:
     return values
 
 
+EVAL_SCHEMA = "famarl.evaluation"
+EVAL_SCHEMA_VERSION = 2
+"""2: the top level is the policy sampling as in training (the one judged), ``deterministic`` the policy's mode;
+version 1 (no schema) had them the other way round, the sampled policy under ``sampled``."""
+EVAL_METRICS = (
+    "episodes",
+    "success_rate",
+    "success_rule",
+    "return_mean",
+    "return_std",
+    "episode_length",
+    "decisions",
+    "macro_length",
+    "steps_per_decision",
+    "macro_share",
+    "macro_step_share",
+)
+"""What eval.json holds of each policy: at the top level for the sampled one, under ``deterministic`` for its mode."""
+
+
 def read_evaluation(path: str | os.PathLike) -> dict:
-    """An ``eval.json`` written by ``famarl evaluate``, with the fields the report groups and compares by."""
+    """An ``eval.json`` written by ``famarl evaluate``, with the fields the report groups and compares by; one of
+    version 1 is read in version 2's layout (:data:`EVAL_SCHEMA_VERSION`)."""
     path = Path(path)
     values = _read_json(path, f"{path}: no such evaluation (has famarl evaluate run?)")
     check(isinstance(values, dict), path, "is not an evaluation")
-    keys = (
-        "label",
-        "agent",
-        "env",
-        "seed",
-        "run",
-        "episodes",
-        "success_rate",
-        "return_mean",
-        "macro_length",
-        "sampled",
-    )
-    for key in keys:
+    if "schema" not in values and isinstance(values.get("sampled"), dict):
+        values = evaluation_from_version_1(values)
+    check(values.get("schema") == EVAL_SCHEMA, path, f"is not a {EVAL_SCHEMA} file")
+    check(int(values.get("schema_version", 0)) <= EVAL_SCHEMA_VERSION, path, "is newer than this famarl reads")
+    for key in ("label", "agent", "env", "seed", "run", "episodes", "success_rate", "return_mean", "macro_length"):
         check(key in values, path, f"has no {key!r} (written by an older famarl evaluate? run it again)")
-    check(isinstance(values["sampled"], dict) and "success_rate" in values["sampled"], path, "has no sampled success")
+    mode = values.get("deterministic")
+    check(isinstance(mode, dict) and "success_rate" in mode, path, "has no deterministic success")
     for key in ("success_rate", "return_mean", "macro_length"):
-        for value in (values[key], values["sampled"].get(key, 0.0)):
+        for value in (values[key], mode.get(key, 0.0)):
             if value is None and key == "success_rate":
                 continue  # an env without a meaning of success (famarl_cli.envs.success)
             check(_finite(value), path, f"has a non-finite {key!r}")
     return values
+
+
+def evaluation_from_version_1(values: dict) -> dict:
+    """An eval.json of version 1 (the deterministic policy at the top level, the sampled one under ``sampled``) in
+    version 2's layout."""
+    rest = {key: value for key, value in values.items() if key not in EVAL_METRICS and key != "sampled"}
+    deterministic = {key: values[key] for key in EVAL_METRICS if key in values}
+    return {"schema": EVAL_SCHEMA, "schema_version": 1, **rest, **values["sampled"], "deterministic": deterministic}
 
 
 def _finite(value: object) -> bool:

@@ -148,10 +148,15 @@ def _help_hint(exc: FamarlError) -> str:
 def already_made(command: str, options: Any, outputs: list, inputs: tuple = ()) -> bool:
     """Whether ``outputs`` are there, complete and made by ``command`` from the same inputs and options (then a
     note says so and the command does nothing); a usage error where they were made otherwise, unless
-    ``options.overwrite`` (:func:`famarl_cli.artifacts.made.claim_output`, the rule every command follows)."""
-    from famarl_cli.artifacts.made import ALREADY_MADE, claim_output, making
+    ``options.overwrite`` (:func:`famarl_cli.artifacts.made.claim_output`, the rule every command follows), or where
+    they lie in a DVC stage's output (:mod:`famarl_cli.artifacts.tracked`)."""
+    from famarl_cli.artifacts.made import ALREADY_MADE, claim_output, making, option_names
+    from famarl_cli.artifacts.tracked import refuse_tracked
 
-    if claim_output(outputs, making(command, options, inputs), options.overwrite):
+    made = making(command, options, inputs)
+    if claim_output(outputs, made, options.overwrite, names=option_names(type(options))):
+        for output in outputs:  # before any work: the writes would be refused at the end
+            refuse_tracked(output)
         return False
     typer.echo(f"note: {outputs[0]} {ALREADY_MADE} (--overwrite makes it afresh)", err=True)
     return True

@@ -1,7 +1,8 @@
-"""``famarl evaluate``: deterministic episodes of trained runs, and their learning curves side by side."""
+"""``famarl evaluate``: evaluation episodes of trained runs, and their learning curves side by side."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import typer
@@ -18,9 +19,10 @@ from famarl_cli.sweep.executors import default_jobs
 @command(app, EvaluateOptions, "evaluate")
 def evaluate(options: EvaluateOptions) -> None:
     """Success rate, return, episode length, decisions and macro length of each run; pictures and a GIF of
-    rollouts. Each run is evaluated twice on the same episodes: acting with the policy's mode (deterministic) and
-    drawing its actions as in training (sampled). With the defaults, about 3 s per Maze run on one core of a 2-core
-    AMD EPYC VM (its 100 episodes twice and one filmed), the runs spread over --jobs cores."""
+    rollouts. Each run is evaluated twice on the same episodes: drawing its actions as in training (the policy the
+    verdicts judge, shown first) and acting with the policy's mode (deterministic, shown as "mode"). With the
+    defaults, about 3 s per Maze run on one core of a 2-core AMD EPYC VM (its 100 episodes twice and one filmed),
+    the runs spread over --jobs cores."""
     import numpy as np
 
     from famarl_cli.artifacts import write_json
@@ -35,25 +37,36 @@ def evaluate(options: EvaluateOptions) -> None:
         read_timing,
         read_training_log,
     )
+    from famarl_cli.artifacts.tracked import refuse_tracked
     from famarl_cli.envs.success import shown
     from famarl_cli.report.plots import plot_learning_curves
     from famarl_cli.rl.evaluation import summarise
-    from famarl_cli.stages.evaluate import evaluate_run
+    from famarl_cli.stages.evaluate import evaluate_run, evaluation_state
     from famarl_cli.sweep.executors import make_executor
     from famarl_cli.sweep.worker import name_of
 
     torch_on_one_thread()
     o = options
-    episodes, seed, out, curves, film = o.episodes, o.seed, o.out, o.curves, o.film
+    episodes, seed, curves, film = o.episodes, o.seed, o.curves, o.film
     run = expand_run_folders(o.runs)
     for folder in run:
         read_run_file(folder)
+    out = o.out or beside_tracked(run)
     results = {folder: (out / name if out else folder) for folder, name in zip(run, evaluation_names(run), strict=True)}
     first = results[run[0]]
-    curves = prepare_output(curves or (first / "curves.png" if len(run) == 1 else first.parent / "curves.png"))
-    table = Table(title=f"evaluation: {episodes} episodes per run, seed {seed}; deterministic (sampled)")
-    for column in ("run", "env steps", "success", "return", "length", "decisions", "macro length"):
-        table.add_column(column, justify="left" if column == "run" else "right")
+    curves = curves or (first / "curves.png" if len(run) == 1 else first.parent / "curves.png")
+    refuse_tracked(curves, "give --curves elsewhere")
+    curves = prepare_output(curves)
+    # Every run's evaluation is claimed before any is made: one refused run must not cost the others' work.
+    settings = EvaluateOptions(episodes=episodes, seed=seed, success_return=o.success_return)
+    for folder in run:
+        evaluation_state(folder, results[folder], settings, o.overwrite)
+    table = Table(
+        title=f"evaluation: {episodes} episodes per run, seed {seed}; the policy sampling its actions as in "
+        "training (the one judged), in parentheses acting with its mode"
+    )
+    for column in ("run", "env steps", "success (mode)", "return (mode)", "length", "decisions", "macro length"):
+        table.add_column(column, justify="left" if column == "run" else "right", no_wrap=column == "run")
     with make_executor(min(o.jobs or default_jobs(), len(run))) as executor, progress_bar() as progress:
         task = progress.add_task("evaluate", total=len(run))
         futures = [
@@ -82,27 +95,29 @@ def evaluate(options: EvaluateOptions) -> None:
     curves_by_label: dict[str, list[dict[str, np.ndarray]]] = {}
     for folder, evaluation in zip(run, evaluations, strict=True):
         curves_by_label.setdefault(evaluation["label"], []).append(read_training_log(folder))
-        m, ms = evaluation, evaluation["sampled"]
+        m, mode = evaluation, evaluation["deterministic"]
         table.add_row(
             folder.name,
             f"{evaluation['env_steps']:,}",
-            f"{shown(m['success_rate'])} ({shown(ms['success_rate'])})",
-            f"{m['return_mean']:.1f} ({ms['return_mean']:.1f})",
+            f"{shown(m['success_rate'])} ({shown(mode['success_rate'])})",
+            f"{m['return_mean']:.0f} ({mode['return_mean']:.0f})",
             f"{m['episode_length']:.0f}",
             f"{m['decisions']:.1f}",
             f"{m['macro_length']:.1f}",
         )
     summary = summarise(evaluations)
-    reused = [folder for folder, e in zip(run, evaluations, strict=True) if e.pop("reused", False)]
+    states = [e.pop("state") for e in evaluations]
+    reused = [folder for folder, state in zip(run, states, strict=True) if state == "reuse"]
+    remade = [folder for folder, state in zip(run, states, strict=True) if state == "remake"]
     # The curves show every run's training: made again unless every run's evaluation was there already.
     if len(reused) < len(run) or not (curves.exists() and curves.with_suffix(".json").exists()):
         plot_learning_curves(curves_by_label, curves)
         write_json(curves.with_suffix(".json"), {"episodes": episodes, "seed": seed, "labels": summary})
-    console = Console()
+    console = Console(soft_wrap=True)
     console.print(table)
     for rule in sorted({e["success_rule"] for e in evaluations}):
         console.print(f"success: {rule}")
-    by_label = Table(title="per label: mean (min to max) over runs")
+    by_label = Table(title="per label, the policy sampling as in training: mean (min to max) over runs")
     for column in ("label", "runs", "success", "return", "decisions", "macro length", "train wall s"):
         by_label.add_column(column, justify="left" if column == "label" else "right")
     for label, values in summary.items():
@@ -126,6 +141,12 @@ def evaluate(options: EvaluateOptions) -> None:
             "same checkpoint and options; read, not made again (--overwrite makes them afresh)",
             err=True,
         )
+    if remade:
+        typer.echo(
+            f"note: {len(remade)} of {len(run)} runs ({remade[0]}, ...) held an evaluation made with these options "
+            "that was out of date (the run was trained further since, or an older famarl wrote it); made again",
+            err=True,
+        )
     unfilmed = sorted({e["not_filmed"] for e in evaluations if "not_filmed" in e})
     for note in unfilmed:
         typer.echo(f"note: not filmed: {note}", err=True)
@@ -135,6 +156,25 @@ def evaluate(options: EvaluateOptions) -> None:
         f"{f', {FILM_FILE}, {STILLS_FILE}' if filmed else ''} in {out or 'each run folder'}, {curves}, "
         f"{curves.with_suffix('.json')}"
     )
+
+
+def beside_tracked(runs: list[Path]) -> Path | None:
+    """Where a bare ``famarl evaluate`` (no ``--out``) writes: into each run's own folder, but where the runs lie in
+    a DVC stage's output (the main job's ``data/maze/runs``), which only ``dvc repro`` writes: then beside it, in
+    ``data/evaluations/<that output's path>``, and a note says so."""
+    from famarl_cli.artifacts.tracked import tracked_output
+
+    found = tracked_output(runs[0])
+    if found is None:
+        return None
+    owned = os.path.relpath(found.path)
+    out = Path("data/evaluations") / owned.removeprefix(f"data{os.sep}").replace(os.sep, "-")
+    typer.echo(
+        f"note: {owned} is the output of the DVC stage {found.stage} ({found.definition}), which only `dvc repro` "
+        f"writes; evaluating into {out} (--out to choose)",
+        err=True,
+    )
+    return out
 
 
 def _spread(values: dict, fmt: str) -> str:

@@ -146,16 +146,43 @@ def _run_folder(folder: Path) -> tuple[Table, dict]:
     table.add_row("env steps", f"{run.get('env_steps', 0):,} of {ppo['total_steps']:,}; {state}")
     evaluation = folder / EVAL_FILE
     if evaluation.is_file():
-        found = read_evaluation(evaluation)
-        table.add_row(
-            "evaluation",
-            f"success {found['success_rate']:.2f} (sampled {found['sampled']['success_rate']:.2f}) over "
-            f"{found['episodes']} episodes",
-        )
+        table.add_row("evaluation", judged_success(read_evaluation(evaluation)))
     return table, run.get("provenance", {})
 
 
+def judged_success(evaluation: dict) -> str:
+    """An evaluation's success as the verdicts judge it (the policy sampling as in training), its mode's beside."""
+    from famarl_cli.envs.success import shown
+
+    mode = evaluation["deterministic"]["success_rate"]
+    return (
+        f"success {shown(evaluation['success_rate'])} sampling as in training (judged), {shown(mode)} acting with "
+        f"its mode, over {evaluation['episodes']} episodes"
+    )
+
+
+def _evaluation(path: Path) -> tuple[Table, dict]:
+    """An eval.json: the judged policy's numbers first, its mode's beside, then the run's."""
+    from famarl_cli.artifacts.runs import EVAL_METRICS, read_evaluation
+
+    found = read_evaluation(path)
+    mode = found["deterministic"]
+    table = Table(title=f"evaluation {path}", show_header=False)
+    table.add_row("schema", f"{found['schema']} (version {found['schema_version']})")
+    table.add_row("run", f"{found['run']}: {found['label']} ({found['agent']}) on {found['env']}, seed {found['seed']}")
+    table.add_row("success", judged_success(found))
+    table.add_row("success rule", str(found.get("success_rule")))
+    for key in EVAL_METRICS:
+        if key not in ("episodes", "success_rate", "success_rule") and key in found:
+            table.add_row(key.replace("_", " "), f"{found[key]:.4g} (mode {mode.get(key, float('nan')):.4g})")
+    for key in ("env_steps", "evaluation_seed", "layout_seed"):
+        if key in found:
+            table.add_row(key.replace("_", " "), str(found[key]))
+    return table, found.get("provenance") or {}
+
+
 def _record(path: Path) -> tuple[Table, dict]:
+    from famarl_cli.artifacts.runs import EVAL_SCHEMA
     from famarl_cli.core.errors import ArtifactError
 
     try:
@@ -164,6 +191,8 @@ def _record(path: Path) -> tuple[Table, dict]:
         raise ArtifactError(f"{path}: not an HDF5 file, a torch checkpoint or a JSON record") from exc
     made = record.get("provenance") if isinstance(record, dict) else None
     schema = record.get("schema") if isinstance(record, dict) else None
+    if schema == EVAL_SCHEMA or (schema is None and (made or {}).get("command") == "famarl evaluate"):
+        return _evaluation(path)
     if not str(schema).startswith("famarl.") and not str((made or {}).get("command", "")).startswith("famarl "):
         raise ArtifactError(f"{path}: a JSON file that no famarl command recorded (no famarl schema or provenance)")
     table = Table(title=str(path), show_header=False)

@@ -65,7 +65,8 @@ def _afresh(out: Path, fresh, overwrite: bool) -> bool:
     from famarl_cli.artifacts.runs import RUN_FILE
 
     made = fresh.provenance["made_from"]
-    return claim_output([out / RUN_FILE], made, overwrite, instead="--resume to continue it as it was made")
+    instead = "--resume to continue it as it was made"
+    return claim_output([out / RUN_FILE], made, overwrite, instead=instead, names=setting_options())
 
 
 @sweepable(
@@ -123,3 +124,29 @@ def _train(run, out: Path, checkpoint_every: int, board=None) -> None:
     table.add_row("wall time", f"{run.wall_s:.0f} s")
     table.add_row("written", ", ".join(str(out / name) for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE)))
     Console().print(table)
+
+
+_SETTING_OPTIONS = {
+    "env_id": "env",
+    "ppo.total_steps": "steps",
+    "ppo.learning_rate": "lr",
+    "ppo.normalize_obs": "normalize",
+    "ppo.scale_rewards": "normalize",
+}
+"""A run's settings whose option has another name (the rest share theirs, less ``ppo.``)."""
+
+
+def setting_options() -> dict[str, str]:
+    """Each setting of a run (run.json's spec, dotted: ``ppo.epochs``) by the ``famarl train`` option that sets it
+    (``--update-epochs``): how a refusal names a change in the options the user types. Settings no option sets
+    (``ppo.vf_coef``) keep their own names."""
+    from dataclasses import fields
+
+    from famarl_cli.artifacts.made import option_names
+    from famarl_cli.rl.ppo import PPOConfig
+    from famarl_cli.rl.training import RunSpec
+
+    flags = option_names(TrainOptions)
+    settings = [f.name for f in fields(RunSpec) if f.name != "ppo"] + [f"ppo.{f.name}" for f in fields(PPOConfig)]
+    named = {setting: _SETTING_OPTIONS.get(setting, setting.removeprefix("ppo.")) for setting in settings}
+    return {setting: flags[option] for setting, option in named.items() if option in flags}

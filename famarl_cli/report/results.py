@@ -28,6 +28,7 @@ import numpy as np
 from famarl_cli.artifacts import atomic_path
 from famarl_cli.artifacts.runs import (
     EVAL_FILE,
+    EVAL_METRICS,
     LOG_FILE,
     read_evaluation,
     read_run_file,
@@ -79,7 +80,7 @@ class RunResult:
 
     @property
     def success(self) -> float:
-        return float(self.evaluation["sampled"]["success_rate"])
+        return float(self.evaluation["success_rate"])
 
     @property
     def auc(self) -> float:
@@ -116,10 +117,13 @@ class Group:
         return int(min(run.evaluation["episodes"] for run in self.runs))
 
     def values(self, key: str) -> np.ndarray:
-        """Per seed: ``success``, ``auc``, or a key of eval.json (deterministic)."""
+        """Per seed: ``success`` (the policy sampling as in training, the one judged), ``auc``, or a key of eval.json:
+        a metric of the policy acting with its mode (:data:`~famarl_cli.artifacts.runs.EVAL_METRICS`, under
+        ``deterministic``), else one of the run's (``env_steps``)."""
         if key in ("success", "auc"):
             return np.array([getattr(run, key) for run in self.runs], dtype=float)
-        return np.array([run.evaluation[key] for run in self.runs], dtype=float)
+        where = [run.evaluation["deterministic"] if key in EVAL_METRICS else run.evaluation for run in self.runs]
+        return np.array([found[key] for found in where], dtype=float)
 
     def ratio(self, key: str) -> np.ndarray:
         """Per seed: ``key``'s end of training over its start."""

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
 from famarl_cli.artifacts import provenance, write_json
-from famarl_cli.artifacts.made import Replaceable, made_result, making
+from famarl_cli.artifacts.made import Replaceable, claim_output, making, option_names
+from famarl_cli.artifacts.tracked import refuse_tracked
 from famarl_cli.core.declare import option, same_as
 from famarl_cli.core.errors import ArtifactError
 from famarl_cli.envs.success import SuccessOptions
@@ -16,7 +18,7 @@ from famarl_cli.stages.train import TrainOptions
 
 @dataclass(frozen=True)
 class EvaluateOptions(Replaceable):
-    """``famarl evaluate``: deterministic episodes of trained runs, and their learning curves side by side."""
+    """``famarl evaluate``: evaluation episodes of trained runs, and their learning curves side by side."""
 
     run: list[Path] = option(
         factory=list,
@@ -49,7 +51,8 @@ class EvaluateOptions(Replaceable):
     out: Path | None = option(
         None,
         "Write each run's results into OUT/<run folder name>/ instead of into the run folder (keeps a pipeline's "
-        "evaluation apart from its training outputs).",
+        "evaluation apart from its training outputs).  [default: each run's folder; where the runs lie in a DVC "
+        "stage's output, which only dvc repro writes, data/evaluations/<that output>/]",
         path="dir",
         affects=False,
     )
@@ -68,6 +71,32 @@ class EvaluateOptions(Replaceable):
         return [defaults.runs("--run", manual)]
 
 
+def evaluation_state(run: Path, into: Path, options: EvaluateOptions, overwrite: bool) -> str:
+    """What ``famarl evaluate`` does for the run folder ``run`` evaluated into ``into``: ``"reuse"`` the evaluation
+    there (made from this checkpoint and these options), ``"make"`` it, or ``"remake"`` one that is out of date (the
+    run was trained further since, or an older famarl wrote it in another layout): the rule of every command for a
+    derived output (:mod:`famarl_cli.artifacts.made`). A usage error where the one there was made with other
+    options (named as the command line names them) or where ``into`` lies in a DVC stage's output
+    (:mod:`famarl_cli.artifacts.tracked`)."""
+    from famarl_cli.artifacts.runs import CHECKPOINT_FILE, EVAL_FILE, EVAL_SCHEMA_VERSION
+
+    target = into / EVAL_FILE
+    made = making("famarl evaluate", options, [run / CHECKPOINT_FILE])
+    instead = "give --out to keep both"
+    if not claim_output([target], made, overwrite, instead, option_names(EvaluateOptions), derived=True):
+        if _schema_version(target) == EVAL_SCHEMA_VERSION:
+            return "reuse"
+    refuse_tracked(target, "give --out to evaluate elsewhere")
+    return "remake" if target.exists() and not overwrite else "make"
+
+
+def _schema_version(path: Path) -> int:
+    try:
+        return int(json.loads(path.read_text()).get("schema_version", 1))
+    except (OSError, ValueError, AttributeError, TypeError):
+        return 0
+
+
 def evaluate_run(
     run: str,
     into: str,
@@ -78,16 +107,19 @@ def evaluate_run(
     success_return: float | None = None,
     overwrite: bool = False,
 ) -> dict:
-    """Evaluate the run folder ``run`` into the folder ``into``: ``eval.json`` (the policy acting with its mode,
-    and under ``sampled`` the same numbers for the policy drawing its actions as in training), ``rollouts.png``
-    (ContinuousWorld) and, with ``film``, one rendered episode (where the env cannot render for want of its extra,
-    eval.json's ``not_filmed`` says why and the rest is written). Success follows :mod:`famarl_cli.envs.success`
-    (``success_return`` overrides the run's); ``success_rule`` says which rule judged it. Returns what eval.json
-    holds, less provenance; where it holds this evaluation already (the same checkpoint and options), that, with
-    nothing run or rewritten (``reused`` true; :mod:`famarl_cli.artifacts.made`)."""
+    """Evaluate the run folder ``run`` into the folder ``into``: ``eval.json`` (the policy drawing its actions as in
+    training, the one the verdicts judge, and under ``deterministic`` the same numbers for the policy acting with
+    its mode: :data:`~famarl_cli.artifacts.runs.EVAL_SCHEMA`), ``rollouts.png`` (ContinuousWorld) and, with
+    ``film``, one rendered episode (where the env cannot render for want of its extra, eval.json's ``not_filmed``
+    says why and the rest is written). Success follows :mod:`famarl_cli.envs.success` (``success_return``
+    overrides the run's); ``success_rule`` says which rule judged it. Returns what eval.json holds, less
+    provenance, with ``state`` (:func:`evaluation_state`): where it holds this evaluation already, nothing is run or
+    rewritten."""
     from famarl_cli.artifacts.runs import (
         CHECKPOINT_FILE,
         EVAL_FILE,
+        EVAL_SCHEMA,
+        EVAL_SCHEMA_VERSION,
         FILM_FILE,
         ROLLOUTS_FILE,
         STILLS_FILE,
@@ -98,16 +130,19 @@ def evaluate_run(
 
     run_folder, into_folder = Path(run), Path(into)
     options = EvaluateOptions(episodes=episodes, seed=seed, success_return=success_return)
-    made = making("famarl evaluate", options, [run_folder / CHECKPOINT_FILE])
-    done = made_result(into_folder / EVAL_FILE, made, overwrite)
-    if done is not None:
-        return {**done, "reused": True}
+    state = evaluation_state(run_folder, into_folder, options, overwrite)
+    if state == "reuse":
+        found = json.loads((into_folder / EVAL_FILE).read_text())
+        return {**{key: value for key, value in found.items() if key != "provenance"}, "state": state}
     agent = load_agent(run_folder)
-    result = evaluate(agent, episodes, seed, rollouts, success_return=success_return)
+    mode = evaluate(agent, episodes, seed, rollouts, success_return=success_return)
     sampled = evaluate(agent, episodes, seed, 0, sample=True, success_return=success_return)
     evaluation = {
-        **result.metrics,
-        "sampled": sampled.metrics,
+        "schema": EVAL_SCHEMA,
+        "schema_version": EVAL_SCHEMA_VERSION,
+        "policy": "sampled",
+        **sampled.metrics,
+        "deterministic": mode.metrics,
         "label": agent.spec.label,
         "agent": str(agent.spec.agent),
         "env": agent.spec.env_id,
@@ -133,12 +168,12 @@ def evaluate_run(
     }
     prov = provenance("famarl evaluate", params, seed, [run_folder / CHECKPOINT_FILE], options=options)
     write_json(into_folder / EVAL_FILE, {**evaluation, "provenance": prov})
-    if result.traces:
+    if mode.traces:
         title = (
             f"{agent.spec.label}, seed {agent.spec.seed}: deterministic episodes, one colour per decision "
             "(black dots: single primitive steps)"
         )
-        plot_rollouts(result.traces, into_folder / ROLLOUTS_FILE, title)
+        plot_rollouts(mode.traces, into_folder / ROLLOUTS_FILE, title)
     if filmed is not None:
         save_film(filmed, into_folder / FILM_FILE, into_folder / STILLS_FILE)
-    return evaluation
+    return {**evaluation, "state": state}

@@ -271,7 +271,7 @@ def per_seed(g: Group, measure) -> np.ndarray:
 
 def sampled_return(run: RunResult) -> float:
     """A run's mean evaluation return, the policy sampling as in training."""
-    return float(run.evaluation["sampled"]["return_mean"])
+    return float(run.evaluation["return_mean"])
 
 
 def curves(groups: list[Group], path: Path, title: str, panels: tuple[str, ...] | None = None) -> str:
