@@ -88,7 +88,7 @@ def success(cell: Path, task: str, discount: str, favaes: Path, seeds: str, trai
 def oracle(cell: Path, seeds: str, episodes: int) -> list[float]:
     """The oracle's share of layouts per replicate, searched in the macro space of the cell's runs."""
     out = cell.with_name(cell.name + "-oracle")
-    famarl("oracle", "--run", str(cell), "--episodes", str(episodes), "--out", str(out))
+    famarl("oracle", "--run", str(cell), "--layouts", str(episodes), "--out", str(out))
     return [float(read_oracle(out / f"seed{s}" / ORACLE_FILE)["success_rate"]) for s in seed_list(seeds)]
 
 

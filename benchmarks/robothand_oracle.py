@@ -72,7 +72,7 @@ def main() -> None:
     larger = "" if search == SEARCH else f"_{args.candidates}x{args.iterations}"
     out = args.out or RESULTS / f"robothand_oracle{larger}.json"
     with tempfile.TemporaryDirectory() as folder:
-        options = ["--episodes", str(args.episodes), "--jobs", str(args.jobs), "--out", folder]
+        options = ["--layouts", str(args.episodes), "--jobs", str(args.jobs), "--out", folder]
         options += ["--candidates", str(args.candidates), "--iterations", str(args.iterations)]
         command = [sys.executable, "-m", "famarl_cli", "oracle"]
         command += [a for run in runs.values() for a in ("--run", str(run))]

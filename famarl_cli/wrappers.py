@@ -23,6 +23,7 @@ Observations are the wrapped environment's own, unchanged.
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Callable
 from typing import Literal
 
@@ -86,9 +87,10 @@ class MacroActionWrapper(OpenLoopWrapper, gymnasium.utils.RecordConstructorArgs)
     """FaMARL's action space: a FAVAE latent z in ``[-bound, bound]^latent_size``, decoded by the frozen FAVAE
     of ``favae_path`` (a checkpoint of ``famarl favae fit`` or ``famarl macros``) into a macro action.
 
-    With ``decoder="closed"``, the closed-loop decoder of ``prior_path`` (``famarl prior fit`` on this FAVAE)
-    corrects each of the macro's actions from the state the step starts in (its networks read the first values of
-    the observation, as many as the demos had).
+    With ``loop="closed"`` (``famarl train --loop closed``), the closed-loop decoder of ``prior_path`` (``famarl
+    prior fit`` on this FAVAE) corrects each of the macro's actions from the state the step starts in (its networks
+    read the first values of the observation, as many as the demos had). ``decoder=`` is the former name of
+    ``loop=``, still taken with a DeprecationWarning: "decoder" names a network (the FAVAE's, the prior file's).
 
     The environment's actions must have the size the FAVAE decodes; decoded actions are clipped to its bounds.
     """
@@ -100,9 +102,19 @@ class MacroActionWrapper(OpenLoopWrapper, gymnasium.utils.RecordConstructorArgs)
         reward: Reward = "discounted",
         gamma: float = 0.99,
         bound: float = 3.0,
-        decoder: Literal["open", "closed"] = "open",
+        loop: Literal["open", "closed"] = "open",
         prior_path: str | os.PathLike | None = None,
+        decoder: Literal["open", "closed"] | None = None,
     ) -> None:
+        if decoder is not None:
+            if loop != "open":
+                raise ValueError("give loop= alone: decoder= is its former name")
+            warnings.warn(
+                "MacroActionWrapper(decoder=...) is now loop=...; the old name goes in the next release",
+                DeprecationWarning,
+                stacklevel=2,
+            )
+            loop = decoder
         # recorded so that ``env.spec`` can remake the wrapped environment (gymnasium's check_env does)
         gymnasium.utils.RecordConstructorArgs.__init__(
             self,
@@ -110,17 +122,17 @@ class MacroActionWrapper(OpenLoopWrapper, gymnasium.utils.RecordConstructorArgs)
             reward=reward,
             gamma=gamma,
             bound=bound,
-            decoder=decoder,
+            loop=loop,
             prior_path=None if prior_path is None else str(prior_path),
         )
         favae = load_favae(favae_path)[0]
-        if decoder not in ("open", "closed"):
-            raise ValueError(f"decoder must be 'open' or 'closed', got {decoder!r}")
-        if decoder == "open":
+        if loop not in ("open", "closed"):
+            raise ValueError(f"loop must be 'open' or 'closed', got {loop!r}")
+        if loop == "open":
             super().__init__(env, lambda low, high: LatentMacroActions(favae, low, high, bound), reward, gamma)
         else:
             if prior_path is None:
-                raise ValueError("decoder='closed' needs prior_path: the closed-loop decoder is in the prior file")
+                raise ValueError("loop='closed' needs prior_path: the closed-loop decoder is in the prior file")
             skills = load_skills(prior_path)
             state, latent = gymnasium.spaces.flatdim(env.observation_space), favae.config.latent_size
             if skills.config.latent_size != latent or skills.config.obs_size > state:

@@ -443,7 +443,7 @@ def test_traverse_without_a_model_takes_the_manual_chains_favae_else_the_main_jo
     used = famarl("traverse", "--ladder", 3)
     assert used.exit_code == 0, used.output
     assert "replicate 0 of the default pipeline" in used.stdout
-    assert (tmp_path / "data/traverse/favae-ladder3.json").is_file()
+    assert (tmp_path / "data/traverse/maze-macros-seed0-ladder3.json").is_file()
     manual = tmp_path / "data/favae/pushed-down-only.pt"
     manual.parent.mkdir(parents=True)
     shutil.copy(favae_file, manual)

@@ -299,3 +299,13 @@ def test_famarl_status_says_per_pipeline_what_is_committed_current_here_and_what
     (project / "code" / "method.py").write_text("X = 2\n")
     again = famarl("status", "--root", project).stdout
     assert "stale (1 stages)" in again and "\n  dvc repro\n" in again and "nothing to run" not in again
+
+
+def test_famarl_status_says_where_outputs_made_here_differ_from_the_committed_ones(project):
+    """The code is current, the outputs are here, but a run on this machine made them otherwise."""
+    assert "differs from the committed" not in famarl("status", "--root", project).stdout
+    (project / "data" / "out.txt").write_text("made here\n")
+    shown = famarl("status", "--root", project)
+    assert shown.exit_code == 0, shown.output
+    assert "current" in shown.stdout and "yes, differ" in shown.stdout
+    assert "made here, differing from the committed results (their dvc.lock): data/out.txt" in shown.stdout

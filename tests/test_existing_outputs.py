@@ -69,7 +69,7 @@ CASES = {
               ("--seed", 1), "favae"),
     "evaluate": (lambda i, o: ["evaluate", "--run", i["run"], "--episodes", 2, "--no-film", "--jobs", 1, "--out",
                                o], "run/eval.json", ("--episodes", 3), "run"),
-    "oracle": (lambda i, o: ["oracle", "--run", i["run"], "--episodes", 1, "--candidates", 2, "--iterations", 1,
+    "oracle": (lambda i, o: ["oracle", "--run", i["run"], "--layouts", 1, "--candidates", 2, "--iterations", 1,
                              "--decisions", 4, "--jobs", 1, "--out", o], "run/oracle.json", ("--candidates", 3),
                "run"),
 }  # fmt: skip

@@ -71,7 +71,7 @@ def test_famarl_oracle_writes_each_runs_share_of_solved_layouts(tmp_path):
     tiny = ("--steps", 600, "--n-envs", 2, "--n-steps", 8, "--update-epochs", 1, "--minibatches", 2)
     assert famarl("train", "--env", REACHING, "--agent", "figar", *tiny, "--out", run).exit_code == 0
     out = tmp_path / "oracle"
-    options = ("--episodes", 3, "--candidates", 8, "--iterations", 2, "--decisions", 40, "--jobs", 1)
+    options = ("--layouts", 3, "--candidates", 8, "--iterations", 2, "--decisions", 40, "--jobs", 1)
     result = famarl("oracle", "--run", run, *options, "--out", out)
     assert result.exit_code == 0, result.output
     found = json.loads((out / "run" / "oracle.json").read_text())
@@ -122,5 +122,5 @@ def test_bad_oracle_options_are_one_line_and_write_nothing(tmp_path):
     (tmp_path / "empty").mkdir()
     one_line_error(famarl("oracle", "--run", tmp_path / "empty", "--out", out), 1, "not a run folder")
     one_line_error(famarl("oracle", "--run", tmp_path / "empty", "--candidates", 1, "--out", out), 2, "--candidates")
-    one_line_error(famarl("oracle", "--run", tmp_path / "empty", "--episodes", "many", "--out", out), 2, "--episodes")
+    one_line_error(famarl("oracle", "--run", tmp_path / "empty", "--layouts", "many", "--out", out), 2, "--layouts")
     assert not out.exists()

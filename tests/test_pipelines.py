@@ -39,7 +39,7 @@ TINY = {
         "favae": TINY_FAVAE,
         "train": TINY_TRAIN,
         "evaluate": TINY_EVALUATE,
-        "oracle": {"episodes": 1},
+        "oracle": {"layouts": 1},
     },
     "pipelines/scripts/params.yaml": {
         "seeds": "0-1",
@@ -437,7 +437,7 @@ def test_what_a_user_types_after_the_main_job_leaves_it_up_to_date(project, monk
     for args in (
         ("inspect", "data/maze/runs/famarl-seed0"),
         ("inspect", "data/maze/eval/famarl-seed0/eval.json"),
-        ("oracle", "--run", "data/maze/runs/ppo-seed0", "--episodes", 1, "--candidates", 2, "--iterations", 1),
+        ("oracle", "--run", "data/maze/runs/ppo-seed0", "--layouts", 1, "--candidates", 2, "--iterations", 1),
         ("train", "--agent", "ppo", "--steps", 600, "--n-envs", 2, "--n-steps", 8, "--update-epochs", 1),
     ):
         result = famarl(*args)

@@ -366,12 +366,12 @@ def test_the_macro_wrapper_runs_closed_loop_macros(prior_file, favae_file):
 
     from famarl_cli.wrappers import MacroActionWrapper
 
-    env = MacroActionWrapper(gymnasium.make(BASE), favae_file, decoder="closed", prior_path=prior_file)
+    env = MacroActionWrapper(gymnasium.make(BASE), favae_file, loop="closed", prior_path=prior_file)
     env.reset(seed=0)
     _, _, _, _, info = env.step(env.action_space.sample())
     assert info["steps"] >= 1
     with pytest.raises(ValueError, match="needs prior_path"):
-        MacroActionWrapper(gymnasium.make(BASE), favae_file, decoder="closed")
+        MacroActionWrapper(gymnasium.make(BASE), favae_file, loop="closed")
 
 
 def test_a_prior_of_states_that_say_nothing_is_no_worse_than_the_standard_normal_on_held_out_episodes(favae_file):

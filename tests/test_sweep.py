@@ -93,32 +93,48 @@ def test_job_key_is_stable_under_reordering_and_changes_with_config_code_and_inp
     assert keyed.key != first
 
 
-def _record(folder: Path, key: str, complete: bool) -> None:
+def _record(folder: Path, job: Job, made: dict, complete: bool) -> None:
     folder.mkdir(parents=True)
-    (folder / JOB_FILE).write_text(json.dumps({"schema": "famarl.job", "key": key, "complete": complete}))
+    (folder / JOB_FILE).write_text(json.dumps(plans.job_record(job, complete, made)))
 
 
 def test_reconcile_table(tmp_path):
-    jobs = [Job(name, "x:y", {}, resumable=name != "fixed") for name in ("done", "stopped", "fixed", "changed", "new")]
-    keys = {job.name: f"key-{job.name}" for job in jobs}
-    _record(tmp_path / "done", "key-done", complete=True)
-    _record(tmp_path / "stopped", "key-stopped", complete=False)
-    _record(tmp_path / "fixed", "key-fixed", complete=False)
-    _record(tmp_path / "changed", "an older key", complete=True)
-    _record(tmp_path / "dropped", "key-dropped", complete=True)
+    names = ("done", "stopped", "fixed", "changed", "recoded", "unrecorded", "empty", "new")
+    jobs = [Job(name, "x:y", {"name": name}, resumable=name != "fixed") for name in names]
+    made = {job.name: {"runner": "x:y", "config": job.config, "famarl_version": "1", "code": "c", "inputs": {}}
+            for job in jobs}  # fmt: skip
+    by_name = {job.name: job for job in jobs}
+    for name, complete in (("done", True), ("stopped", False), ("fixed", False)):
+        _record(tmp_path / name, by_name[name], made[name], complete)
+    _record(tmp_path / "changed", by_name["changed"], {**made["changed"], "config": {"name": "before"}}, True)
+    _record(tmp_path / "recoded", by_name["recoded"], {**made["recoded"], "code": "older"}, True)
+    (tmp_path / "unrecorded").mkdir()
+    (tmp_path / "unrecorded" / "notes.txt").write_text("mine")
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "empty" / ".famarl.lock").write_text("")  # hidden: a lock, not work
+    dropped = Job("dropped", "x:y", {})
+    _record(tmp_path / "dropped", dropped, made["done"], complete=True)
     (tmp_path / ".hidden-temporary").write_text("")
-    result = reconcile(tmp_path, jobs, keys)
+    result = reconcile(tmp_path, jobs, made)
     assert result.actions == {
         "done": Action.SKIP,
         "stopped": Action.RESUME,
-        "fixed": Action.RUN,  # cannot resume: run again from scratch
+        "fixed": Action.RUN,  # cannot resume: run again from scratch, the same job
         "changed": Action.RUN,
+        "recoded": Action.RUN,
+        "unrecorded": Action.RUN,
+        "empty": Action.RUN,
         "new": Action.RUN,
     }
     assert result.delete == [tmp_path / "dropped"]
+    assert result.replace == {
+        "changed": "made from other options or inputs",
+        "recoded": "made by other famarl code",
+        "unrecorded": "files no sweep recorded",
+    }
     (tmp_path / "notes.txt").write_text("mine")
     with pytest.raises(UsageError, match="notes.txt, which is not a job folder"):
-        reconcile(tmp_path, jobs, keys)
+        reconcile(tmp_path, jobs, made)
 
 
 def _echo_jobs(n: int, rendezvous: Path | None = None, wait: float = 0.0) -> list[Job]:
@@ -326,12 +342,16 @@ def test_kill_9_of_a_sweep_then_again_ends_exactly_like_an_uninterrupted_one(tmp
     _assert_same_runs(out, straight_runs, ["seed0", "seed1"])
 
 
-def test_a_sweep_skips_complete_runs_adds_new_ones_and_deletes_dropped_ones(tmp_path, straight_runs):
+def test_a_sweep_skips_complete_runs_adds_new_ones_and_deletes_dropped_ones_when_allowed(tmp_path, straight_runs):
     out = tmp_path / "runs"
     shutil.copytree(straight_runs, out)
     before = {s: (out / f"seed{s}" / "checkpoint.pt").stat().st_mtime_ns for s in (0, 1)}
-    result = famarl("sweep", "train", "--seeds", "1-2", "--jobs", "1", "--out", out, "--", *TINY_PPO, "--steps",
-                    1280, "--checkpoint-every", 2)  # fmt: skip
+    options = ["--seeds", "1-2", "--jobs", "1", "--out", out, "--", *TINY_PPO, "--steps", 1280, "--checkpoint-every", 2]
+    refused = famarl("sweep", "train", *options)
+    one_line_error(refused, 2, "it would delete seed0 (no longer in the plan)")
+    assert "--overwrite" in refused.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["seed0", "seed1", "sweep.json"] and not (out / "seed2").exists()
+    result = famarl("sweep", "train", "--overwrite", *options)
     assert result.exit_code == 0, result.output
     assert sorted(p.name for p in out.iterdir()) == ["seed1", "seed2", "sweep.json"]
     assert (out / "seed1" / "checkpoint.pt").stat().st_mtime_ns == before[1]

@@ -1,5 +1,6 @@
 """A sweep stage under DVC: runs added or removed with the seeds, nothing else re-run, and a killed stage resumed by
-the next ``dvc repro``."""
+the next ``dvc repro``; the stage's command has no --overwrite, since a sweep that DVC runs as a stage deletes and
+replaces runs as its plan says."""
 
 from __future__ import annotations
 

@@ -99,3 +99,9 @@ class Backwards:
 
     def act(self, observation):
         return np.zeros(1)
+
+
+def pump(observation):
+    """MountainCarContinuous: push the way the car already moves, full power; it reaches the goal every episode
+    with a return just short of the env's reward_threshold (90), the cost of its pushes."""
+    return np.array([1.0 if observation[1] >= 0 else -1.0])

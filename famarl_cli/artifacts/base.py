@@ -106,9 +106,12 @@ def prepare_output(path: str | os.PathLike) -> Path:
 def sha256(path: str | os.PathLike) -> str:
     """Content hash of a file, recorded by the stages that read it."""
     digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
+    try:
+        with open(path, "rb") as handle:
+            for block in iter(lambda: handle.read(1 << 20), b""):
+                digest.update(block)
+    except OSError as exc:  # a folder where a file should be, say: named, not a traceback
+        raise ArtifactError(f"{path}: cannot be read ({exc.strerror or exc})") from exc
     return digest.hexdigest()
 
 

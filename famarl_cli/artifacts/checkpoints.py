@@ -8,6 +8,8 @@ It loads with ``weights_only=True``: no code in a checkpoint ever runs.
 from __future__ import annotations
 
 import os
+import pickle
+import re
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +18,7 @@ import torch
 
 from famarl_cli import __version__
 from famarl_cli.artifacts.base import atomic_path, check, describe_file
+from famarl_cli.core.declare import plain
 from famarl_cli.core.errors import ArtifactError
 
 
@@ -53,18 +56,32 @@ def save_checkpoint(
     provenance: dict,
     extra: dict | None = None,
 ) -> None:
-    """``extra`` holds what a kind of checkpoint adds (FAVAE: its training settings and C_last)."""
+    """``extra`` holds what a kind of checkpoint adds (FAVAE: its training settings and C_last). ``config`` and
+    ``provenance`` are written as plain data (:func:`~famarl_cli.core.declare.plain`: an enum as its value, a path
+    as its text), which is all that the safe loader reads back."""
     payload = {
         **(extra or {}),
         "schema": schema,
         "schema_version": version,
         "famarl_version": __version__,
-        "provenance": provenance,
-        "config": config,
+        "provenance": plain(provenance),
+        "config": plain(config),
         "state_dict": state_dict,
     }
     with atomic_path(path) as temp:
         torch.save(payload, temp)
+
+
+def refused_object(exc: Exception) -> str | None:
+    """What inside a whole, readable torch file its safe (``weights_only``) loading refused: ``a <module.name>
+    object`` where torch names the class or function; None where loading failed otherwise (a truncated or foreign
+    file)."""
+    message = str(exc)
+    if not isinstance(exc, pickle.UnpicklingError) or not message.startswith("Weights only load failed"):
+        return None
+    # Foreign bytes fail the same way; only a named global is something inside a whole checkpoint.
+    found = re.search(r"GLOBAL ([\w.]+)", message)
+    return None if found is None else f"a {found.group(1)} object"
 
 
 def load_checkpoint(path: str | os.PathLike, schema: str, version: int) -> dict[str, Any]:
@@ -75,6 +92,12 @@ def load_checkpoint(path: str | os.PathLike, schema: str, version: int) -> dict[
     try:
         payload = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:  # torch.load on foreign bytes raises almost any kind (IndexError on 6 bytes, ...)
+        refused = refused_object(exc)
+        if refused is not None:
+            raise ArtifactError(
+                f"{path}: holds {refused}, which loading refuses: a checkpoint may hold only tensors and plain data "
+                "(loading runs no code)"
+            ) from exc
         kind = describe_file(path)
         if kind is not None and "torch" not in kind:
             raise ArtifactError(f"{path}: is {kind}, expected a {schema} checkpoint (a torch .pt file)") from exc

@@ -175,6 +175,11 @@ def _changed_options(before: dict, now: dict, names: dict[str, str]) -> list[str
     """Each option whose value differs, once under the name the user types (two settings of one option, as
     ``--normalize`` sets both of its, read as one change)."""
     was_options, options = _flat(before.get("options") or {}), _flat(now["options"])
+    # a setting recorded under an option's former name (named, like the option, by its flag) is that option
+    for old in set(was_options) - set(options):
+        new = [name for name in set(options) - set(was_options) if names.get(name, name) == names.get(old)]
+        if len(new) == 1:
+            was_options[new[0]] = was_options.pop(old)
     changes = []
     for name in sorted(set(was_options) | set(options)):
         if was_options.get(name) != options.get(name):
@@ -186,8 +191,9 @@ def _changed_options(before: dict, now: dict, names: dict[str, str]) -> list[str
 
 def option_names(cls: type) -> dict[str, str]:
     """Each option of the declaration ``cls`` by its setting's name, to its flag (``epochs`` -> ``--update-epochs``):
-    how a refusal names what changed."""
-    return {d.name: d.flag for d in declared(cls)}
+    how a refusal names what changed. A setting's former names (a record written before it was renamed) map to the
+    same flag, so that a record of the same option under its old name is no change."""
+    return {name: d.flag for d in declared(cls) for name in (d.name, *d.former)}
 
 
 def claim_output(

@@ -16,13 +16,14 @@ from __future__ import annotations
 import functools
 import importlib
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Annotated, Any
 
 import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.table import Table
 from typer import core as typer_core
 from typer.core import TyperGroup
 
@@ -238,6 +239,30 @@ def progress_bar() -> Progress:
         transient=True,
         disable=not console.is_terminal,
     )
+
+
+def results_console() -> Console:
+    """Where a command prints its results (stdout). Its lines are never broken or cut to the terminal's width (the
+    terminal wraps them), so a table's title and a ``written ...`` line keep their paths whole; a table still fits
+    its columns to the width, and its names column stays whole (:func:`named_rows`)."""
+    return Console(soft_wrap=True)
+
+
+def named_rows(title: str, columns: Sequence[str], left: Collection[str] = ()) -> Table:
+    """A table whose first column names each row (a run, a label, a pipeline): never wrapped nor cut short at any
+    terminal width (ten runs ``famarl-seed0`` .. ``famarl-seed9`` must not all read ``famarl-s…``); the other columns
+    wrap to make room. The columns named in ``left`` (text) are left-justified like the names, the others (numbers)
+    right-justified."""
+    table = Table(title=title)
+    for index, column in enumerate(columns):
+        table.add_column(column, justify="left" if index == 0 or column in left else "right", no_wrap=index == 0)
+    return table
+
+
+def print_written(paths: Iterable) -> None:
+    """``written A, B, ...``: the files a command wrote, each path whole (:func:`results_console`; a bracket in a
+    path is not markup)."""
+    results_console().print("written " + ", ".join(map(str, paths)), markup=False)
 
 
 def main() -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import typer
 from rich.console import Console
 from rich.table import Table
 
@@ -58,7 +59,7 @@ def _record_expert(progress, options: DemosOptions):
 
     o = options
     env, expert, episodes, min_return = o.env, o.expert, o.episodes, o.min_return
-    attempts = o.max_attempts or (50 * episodes if min_return is not None else episodes)
+    attempts = o.max_episodes or (50 * episodes if min_return is not None else episodes)
     description = f"demos {expert} in {env}"
     task = progress.add_task(f"{description} (making the env)", total=episodes)
     tried = progress.add_task("  attempts", total=attempts, visible=min_return is not None)
@@ -76,10 +77,19 @@ def _record_expert(progress, options: DemosOptions):
         if kept is not None:
             progress.advance(task)
 
-    recorded = record_expert_demos(
-        env, expert, episodes, o.seed, o.env_kwargs, min_return, attempts, advance, o.success_return, on_step=step
+    return record_expert_demos(
+        env,
+        expert,
+        episodes,
+        o.seed,
+        o.env_kwargs,
+        min_return,
+        attempts,
+        advance,
+        o.success_return,
+        on_step=step,
+        on_note=lambda note: typer.echo(f"note: {note}", err=True),
     )
-    return recorded
 
 
 _ONE_SOURCE = "a sweep records famarl's scripts; record other demos with famarl demos, once per seed"

@@ -6,10 +6,8 @@ import os
 from pathlib import Path
 
 import typer
-from rich.console import Console
-from rich.table import Table
 
-from famarl_cli.cli import app, progress_bar, torch_on_one_thread
+from famarl_cli.cli import app, named_rows, progress_bar, results_console, torch_on_one_thread
 from famarl_cli.cli.derived import command
 from famarl_cli.core.errors import FamarlError, UsageError
 from famarl_cli.stages.evaluate import EvaluateOptions
@@ -61,12 +59,11 @@ def evaluate(options: EvaluateOptions) -> None:
     settings = EvaluateOptions(episodes=episodes, seed=seed, success_return=o.success_return)
     for folder in run:
         evaluation_state(folder, results[folder], settings, o.overwrite)
-    table = Table(
-        title=f"evaluation: {episodes} episodes per run, seed {seed}; the policy sampling its actions as in "
-        "training (the one judged), in parentheses acting with its mode"
+    table = named_rows(
+        f"evaluation: {episodes} episodes per run, seed {seed}; the policy sampling its actions as in training (the "
+        "one judged), in parentheses acting with its mode",
+        ("run", "env steps", "success (mode)", "return (mode)", "length", "decisions", "macro length"),
     )
-    for column in ("run", "env steps", "success (mode)", "return (mode)", "length", "decisions", "macro length"):
-        table.add_column(column, justify="left" if column == "run" else "right", no_wrap=column == "run")
     with make_executor(min(o.jobs or default_jobs(), len(run))) as executor, progress_bar() as progress:
         task = progress.add_task("evaluate", total=len(run))
         futures = [
@@ -113,13 +110,14 @@ def evaluate(options: EvaluateOptions) -> None:
     if len(reused) < len(run) or not (curves.exists() and curves.with_suffix(".json").exists()):
         plot_learning_curves(curves_by_label, curves)
         write_json(curves.with_suffix(".json"), {"episodes": episodes, "seed": seed, "labels": summary})
-    console = Console(soft_wrap=True)
+    console = results_console()
     console.print(table)
     for rule in sorted({e["success_rule"] for e in evaluations}):
         console.print(f"success: {rule}")
-    by_label = Table(title="per label, the policy sampling as in training: mean (min to max) over runs")
-    for column in ("label", "runs", "success", "return", "decisions", "macro length", "train wall s"):
-        by_label.add_column(column, justify="left" if column == "label" else "right")
+    by_label = named_rows(
+        "per label, the policy sampling as in training: mean (min to max) over runs",
+        ("label", "runs", "success", "return", "decisions", "macro length", "train wall s"),
+    )
     for label, values in summary.items():
         cells = [
             _spread(values[key], fmt)

@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import typer
-from rich.console import Console
 from rich.progress import Progress
 from rich.table import Table
 
-from famarl_cli.cli import already_made, app, progress_bar, torch_on_one_thread
+from famarl_cli.cli import already_made, app, print_written, progress_bar, results_console, torch_on_one_thread
 from famarl_cli.cli.derived import command
 from famarl_cli.stages.method import CalibrateOptions, FitOptions
 
@@ -48,7 +47,7 @@ def favae_calibrate(options: CalibrateOptions) -> None:
         task = progress.add_task("calibrate", total=options.pre_run_window().stop)
         c_last, _ = stages.calibrate(options, _epoch_reporter(progress, task, "C_last pre-run"))
     out, measure = options.destination, options.measure
-    Console().print(f"C_last per ladder ({measure}): {', '.join(f'{c:.3f}' for c in c_last)}  -> {out}")
+    results_console().print(f"C_last per ladder ({measure}): {', '.join(f'{c:.3f}' for c in c_last)}  -> {out}")
 
 
 @command(favae_app, FitOptions, "fit")
@@ -103,5 +102,5 @@ def favae_fit(options: FitOptions) -> None:
             f"{scores['mig']:.3f} [{low:.3f}, {high:.3f}] (95% {scores['mig_interval_method']}; "
             f"{scores['mig_bins']} bins)",
         )
-    table.add_row("written", ", ".join(map(str, fitted.written)))
-    Console().print(table)
+    results_console().print(table)
+    print_written(fitted.written)

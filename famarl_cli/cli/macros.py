@@ -7,11 +7,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.artifacts.made import Replaceable
-from famarl_cli.cli import JobRecipe, app, progress_bar, sweepable, torch_on_one_thread
+from famarl_cli.cli import JobRecipe, app, print_written, progress_bar, results_console, sweepable, torch_on_one_thread
 from famarl_cli.cli.derived import command
 from famarl_cli.core.declare import option, pick, same_as, to_json
 from famarl_cli.stages.macros import FAVAE, MacrosConfig
@@ -80,8 +79,8 @@ def macros(options: MacrosOptions) -> None:
         "length accuracy", f"{metrics['length_accuracy']:.1%} exact, {metrics['length_within_one']:.1%} within one step"
     )
     table.add_row("MIG", metrics["mig_note"] if metrics["mig"] is None else f"{metrics['mig']:.3f}")
-    table.add_row("written", str(out))
-    Console().print(table)
+    results_console().print(table)
+    print_written([out])
 
 
 @sweepable("macros", MacrosOptions, owned=("--out", "--overwrite"))

@@ -22,10 +22,11 @@ def oracle(options: OracleStageOptions) -> None:
     reach, with a 95% Wilson interval over the layouts). The run's policy is not used: an agent that fails where
     its space's oracle succeeds has a learner that did not find the solution, not a space without one.
 
-    Time: at most episodes x iterations x candidates episodes per run, fewer where a plan succeeds early; on one
+    Time: at most layouts x iterations x candidates episodes per run, fewer where a plan succeeds early; on one
     core of a 2-core AMD EPYC VM, RobotHand runs took a few seconds per layout on average (the record in
     docs/robothand.md)."""
     from famarl_cli.artifacts.runs import ORACLE_FILE, expand_run_folders, read_run_file
+    from famarl_cli.artifacts.tracked import refuse_tracked
     from famarl_cli.cli.evaluate import evaluation_names
     from famarl_cli.stages.oracle import oracle_run
     from famarl_cli.sweep.executors import make_executor
@@ -39,13 +40,14 @@ def oracle(options: OracleStageOptions) -> None:
     for folder in runs:
         read_run_file(folder)
     into = {folder: o.out / name for folder, name in zip(runs, evaluation_names(runs), strict=True)}
+    refuse_tracked(o.out)  # before the search: its writes would be refused at the end
     reused = 0
-    table = Table(title=f"oracle: {o.episodes} layouts per run, seed {o.seed}; {o.candidates} plans x {o.iterations}")
+    table = Table(title=f"oracle: {o.layouts} layouts per run, seed {o.seed}; {o.candidates} plans x {o.iterations}")
     for column in ("run", "agent", "env", "layouts solved [95% CI]", "plans per layout"):
         table.add_column(column, justify="left" if column in ("run", "agent", "env") else "right")
     with make_executor(min(o.jobs or default_jobs(), len(runs))) as executor, progress_bar() as progress:
         task = progress.add_task("oracle", total=len(runs))
-        args = (o.episodes, o.seed, o.candidates, o.iterations, o.decisions, o.overwrite)
+        args = (o.layouts, o.seed, o.candidates, o.iterations, o.decisions, o.overwrite)
         futures = [executor.submit(name_of(oracle_run), str(f), str(into[f]), *args) for f in runs]
         for folder, future in zip(runs, futures, strict=True):
             try:

@@ -3,10 +3,18 @@
 from __future__ import annotations
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import JobRecipe, already_made, app, progress_bar, sweepable, torch_on_one_thread
+from famarl_cli.cli import (
+    JobRecipe,
+    already_made,
+    app,
+    print_written,
+    progress_bar,
+    results_console,
+    sweepable,
+    torch_on_one_thread,
+)
 from famarl_cli.cli.derived import command
 from famarl_cli.core.declare import to_json
 from famarl_cli.stages.prior import PriorFitOptions
@@ -58,8 +66,8 @@ def prior_fit(options: PriorFitOptions) -> None:
     out = options.destination
     written = [out, out.with_suffix(".log.csv"), out.with_suffix(".metrics.json")]
     written += [out.with_suffix(".png")] if options.plot else []
-    table.add_row("written", ", ".join(map(str, written)))
-    Console().print(table)
+    results_console().print(table)
+    print_written(written)
 
 
 @sweepable("prior", PriorFitOptions, owned=("--out", "--overwrite"), runs="prior fit")

@@ -6,10 +6,8 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
-from rich.table import Table
 
-from famarl_cli.cli import app, reports_errors
+from famarl_cli.cli import app, named_rows, reports_errors, results_console
 from famarl_cli.core.errors import UsageError
 
 
@@ -54,9 +52,7 @@ def report(
     if unknown:
         raise UsageError(f"unknown experiment {', '.join(unknown)} (known: {', '.join(known)})")
     sections = write_report(names, data, out, __version__, summary)
-    table = Table(title=f"{out / 'report.md'}")
-    for column in ("experiment", "claims", "reproduce", "do not", "inconclusive"):
-        table.add_column(column)
+    table = named_rows(f"{out / 'report.md'}", ("experiment", "claims", "reproduce", "do not", "inconclusive"))
     for name, section in sections.items():
         counts = section.summary()
         table.add_row(
@@ -66,4 +62,4 @@ def report(
             str(counts["claims_not_reproduced"]),
             str(counts["claims_inconclusive"]),
         )
-    Console().print(table)
+    results_console().print(table)

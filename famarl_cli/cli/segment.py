@@ -21,7 +21,7 @@ def segment(options: SegmentOptions) -> None:
         return
     torch_on_one_thread()
     with progress_bar() as progress:
-        task = progress.add_task("segmenter", total=options.epochs)
+        task = progress.add_task("segmenter", total=options.segment_epochs)
         result = stages.segment(
             options,
             on_epoch=lambda epoch, mse: progress.update(task, advance=1, description=f"segmenter mse {mse:.2e}"),
@@ -30,7 +30,9 @@ def segment(options: SegmentOptions) -> None:
     table = segments_table(segments, f"segments of {options.demos}")
     if metrics["boundaries_exact"] is None:
         table.add_row("boundary F1", "not measured (the demos have no ground-truth phases)")
-    for key in ("boundaries_exact", f"boundaries_within_{options.tolerance}"):
+    # the tolerant score first: an exact match of the step is rare even for a cut in the right place
+    tolerant = f"boundaries_within_{options.tolerance}"
+    for key in dict.fromkeys((tolerant, "boundaries_exact")):
         score = metrics[key]
         if score is None:
             continue

@@ -5,10 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from rich.console import Console
-
 from famarl_cli.artifacts.made import Replaceable
-from famarl_cli.cli import already_made, app
+from famarl_cli.cli import already_made, app, results_console
 from famarl_cli.cli.derived import command
 from famarl_cli.core.declare import option, same_as, to_json
 from famarl_cli.method.favae import FavaeOptions
@@ -52,7 +50,7 @@ def sequences(options: SequencesOptions) -> None:
     made = provenance("famarl sequences", recorded, None, [source], options=options)
     segments = to_segments(arrays, source, options.length, 2**options.ladders, made, options.standardize)
     write_segments(out, segments)
-    Console().print(
+    results_console().print(
         f"{len(segments.length)} sequences of {segments.action_dim} dimensions, up to {segments.length.max()} steps "
         f"(padded to {segments.max_length}), factors {', '.join(segments.factor_names) or 'none'}: written {out}"
     )

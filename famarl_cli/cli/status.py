@@ -19,8 +19,9 @@ def status(
     root: Annotated[Path, typer.Option(help="The project's root (its dvc.yaml).", file_okay=False)] = Path("."),
 ) -> None:
     """Per pipeline: its committed verdicts, whether its code, parameters and commands are those its dvc.lock
-    records (current) or have changed since (stale), whether its outputs are in this working copy, and the
-    command that makes them with its measured time. A fresh clone has committed results for every pipeline and
+    records (current) or have changed since (stale), whether its outputs are in this working copy and, where they
+    are, whether they are the committed results or were made here otherwise, and the command that makes them with
+    its measured time. A fresh clone has committed results for every pipeline and
     the outputs of none: `dvc repro` makes the main job's. Takes a few seconds (it asks DVC)."""
     from famarl_cli.core.errors import ArtifactError
     from famarl_cli.report.docs import COUNTS, pipelines
@@ -30,20 +31,35 @@ def status(
     table = Table(title="pipelines: what is committed, whether it is current, what ran here")
     for column in ("pipeline", "committed verdicts", "code since its lock", "outputs here", "its wall"):
         table.add_column(column)
-    todo = []
+    todo, differing = [], ()
     for p in pipelines(root):
         claims = sum(section[COUNTS[0]] for section in p.summary.values()) if p.summary else 0
         committed = f"{claims} claim{'' if claims == 1 else 's'}" if p.summary else "none yet"
         current = f"stale ({len(p.stale)} stages)" if p.stale else "current"
         wall = f"{p.timed['total_s'] / 60:.0f} min" if p.timed else "not timed"
-        table.add_row(p.name, committed, current, "yes" if p.here else "no", wall)
+        table.add_row(p.name, committed, current, _here(p), wall)
         if not p.here or p.stale:
             todo.append("dvc repro" + ("" if p.definition == "dvc.yaml" else f" {p.definition}"))
+        differing += p.differs
     console = Console()
     console.print(table)
     console.print("walls on 2 cores (docs/pipelines.md); dvc status lists every stage not run here as changed")
+    if differing:
+        console.print(
+            f"made here, differing from the committed results (their dvc.lock): {', '.join(differing)}; the "
+            "committed verdicts were not made from them",
+            soft_wrap=True,
+        )
     console.print(
         "to make what is missing or stale here:" if todo else "nothing to run: every pipeline is here and current"
     )
     for command in todo:
         console.print(f"  {command}", soft_wrap=True)
+
+
+def _here(pipeline) -> str:
+    """Whether a pipeline's outputs are in this working copy and, where they are, whether they are the committed
+    results or were made here otherwise."""
+    if pipeline.differs:
+        return "yes, differ"
+    return "yes" if pipeline.here else "no"

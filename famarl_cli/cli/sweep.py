@@ -3,16 +3,15 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 from typing import Annotated
 
 import click
 import typer
-from rich.console import Console
 from rich.progress import Progress, TaskID
-from rich.table import Table
 
-from famarl_cli.cli import SWEEPABLE, app, progress_bar, reports_errors
+from famarl_cli.cli import SWEEPABLE, app, named_rows, progress_bar, reports_errors, results_console
 from famarl_cli.core.errors import FamarlError, UsageError
 
 
@@ -68,11 +67,19 @@ def sweep(
     out: Annotated[
         Path,
         typer.Option(
-            help="Folder of the sweep's runs, one folder each. The sweep owns it: it deletes runs no longer in the "
-            "plan.",
+            help="Folder of the sweep's runs, one folder each, and nothing else. A second sweep into it skips the "
+            "runs complete and continues the stopped ones.",
             file_okay=False,
         ),
     ] = ...,
+    overwrite: Annotated[
+        bool,
+        typer.Option(
+            help="Let the sweep delete the runs in --out no longer in the plan and replace those made from other "
+            "options, inputs or code; without it, it refuses and changes nothing (run by dvc repro, a stage's "
+            "sweep always may).",
+        ),
+    ] = False,
     seeds: Annotated[str, typer.Option(help="Seeds: a range 0-9, a list 0,3,7, or both (0-4,10).")] = "0",
     over: Annotated[
         list[str] | None,
@@ -114,23 +121,29 @@ def sweep(
     Example: famarl sweep train --seeds 0-9 --over agent=ppo,figar --out data/runs -- --steps 500000
 
     A run whose options, inputs and code are unchanged and that finished is skipped; one that was stopped
-    continues from its checkpoint; one whose options changed runs again; a run folder no longer in the plan is
-    deleted. A run whose worker dies is resubmitted; a run that fails does not stop the others, and the command
-    exits non-zero at the end. It takes about what its runs take one after another, divided by the workers
-    (one per core; the default pipeline's 10 replicates of macros about 3 minutes and its 30 Maze runs of 500k
-    steps about 2 minutes on a 2-core AMD EPYC VM: docs/pipelines.md).
+    continues from its checkpoint. A run made from other options, inputs or code, and a run folder no longer in the
+    plan, are replaced or deleted only with --overwrite (or when dvc repro runs the sweep as a pipeline's stage);
+    otherwise the sweep names them and changes nothing. A run whose worker dies is resubmitted; a run that fails
+    does not stop the others, and the command exits non-zero at the end. It takes about what its runs take one
+    after another, divided by the workers (one per core; the default pipeline's 10 replicates of macros about 3
+    minutes and its 30 Maze runs of 500k steps about 2 minutes on a 2-core AMD EPYC VM: docs/pipelines.md).
     """
+    from famarl_cli.artifacts.tracked import STAGE_VARIABLE, refuse_tracked
     from famarl_cli.sweep.driver import run_sweep
     from famarl_cli.sweep.executors import make_executor
 
     planned = plan(command, options or [], seeds, over or [], name)
+    refuse_tracked(out)
+    # A pipeline's stage: its output is the sweep's folder and the pipeline its plan, and DVC runs it again exactly
+    # when the plan (or the code) changed, so it replaces and deletes as DVC replaces any stage's outputs.
+    overwrite = overwrite or bool(os.environ.get(STAGE_VARIABLE))
     with make_executor(jobs, ray_address) as executor:
-        console = Console(stderr=True)
-        console.print(f"sweep {command}: {len(planned)} runs into {out}, {executor.workers} at once")
         with progress_bar() as progress:
-            display = SweepDisplay(progress)
-            state = run_sweep(out, planned, executor, max_attempts, display, batch)
-    Console().print(summary_table(state, command, out))
+            display = SweepDisplay(
+                progress, f"sweep {command}: {len(planned)} runs into {out}, {executor.workers} at once"
+            )
+            state = run_sweep(out, planned, executor, max_attempts, display, batch, overwrite)
+    results_console().print(summary_table(state, command, out))
     if state.failed:
         first = state.failed[0]
         raise FamarlError(
@@ -154,6 +167,11 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
     sweepable = SWEEPABLE[command]
     fields = {option.name: option for option in declared(sweepable.options)}
     for option in sweepable.owned:
+        if _given(option, options) and option == "--overwrite":
+            raise UsageError(
+                f"--overwrite is the sweep's own option: give it before --, e.g. famarl sweep {command} --overwrite "
+                "--out DIR -- ..."
+            )
         if _given(option, options):
             raise UsageError(f"{option} is set by the sweep (its --out holds every run); leave it out of the options")
     for option, why in sweepable.refused.items():
@@ -198,10 +216,12 @@ def _given(option: str, argv: list[str]) -> bool:
 
 
 class SweepDisplay:
-    """One bar for the sweep (done / running / queued) and one per running job (its steps or epochs)."""
+    """One bar for the sweep (done / running / queued) and one per running job (its steps or epochs), under a
+    ``heading`` line printed once the sweep has started (a sweep refused at the start prints its error alone)."""
 
-    def __init__(self, progress: Progress) -> None:
+    def __init__(self, progress: Progress, heading: str) -> None:
         self.progress = progress
+        self.heading = heading
         self.overall: TaskID | None = None
         self.rows: dict[str, TaskID] = {}
 
@@ -213,6 +233,7 @@ class SweepDisplay:
             if state.count(status)
         )
         if self.overall is None:
+            self.progress.console.print(self.heading, soft_wrap=True, markup=False)
             self.overall = self.progress.add_task("runs", total=len(state.jobs))
         self.progress.update(self.overall, completed=finished, description=f"runs: {counts or 'nothing to do'}")
         for job_state in state.jobs:
@@ -226,10 +247,9 @@ class SweepDisplay:
                 del self.rows[job_state.job.name]
 
 
-def summary_table(state, command: str, out: Path) -> Table:
-    table = Table(title=f"famarl sweep {command} -> {out}")
-    for column in ("run", "status", "attempts", "result", "wall"):
-        table.add_column(column, justify="right" if column in ("attempts", "wall") else "left")
+def summary_table(state, command: str, out: Path):
+    columns = ("run", "status", "attempts", "result", "wall")
+    table = named_rows(f"famarl sweep {command} -> {out}", columns, left=("status", "result"))
     for job_state in state.jobs:
         began = job_state.started or job_state.submitted
         wall = f"{job_state.finished - began:.0f} s" if began is not None and job_state.finished is not None else ""
@@ -240,8 +260,9 @@ def summary_table(state, command: str, out: Path) -> Table:
             job_state.error or _result(job_state.result),
             wall,
         )
-    if state.deleted:
-        table.caption = f"deleted, no longer in the plan: {', '.join(state.deleted)}"
+    caption = [f"deleted, no longer in the plan: {', '.join(state.deleted)}"] if state.deleted else []
+    caption += [f"replaced, made otherwise: {', '.join(state.replaced)}"] if state.replaced else []
+    table.caption = "; ".join(caption) or None
     return table
 
 

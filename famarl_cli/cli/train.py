@@ -6,10 +6,18 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import JobRecipe, app, console, progress_bar, sweepable, torch_on_one_thread
+from famarl_cli.cli import (
+    JobRecipe,
+    app,
+    console,
+    print_written,
+    progress_bar,
+    results_console,
+    sweepable,
+    torch_on_one_thread,
+)
 from famarl_cli.cli.derived import command
 from famarl_cli.stages.train import TrainOptions, run_spec
 
@@ -122,8 +130,8 @@ def _train(run, out: Path, checkpoint_every: int, board=None) -> None:
     )
     table.add_row("success", str(trainer.env.success_rule or "no episode has ended"))
     table.add_row("wall time", f"{run.wall_s:.0f} s")
-    table.add_row("written", ", ".join(str(out / name) for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE)))
-    Console().print(table)
+    results_console().print(table)
+    print_written(out / name for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE))
 
 
 _SETTING_OPTIONS = {

@@ -4,10 +4,9 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import already_made, app, torch_on_one_thread
+from famarl_cli.cli import already_made, app, print_written, results_console, torch_on_one_thread
 from famarl_cli.cli.derived import command
 from famarl_cli.stages.method import TraverseOptions
 
@@ -26,8 +25,9 @@ def traverse(options: TraverseOptions) -> None:
     model = options.favae
     if already_made("famarl traverse", options, options.outputs()):
         return
+    console = results_console()
     if defaults.is_main_jobs(model):
-        Console().print(f"traversing {model}: replicate 0 of the default pipeline (dvc repro)")
+        console.print(f"traversing {model}: replicate 0 of the default pipeline (dvc repro)")
     out = options.destination
     result, carried = stages.traverse(options)
     table = Table(title=f"traversal of {model}", show_header=True)
@@ -42,14 +42,14 @@ def traverse(options: TraverseOptions) -> None:
         table.add_row(
             f"({lad},{i})", f"{effect:.3f}", "?" if carries is None else f"{carries:.3f}", " ".join(map(str, lengths))
         )
-    Console().print(table)
+    console.print(table)
     empty = {} if carried.best is None else empty_ladders(result.variables.tolist(), nats)
     for lad, total in empty.items():
-        Console().print(
+        console.print(
             f"ladder {lad} is empty: its variables carry {total:.3f} nats ({measure}) of the training data (under "
             f"{EMPTY_LADDER_NATS:g}), so traversing them changes almost nothing"
         )
     written = [out, out.with_suffix(".png"), out.with_suffix(".json")] + (
         [out.with_suffix(".frames.png")] if options.frames else []
     )
-    Console().print("written " + ", ".join(map(str, written)))
+    print_written(written)

@@ -17,6 +17,8 @@ from dataclasses import MISSING, dataclass, fields
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from famarl_cli.core.errors import UsageError
 
 
@@ -34,6 +36,7 @@ def option(
     argument: bool = False,
     affects: bool = True,
     renamed: tuple[str, ...] = (),
+    former: tuple[str, ...] = (),
 ) -> Any:
     """One option's declaration (a dataclass field).
 
@@ -44,6 +47,8 @@ def option(
     ``affects=False``: the option says where or how the command shows what it makes (its output's path, a picture,
     its workers), not what it makes, so an output made without it is the same (:mod:`famarl_cli.artifacts.made`).
     ``renamed``: the option's old flags, still accepted, hidden, with a note that names the new one.
+    ``former``: the option's old names in records (a setting renamed to the flag's name): a record written before
+    still reads (:func:`from_json`, :func:`current_names`).
     """
     metadata = {
         "help": help,
@@ -56,6 +61,7 @@ def option(
         "argument": argument,
         "affects": affects,
         "renamed": renamed,
+        "former": former,
     }
     if factory is not None:
         return dataclasses.field(default_factory=factory, metadata=metadata)
@@ -107,6 +113,7 @@ class Declared:
     argument: bool = False
     affects: bool = True
     renamed: tuple[str, ...] = ()
+    former: tuple[str, ...] = ()
     origin: str = ""
     """The declaration the option was first made in, ``Class.field``: options of one origin are one concept, with
     one name on every command (:func:`same_as` keeps it)."""
@@ -140,7 +147,9 @@ def declared(cls: type) -> list[Declared]:
 
 
 def plain(value: Any) -> Any:
-    """``value`` as JSON writes it: paths and enums as their text, tuples as lists."""
+    """``value`` as JSON writes it: paths and enums as their text, tuples as lists, numpy scalars as Python's."""
+    if isinstance(value, np.generic):
+        return value.item()
     if isinstance(value, enum.Enum):
         return value.value
     if isinstance(value, Path):
@@ -163,9 +172,21 @@ def affecting(options: Any) -> dict:
     return {name: value for name, value in to_json(options).items() if name in kept}
 
 
+def current_names(cls: type, values: dict) -> dict:
+    """``values``, a record of ``cls``'s options, with each setting written under a former name of its option
+    (``max_attempts``, now ``max_episodes``) under the option's name."""
+    options = declared(cls)
+    now = {option.name for option in options}
+    # a former name that another option now has (``epochs``: the segmenter's once, the FAVAE's now) is that option's
+    renamed = {old: option.name for option in options for old in option.former if old not in now}
+    return {renamed.get(name, name): value for name, value in values.items()}
+
+
 def from_json(cls: type, values: dict) -> Any:
-    """The declaration ``cls`` back from :func:`to_json`'s dict: paths, enums and tuples typed again."""
+    """The declaration ``cls`` back from :func:`to_json`'s dict (or one written before an option was renamed):
+    paths, enums and tuples typed again."""
     known = {option.name: option for option in declared(cls)}
+    values = current_names(cls, values)
     unknown = sorted(set(values) - set(known))
     if unknown:
         raise UsageError(f"{cls.__name__} has no options {', '.join(unknown)}")
@@ -177,8 +198,9 @@ def _typed(kind: Any, value: Any) -> Any:
         return None
     if isinstance(kind, type) and issubclass(kind, enum.Enum | Path):
         return kind(value)
-    if typing.get_origin(kind) is tuple:
-        return tuple(value)
+    if (collection := typing.get_origin(kind)) in (list, tuple):
+        item = typing.get_args(kind)[0]  # one type for every item: the declarations' lists and tuples are uniform
+        return collection(_typed(item, v) for v in value)
     return value
 
 

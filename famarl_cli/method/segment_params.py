@@ -33,8 +33,8 @@ LENGTH_MULTIPLE = 8
 class SegmentParams:
     """How demos are cut into macro actions (recorded in the segments' provenance)."""
 
-    neighbours: int = option(
-        10, "A peak is highest among this many adjacent points.", min=2, flags=("--peak-neighbours",)
+    peak_neighbours: int = option(
+        10, "A peak is highest among this many adjacent points.", min=2, former=("neighbours",)
     )
     margin: float = option(
         0.7,
@@ -59,10 +59,6 @@ class SegmenterOptions:
     window: int = option(4, "Steps per sliding window.", min=2)
     code_dim: int = option(4, "Size of the autoencoder's code.", min=1)
     hidden: int = option(32, "Width of the autoencoder's hidden layer.", min=1)
-    epochs: int = option(
-        300,
-        "Training epochs of the segmenter (an autoencoder).",
-        min=1,
-        flags=("--segment-epochs",),
-        renamed=("--epochs",),
+    segment_epochs: int = option(
+        300, "Training epochs of the segmenter (an autoencoder).", min=1, renamed=("--epochs",), former=("epochs",)
     )

@@ -47,7 +47,7 @@ class AutoencoderConfig:
 
 @dataclass(frozen=True)
 class TrainingConfig:
-    epochs: int = default_of(SegmenterOptions, "epochs")
+    epochs: int = default_of(SegmenterOptions, "segment_epochs")
     batch_size: int = 256
     learning_rate: float = 1e-3
 
@@ -270,7 +270,7 @@ def segment_demos(demos: Demos, model: WindowAutoencoder, params: SegmentParams)
         raise UsageError(
             f"the segmenter was trained on {model.config.action_dim}-D actions, the demos have {actions[0].shape[1]}-D"
         )
-    cuts = detect_boundaries(model, actions, params.neighbours, params.margin, params.distance)
+    cuts = detect_boundaries(model, actions, params.peak_neighbours, params.margin, params.distance)
 
     pieces = []  # (episode, start, actions, factors)
     for index, (episode, bounds) in enumerate(zip(demos.episodes, cuts.boundaries, strict=True)):

@@ -60,6 +60,9 @@ class Pipeline:
     """Its entry in :data:`WALLS`: when, at which revision and on which machine its runs were made and timed."""
     here: bool = False
     """Whether every output of its stages is in this working copy (it was run, or checked out, here)."""
+    differs: tuple[str, ...] = ()
+    """Its outputs in this working copy whose content differs from what its dvc.lock records: made here, not the
+    committed results (:func:`outputs_differing`)."""
 
     @property
     def link(self) -> str:
@@ -116,15 +119,29 @@ def pipelines(root: Path) -> list[Pipeline]:
         for name, definition, summary in definitions(root):
             loaded = read_summary(summary) if summary.is_file() else None
             stale = stale_stages(root, definition, graph)
-            found.append(
-                Pipeline(name, definition, loaded, stale, walls.get(name), outputs_here(root, definition, graph))
-            )
+            here, differs = outputs_here(root, definition, graph), outputs_differing(root, definition, graph)
+            found.append(Pipeline(name, definition, loaded, stale, walls.get(name), here, differs))
     return found
 
 
 def outputs_here(root: Path, definition: str, graph) -> bool:
     """Whether every output of ``definition``'s stages exists in the working copy."""
     return all(out.exists for stage in stages_of(root, definition, graph) for out in stage.outs)
+
+
+def outputs_differing(root: Path, definition: str, graph) -> tuple[str, ...]:
+    """The outputs of ``definition``'s stages that are in the working copy with a content other than the one its
+    dvc.lock records: a run here (this machine's floats, other code or parameters) made them, so they are not the
+    results the committed summary was made from, even where the code is current. DVC hashes them (a directory's
+    files once, then from its cache of their times)."""
+    return tuple(
+        sorted(
+            str(out)
+            for stage in stages_of(root, definition, graph)
+            for out in stage.outs
+            if out.exists and out.hash_info and out.status()
+        )
+    )
 
 
 def read_summary(path: Path) -> dict:

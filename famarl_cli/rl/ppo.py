@@ -29,6 +29,7 @@ from dataclasses import asdict, dataclass, field, fields
 import numpy as np
 import torch
 
+from famarl_cli.core.declare import plain
 from famarl_cli.core.seeding import Stream, generator, seed_of
 from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.rl import MacroDiscount
@@ -63,7 +64,8 @@ class PPOConfig:
     ent_coef: float = 0.0
     vf_coef: float = 0.5
     max_grad_norm: float = 0.5
-    macro_discount: str = "decision"
+    macro_discount: MacroDiscount = MacroDiscount.DECISION
+    """Given as the enum or its value (``"steps"``); held as the enum."""
     type_entropy_floor: float = 0.0
     """Nats below which the categorical head's entropy is pushed back up (the hybrid's type head); 0: never."""
     type_entropy_until: float = 0.25
@@ -79,11 +81,13 @@ class PPOConfig:
             raise ValueError(
                 f"macro_discount must be one of {tuple(map(str, MacroDiscount))}, got {self.macro_discount!r}"
             )
+        object.__setattr__(self, "macro_discount", MacroDiscount(self.macro_discount))
         if self.n_envs * self.n_steps < self.minibatches:
             raise ValueError("a rollout must hold at least one decision per minibatch")
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        """Plain data (the enum as its value), as JSON and the safe checkpoint loader read it back."""
+        return plain(asdict(self))
 
     @staticmethod
     def from_dict(values: dict) -> PPOConfig:

@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,6 +22,9 @@ MAIN_JOB = Path("data/maze")
 """Where the main job (the root dvc.yaml) writes its replicates (macros/seed<S>/) and runs (runs/)."""
 REPLICATE_FAVAE = "favae.pt"
 """The FAVAE's file in a replicate's folder (famarl macros)."""
+REPLICATE_DEMOS = "demos.h5"
+"""The demos' file in each run folder of famarl sweep demos (its runner's ``DEMOS_FILE``; named here too, so that
+what reads demos need not import the command that records them)."""
 
 _MANUAL = "famarl demos --script pushed-down-only, famarl segment"
 
@@ -44,6 +48,19 @@ def runs(flag: str, manual: Path | None) -> Path:
     """famarl train's default run folder ``manual`` (None where it has none: no FAVAE to name it by), else the main
     job's folder of runs."""
     return _first("run", flag, None if manual is None else (manual, "famarl train"), MAIN_JOB / "runs")
+
+
+def named_after(path: str | os.PathLike) -> str:
+    """The name of what a command makes by default from the file ``path``: its stem (``pushed-down-only``), or, for a
+    file named as every replicate's is (``favae.pt``, ``segments.h5``, ``demos.h5`` in a ``famarl macros`` or sweep
+    folder), the folders that tell the replicates apart, from under ``data/`` (``maze-macros-seed1``), so that the
+    outputs of two replicates never share a name."""
+    path = Path(path)
+    if path.name not in (REPLICATE_FAVAE, REPLICATE_FILE, REPLICATE_DEMOS):
+        return path.stem
+    folder = Path(os.path.abspath(path)).parent
+    parts = folder.relative_to(Path.cwd()).parts if folder.is_relative_to(Path.cwd()) else folder.parts[1:]
+    return "-".join(parts[1:] if parts[:1] == ("data",) else parts) or path.stem
 
 
 def is_main_jobs(path: Path) -> bool:

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -55,12 +56,12 @@ class DemosOptions(Replaceable):
     min_return: float | None = option(
         None, "With --expert: keep only episodes whose return is above this (failed attempts dropped)."
     )
-    max_attempts: int | None = option(
+    max_episodes: int | None = option(
         None,
         "With --min-return: give up after this many episodes.  [default: 50 x --episodes]",
         min=1,
-        flags=("--max-episodes",),
         renamed=("--max-attempts",),
+        former=("max_attempts",),
     )
     out: Path | None = option(
         None, "Output HDF5 file.  [default: data/demos/<script, env or dataset name>.h5]", path="file", affects=False
@@ -80,7 +81,7 @@ class DemosOptions(Replaceable):
         ]
         if len(given) > 1:
             raise UsageError(f"give one source of demos, not {' and '.join(given)}")
-        if (self.min_return is not None or self.max_attempts is not None or self.env_kwargs) and self.expert is None:
+        if (self.min_return is not None or self.max_episodes is not None or self.env_kwargs) and self.expert is None:
             raise UsageError("--min-return, --max-episodes and --env-kwargs go with --expert")
         if self.success_return is not None and self.expert is None and self.from_minari is None:
             raise UsageError("--success-return goes with --expert or --from-minari: famarl's scripts report success")
@@ -178,7 +179,31 @@ class Collected:
     episodes: list[Episode]
     attempts: int
     success_rule: str
-    """How the episodes' success was judged (:mod:`famarl_cli.envs.success`), in words."""
+    """How the episodes' success was judged (:mod:`famarl_cli.envs.success`), in words, with :attr:`hint`."""
+    hint: str | None = None
+    """What :func:`threshold_hint` says of these episodes, None where it says nothing."""
+
+
+def threshold_hint(episodes: list[Episode], rule: SuccessRule) -> str | None:
+    """A hint where the env's ``reward_threshold`` judged at most half of ``episodes`` a success while some that
+    failed ended by termination: an expert that reaches MountainCarContinuous's goal every episode falls just
+    short of its threshold (90). Termination is not success (LunarLander terminates on every crash), so the hint
+    names the ``--success-return`` that would count the terminating episodes and leaves the choice to the user.
+    None where there is nothing to say: the user gave the rule, or the threshold scores most episodes a success."""
+    judged = [e.success for e in episodes if e.success is not None]
+    if rule.user or rule.threshold is None or not judged or sum(judged) > len(judged) / 2:
+        return None
+    failed = [e for e in episodes if e.success is False and e.terminations[-1]]
+    if not failed:
+        return None
+    lowest = min(float(e.rewards.sum()) for e in episodes if e.terminations[-1])
+    # Rounded down, so that the value given back counts the episode it came from.
+    value = f"{math.floor(lowest * 100) / 100:.2f}".rstrip("0").rstrip(".")
+    return (
+        f"{len(failed)} of {len(episodes)} episodes ended by termination with a return below {rule.threshold:g}, "
+        f"the reward_threshold of {rule.env_id}, and count as failures; if termination means reaching the goal in "
+        f"this env, --success-return {value} (their lowest return) counts them"
+    )
 
 
 def collect(
@@ -204,10 +229,11 @@ def collect(
     if attempts < n_episodes:
         raise UsageError(f"max attempts ({attempts}) must be at least the episodes asked for ({n_episodes})")
     rule = success_rule(env.spec, success_return)
-    kept, tried, described = [], 0, ""
+    kept, tried, described, reports = [], 0, "", False
     for episode_seed in episode_seeds(seed, attempts):
         episode, described = record_episode(env, expert, episode_seed, rule, on_step)
         tried += 1
+        reports = reports or described != rule.describe({})
         keep = min_return is None or episode.rewards.sum() > min_return
         if keep:
             kept.append(episode)
@@ -217,7 +243,9 @@ def collect(
             break
     if not kept:
         raise FamarlError(f"none of {tried} episodes had a return above {min_return:g}: nothing written")
-    return Collected(kept, tried, described)
+    # the hint is about the threshold alone: an env that reports success is judged by its report
+    hint = None if reports else threshold_hint(kept, rule)
+    return Collected(kept, tried, f"{described}; {hint}" if hint else described, hint)
 
 
 def record_demos(
@@ -256,9 +284,11 @@ def record_expert_demos(
     on_episode: Callable[[Episode | None], None] | None = None,
     success_return: float | None = None,
     on_step: Callable[[int], None] | None = None,
+    on_note: Callable[[str], None] | None = None,
 ) -> Demos:
     """Demos of a user's expert (``module:attribute``, :mod:`famarl_cli.experts.external`) in any gymnasium env
-    with a Box action space; with ``min_return``, only the episodes above it (see :func:`collect`)."""
+    with a Box action space; with ``min_return``, only the episodes above it (see :func:`collect`). ``on_note``
+    receives :func:`threshold_hint`'s hint, where it has one (the demos' ``success_rule`` keeps it too)."""
     env = make_env(env_id, env_kwargs)
     try:
         policy = ExternalExpert(expert, env)
@@ -268,6 +298,8 @@ def record_expert_demos(
     finally:
         with contextlib.suppress(Exception):  # the user's env may fail to close after failing to step
             env.close()
+    if collected.hint is not None and on_note is not None:
+        on_note(collected.hint)
     params = {
         "env": env_id,
         "env_kwargs": env_kwargs or {},
@@ -275,7 +307,7 @@ def record_expert_demos(
         "episodes": n_episodes,
         "seed": seed,
         "min_return": min_return,
-        "max_attempts": max_attempts,
+        "max_episodes": max_attempts,
         "success_return": success_return,
     }
     return Demos(

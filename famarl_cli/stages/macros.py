@@ -55,7 +55,8 @@ class MacrosConfig(stages.TraversalPlace, FitChoices, FavaeOptions, SegmentParam
         "calibration",
         help="C_last from famarl favae calibrate on --segments; without it the pre-run runs.",
     )
-    segment_epochs: int = same_as(SegmenterOptions, "epochs", renamed=())
+    # its former name is the FAVAE's epochs here: a record of macros never used it for the segmenter
+    segment_epochs: int = same_as(SegmenterOptions, "segment_epochs", renamed=(), former=())
     seed: int = option(0, "Seed of the segmenter, the pre-run and the fit.")
 
     def __post_init__(self) -> None:
@@ -107,10 +108,7 @@ def learn_macros_many(
     ]
     if pending:
         stages.segment_many(
-            [
-                pick(stages.SegmentOptions, configs[k], out=segments[k], epochs=configs[k].segment_epochs)
-                for k in pending
-            ],
+            [pick(stages.SegmentOptions, configs[k], out=segments[k]) for k in pending],
             None
             if on_progress is None
             else (

@@ -35,7 +35,10 @@ class SegmentOptions(SegmentParams, SegmenterOptions, Replaceable):
 
     demos: Path = option(defaults.DEMOS, "Demos HDF5 file to segment.")
     out: Path | None = option(
-        None, "Output segments HDF5.  [default: data/segments/<demos name>.h5]", path="file", affects=False
+        None,
+        "Output segments HDF5.  [default: data/segments/<demos name>.h5; a replicate's demos.h5 named by its folders]",
+        path="file",
+        affects=False,
     )
     encoder: Path | None = option(None, "Use this trained segmenter (a .segmenter.pt) instead of training one.")
     plot: bool = option(True, "Also draw distance curves and boundaries to <out>.png.", affects=False)
@@ -49,7 +52,7 @@ class SegmentOptions(SegmentParams, SegmenterOptions, Replaceable):
 
     @property
     def destination(self) -> Path:
-        return self.out or Path("data/segments") / f"{self.demos.stem}.h5"
+        return self.out or Path("data/segments") / f"{defaults.named_after(self.demos)}.h5"
 
     def outputs(self) -> list[Path]:
         """What the command writes, the segments first (they record what they were made from)."""
@@ -86,13 +89,18 @@ class CalibrateOptions(FavaeOptions, Replaceable):
 
     segments: Path | None = same_as(SegmentsInput, "segments")
     out: Path | None = option(
-        None, "Calibration JSON.  [default: data/favae/<segments name>.calibration.json]", affects=False
+        None,
+        "Calibration JSON.  [default: data/favae/<segments name>.calibration.json; a replicate's segments.h5 named by "
+        "its folders]",
+        affects=False,
     )
     calibration_beta: float = same_as(FavaeOptions, "calibration_beta", renamed=("--beta",))
 
     @property
     def destination(self) -> Path:
-        return self.out or Path("data/favae") / f"{given_segments(self).segments.stem}.calibration.json"
+        return (
+            self.out or Path("data/favae") / f"{defaults.named_after(given_segments(self).segments)}.calibration.json"
+        )
 
 
 @dataclass(frozen=True)
@@ -101,11 +109,17 @@ class FitOptions(FitChoices, FavaeOptions, Replaceable):
 
     segments: Path | None = same_as(SegmentsInput, "segments")
     calibration: Path | None = option(None, "C_last from famarl favae calibrate; without it the pre-run runs first.")
-    out: Path | None = option(None, "Checkpoint.  [default: data/favae/<segments name>.pt]", path="file", affects=False)
+    out: Path | None = option(
+        None,
+        "Checkpoint.  [default: data/favae/<segments name>.pt; a replicate's segments.h5 named by its folders, e.g. "
+        "maze-macros-seed1]",
+        path="file",
+        affects=False,
+    )
 
     @property
     def destination(self) -> Path:
-        return self.out or Path("data/favae") / f"{given_segments(self).segments.stem}.pt"
+        return self.out or Path("data/favae") / f"{defaults.named_after(given_segments(self).segments)}.pt"
 
     def outputs(self) -> list[Path]:
         """What the command writes, the checkpoint first (it records what it was made from)."""
@@ -151,7 +165,10 @@ class TraverseOptions(TraversalPlace, Replaceable):
     ladder: int | None = option(None, "Traverse this ladder's variables (from 1).  [default: all]")
     index: int | None = option(None, "Only this variable of the ladder (from 1).")
     out: Path | None = option(
-        None, "Traversal HDF5.  [default: data/traverse/<model name>[-ladder<L>[-index<I>]].h5]", affects=False
+        None,
+        "Traversal HDF5.  [default: data/traverse/<model name>[-ladder<L>[-index<I>]].h5; a replicate's favae.pt "
+        "named by its folders, e.g. maze-macros-seed1]",
+        affects=False,
     )
     draw: str = option(
         DRAWS[0],
@@ -167,7 +184,7 @@ class TraverseOptions(TraversalPlace, Replaceable):
     @property
     def destination(self) -> Path:
         model = self.favae or defaults.favae("--favae")
-        name = model.stem + (f"-ladder{self.ladder}" if self.ladder else "")
+        name = defaults.named_after(model) + (f"-ladder{self.ladder}" if self.ladder else "")
         name += f"-index{self.index}" if self.index else ""
         return self.out or Path("data/traverse") / f"{name}.h5"
 
@@ -229,7 +246,7 @@ def segment_many(
         results = train_autoencoders(
             [e.actions for e in demos[untrained[0]].episodes],
             config,
-            TrainingConfig(epochs=first.epochs),
+            TrainingConfig(epochs=first.segment_epochs),
             [options[k].seed for k in untrained],
             None if on_epoch is None else (lambda i, epoch, mse: on_epoch(untrained[i], epoch, mse)),
             device,
@@ -356,8 +373,9 @@ class Fitted:
 
 
 def fit(options: FitOptions, on_epoch: Callable[[str, dict], None] | None = None) -> Fitted:
-    """Fit FAVAE on ``options.segments`` (after the C_last pre-run, written beside the checkpoint, unless
-    ``options.calibration`` is given) and score it; writes the checkpoint, ``.log.csv`` and ``.metrics.json``.
+    """Fit FAVAE on ``options.segments`` (after the C_last pre-run, written beside the checkpoint as
+    ``.calibration.json``, unless ``options.calibration`` is given) and score it; writes the checkpoint, ``.log.csv``
+    and ``.metrics.json``.
     ``on_epoch`` gets the phase ("calibrate" or "fit") and the epoch's log row. ``options.capacity`` says how the
     pre-run's C_last becomes the capacities the fit anneals to
     (:func:`famarl_cli.method.favae.training.allocate_capacity`). :func:`fit_many` of one."""
@@ -433,9 +451,7 @@ def fit_many(options: list[FitOptions], on_epoch: Callable[[int, str, dict], Non
         write_csv(out.with_suffix(".log.csv"), logs[k])
         # The metrics last: their presence says the stage finished (famarl_cli.stages.macros resumes by it).
         write_json(out.with_suffix(".metrics.json"), metrics)
-        results.append(
-            Fitted(metrics, c_lasts[k], [out, out.with_suffix(".log.csv"), out.with_suffix(".metrics.json")])
-        )
+        results.append(Fitted(metrics, c_lasts[k], o.outputs()))
     return results
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from famarl_cli.artifacts import provenance, write_json
-from famarl_cli.artifacts.made import Replaceable, made_result, making
+from famarl_cli.artifacts.made import Replaceable, made_result, making, option_names
 from famarl_cli.core.declare import option, same_as
 from famarl_cli.core.errors import UsageError
 from famarl_cli.stages.evaluate import EvaluateOptions
@@ -28,7 +28,13 @@ class OracleStageOptions(Replaceable):
         help="Run folder (from famarl train), or a folder of run folders; repeat for several. Only its action space "
         "is used (its agent, FAVAE, bounds and env), not its policy.",
     )
-    episodes: int = option(20, "Layouts searched per run, drawn as the evaluation draws its layouts.", min=1)
+    layouts: int = option(
+        20,
+        "Layouts searched per run, drawn as the evaluation draws its layouts.",
+        min=1,
+        renamed=("--episodes",),
+        former=("episodes",),
+    )
     seed: int = same_as(EvaluateOptions, "seed", help="Seed of the layouts (famarl evaluate's, with each run's own).")
     candidates: int = option(64, "Plans per iteration of the cross-entropy method.", min=2)
     iterations: int = option(4, "Iterations of the cross-entropy method per layout, at most.", min=1)
@@ -63,14 +69,14 @@ def searched_space(run: str, plans: int, seed: int) -> tuple[RunSpec, GymBatch, 
 def oracle_run(
     run: str,
     into: str,
-    episodes: int,
+    layouts: int,
     seed: int,
     candidates: int,
     iterations: int,
     decisions: int | None,
     overwrite: bool = False,
 ) -> dict:
-    """Search the action space of the run folder ``run`` (:mod:`famarl_cli.rl.oracle`) on ``episodes`` layouts of
+    """Search the action space of the run folder ``run`` (:mod:`famarl_cli.rl.oracle`) on ``layouts`` layouts of
     its replicate, and write ``into/oracle.json``: the share of layouts a plan solved, with its 95% Wilson interval
     over the layouts, and each layout's result. Returns what it holds, less provenance (what it holds already,
     where it was made from the same checkpoint and options: :mod:`famarl_cli.artifacts.made`)."""
@@ -79,20 +85,20 @@ def oracle_run(
     from famarl_cli.rl.oracle import OracleOptions, oracle, start_of
 
     stage = OracleStageOptions(
-        episodes=episodes, seed=seed, candidates=candidates, iterations=iterations, decisions=decisions
+        layouts=layouts, seed=seed, candidates=candidates, iterations=iterations, decisions=decisions
     )
     made = making("famarl oracle", stage, [Path(run) / CHECKPOINT_FILE])
-    done = made_result(Path(into) / ORACLE_FILE, made, overwrite)
+    done = made_result(Path(into) / ORACLE_FILE, made, overwrite, names=option_names(OracleStageOptions))
     if done is not None:
         return {**done, "reused": True}
     spec, batch, mode, limit = searched_space(run, candidates, seed)
     if decisions is None and limit is None:
         raise UsageError(f"{spec.env_id} has no time limit: give --decisions")
     decisions = decisions or limit
-    options = OracleOptions(episodes, seed, candidates, iterations, decisions)
+    options = OracleOptions(layouts, seed, candidates, iterations, decisions)
     found = oracle(batch, mode, start_of(mode), options, spec.seed)
     solved = sum(s.success for s in found)
-    interval = proportion_interval(solved, episodes)
+    interval = proportion_interval(solved, layouts)
     result = {
         "schema": ORACLE_SCHEMA,
         "schema_version": ORACLE_SCHEMA_VERSION,
@@ -107,7 +113,7 @@ def oracle_run(
         "success_rule": batch.success_rule,
         "episodes": [{"success": s.success, "best_return": round(s.best_return, 3), "plans": s.plans} for s in found],
     }
-    params = {"episodes": episodes, "seed": seed, "candidates": candidates, "iterations": iterations}
+    params = {"layouts": layouts, "seed": seed, "candidates": candidates, "iterations": iterations}
     prov = provenance(
         "famarl oracle", {**params, "decisions": decisions}, seed, [Path(run) / CHECKPOINT_FILE], options=stage
     )

@@ -156,7 +156,7 @@ class TrainOptions:
         if self.out is not None:
             return self.out
         env_name = self.env.split("/")[-1].rsplit("-v", 1)[0].lower()
-        suffix = f"-{self.favae_file.stem}" if self.agent.decodes_macros else ""
+        suffix = f"-{inputs.named_after(self.favae_file)}" if self.agent.decodes_macros else ""
         if self.agent.decodes_macros and self.prior is not None:
             suffix += ("-prior" if self.prior_guide else "") + (
                 "-closed" if self.decoder == MacroDecoder.CLOSED else ""

@@ -18,7 +18,7 @@ import time
 import uuid
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Future, wait
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from famarl_cli.artifacts.base import write_json
@@ -36,6 +36,7 @@ from famarl_cli.sweep.plan import (
     job_record,
     made_from,
     reconcile,
+    refuse_unasked,
 )
 from famarl_cli.sweep.worker import (
     LEASE_FILE,
@@ -76,6 +77,9 @@ class JobState:
 class SweepState:
     jobs: list[JobState]
     deleted: list[str]
+    """Job folders of earlier plans that the sweep deleted."""
+    replaced: list[str] = field(default_factory=list)
+    """Jobs whose folder held other work, which the sweep wiped to run them."""
 
     def count(self, status: str) -> int:
         return sum(state.status == status for state in self.jobs)
@@ -85,18 +89,21 @@ class SweepState:
         return [state for state in self.jobs if state.status == "failed"]
 
 
-def prepare(out: Path, jobs: list[Job]) -> tuple[SweepState, dict[str, str]]:
+def prepare(out: Path, jobs: list[Job], overwrite: bool = False) -> tuple[SweepState, dict[str, str]]:
     """Reconcile ``out`` with the plan: delete what is not in it, wipe what must run afresh, and write each
     pending job's record and the manifest. Returns the state and what each job is made from (by name), which its
-    record says again when it completes."""
-    out.mkdir(parents=True, exist_ok=True)
+    record says again when it completes. Deleting a job folder, or replacing one that holds other work, is refused
+    before anything changes, unless ``overwrite`` (:func:`~famarl_cli.sweep.plan.refuse_unasked`)."""
     names = [job.name for job in jobs]
     if len(set(names)) < len(names):
         duplicate = next(name for name in names if names.count(name) > 1)
         raise ValueError(f"two jobs of the sweep are named {duplicate!r}")
     made = {job.name: made_from(job) for job in jobs}
     keys = {job.name: job_key(job, made[job.name]) for job in jobs}
-    plan = reconcile(out, jobs, keys)
+    plan = reconcile(out, jobs, made)
+    if not overwrite:
+        refuse_unasked(out, plan)
+    out.mkdir(parents=True, exist_ok=True)
     for folder in plan.delete:
         shutil.rmtree(folder)
     states = []
@@ -115,7 +122,7 @@ def prepare(out: Path, jobs: list[Job]) -> tuple[SweepState, dict[str, str]]:
         "jobs": {j.name: {"key": keys[j.name], **j.point} for j in jobs},
     }
     write_json(out / MANIFEST, manifest)
-    return SweepState(states, [folder.name for folder in plan.delete]), made
+    return SweepState(states, [folder.name for folder in plan.delete], list(plan.replace)), made
 
 
 def make_in_folder(folder: Path, job: Job, overwrite: bool, work: Callable[[], object]) -> bool:
@@ -149,19 +156,23 @@ def run_sweep(
     max_attempts: int = MAX_ATTEMPTS,
     on_update: Callable[[SweepState], None] | None = None,
     batch: int | None = None,
+    overwrite: bool = False,
 ) -> SweepState:
     """Run every job of the plan that is not complete in ``out``; returns the final state (check ``failed``).
     Batched jobs (:attr:`~famarl_cli.sweep.plan.Job.batched`) run in batches spread over the executor's workers,
     at most ``batch`` jobs each (:func:`~famarl_cli.sweep.plan.batches`). The sweep holds ``out`` while it runs: a
-    second sweep into the same folder is refused."""
+    second sweep into the same folder is refused. A job folder of an earlier plan, or one made otherwise, is deleted
+    or wiped only with ``overwrite``; without it the sweep is refused before it changes anything."""
     out = out.resolve()
     with claim_folder(out):
-        return _run(out, jobs, executor, max_attempts, on_update, batch)
+        return _run(out, jobs, executor, max_attempts, on_update, batch, overwrite)
 
 
-def _run(out: Path, jobs: list[Job], executor: Executor, max_attempts: int, on_update, batch) -> SweepState:
+def _run(
+    out: Path, jobs: list[Job], executor: Executor, max_attempts: int, on_update, batch, overwrite: bool
+) -> SweepState:
     cwd = os.getcwd()
-    state, made = prepare(out, jobs)
+    state, made = prepare(out, jobs, overwrite)
     running: dict[Future, list[JobState]] = {}
 
     def submit(group: list[JobState]) -> None:

@@ -10,11 +10,17 @@ Before a sweep runs, :func:`reconcile` compares the output folder with the plan,
 ============================================  ==========================================
 the folder                                    becomes
 ============================================  ==========================================
+missing or empty                              run
 complete, same key                            skipped
-started, same key, the job can resume         resumed from where it stopped
-any other key, or never marked by the driver  wiped and run again
+started, same key                             resumed from where it stopped (run again
+                                              where the job cannot resume)
+any other key, or files the driver never      replaced: wiped and run again
+marked
 a job folder that is not in the plan          deleted
 ============================================  ==========================================
+
+A sweep replaces or deletes only when allowed to (:func:`refuse_unasked`): a result it did not make in this call is
+never lost silently.
 """
 
 from __future__ import annotations
@@ -227,6 +233,8 @@ class Reconciliation:
     """Per job name."""
     delete: list[Path]
     """Job folders of earlier plans."""
+    replace: dict[str, str] = field(default_factory=dict)
+    """Jobs whose folder holds something else, which running them wipes: why, per job name."""
 
 
 def read_job_record(folder: Path) -> dict | None:
@@ -240,13 +248,17 @@ def read_job_record(folder: Path) -> dict | None:
     return record
 
 
-def reconcile(out: Path, jobs: list[Job], keys: dict[str, str]) -> Reconciliation:
-    """What to do with each job's folder in ``out``, and which folders to delete (see the module doc)."""
-    actions = {}
+def reconcile(out: Path, jobs: list[Job], made: dict[str, dict]) -> Reconciliation:
+    """What to do with each job's folder in ``out``, given what each job is made from (:func:`made_from`, by name),
+    and which folders to delete (see the module doc)."""
+    actions, replace = {}, {}
     for job in jobs:
-        record = read_job_record(out / job.name)
-        if record is None or record.get("key") != keys[job.name]:
+        folder = out / job.name
+        record = read_job_record(folder)
+        if record is None or record.get("key") != job_key(job, made[job.name]):
             actions[job.name] = Action.RUN
+            if held(folder):
+                replace[job.name] = _replaced_because(record, made[job.name])
         elif record.get("complete"):
             actions[job.name] = Action.SKIP
         else:
@@ -262,7 +274,35 @@ def reconcile(out: Path, jobs: list[Job], keys: dict[str, str]) -> Reconciliatio
             f"{out} holds {foreign[0].name}, which is not a job folder of a famarl sweep; "
             "a sweep deletes what is not in its plan, so give it a folder of its own"
         )
-    return Reconciliation(actions, delete)
+    return Reconciliation(actions, delete, replace)
+
+
+def _replaced_because(record: dict | None, made: dict) -> str:
+    """Why a job's folder is not the job's: what its record says it was made from, in a few words."""
+    if record is None:
+        return "files no sweep recorded"
+    if all(record.get(field) == made[field] for field in ("runner", "config", "inputs")):
+        return "made by other famarl code"
+    return "made from other options or inputs"
+
+
+def refuse_unasked(out: Path, plan: Reconciliation) -> None:
+    """A usage error naming every job folder in ``out`` that ``plan`` would delete or replace, with why, and the
+    option that allows it; nothing where the plan only adds, skips and continues."""
+    if not plan.delete and not plan.replace:
+        return
+    parts = []
+    if plan.delete:
+        parts.append(f"delete {', '.join(folder.name for folder in plan.delete)} (no longer in the plan)")
+    if plan.replace:
+        reasons: dict[str, list[str]] = {}
+        for name, why in plan.replace.items():
+            reasons.setdefault(why, []).append(name)
+        parts.append("replace " + "; ".join(f"{', '.join(names)} ({why})" for why, names in reasons.items()))
+    raise UsageError(
+        f"{out} holds runs this sweep did not make: it would {' and '.join(parts)}; nothing was changed. Add "
+        "--overwrite to let it, or give another --out"
+    )
 
 
 def held(folder: Path) -> list[Path]:
