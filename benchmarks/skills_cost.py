@@ -62,7 +62,7 @@ def rollout_rate(favae_path: Path, prior_path: Path, decoder: MacroDecoder, guid
     favae, skills = load_favae(favae_path)[0], load_skills(prior_path)
     config = PPOConfig(total_steps=10**9, n_steps=16)
     spec = RunSpec(MAZE, Agent.FAMARL, 0, config, favae=str(favae_path), prior=str(prior_path),
-                   prior_guide=guided, decoder=decoder, prior_obs_prefix=True)  # fmt: skip
+                   prior_guide=guided, loop=decoder, prior_obs_prefix=True)  # fmt: skip
     env = make_batch(MAZE, config.n_envs, seed=0)
     mode = build_mode(spec, env, favae, skills)
     trainer = PPOTrainer(env, mode, config, 0, build_guide(spec, mode, skills))

@@ -158,7 +158,7 @@ def test_a_run_trained_with_enums_and_paths_in_its_config_loads_back(tmp_path, f
         seed=2,
         ppo=PPOConfig(**TINY, macro_discount=MacroDiscount.STEPS),
         favae=favae,
-        decoder=MacroDecoder.OPEN,
+        loop=MacroDecoder.OPEN,
     )
     Run.start(spec).train(tmp_path, checkpoint_every=100)
     agent = load_agent(tmp_path)

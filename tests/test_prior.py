@@ -299,7 +299,7 @@ def test_a_guided_run_logs_its_kl_records_its_prior_and_evaluates(args, prior_fi
     log = (run / "train.csv").read_text().splitlines()
     assert "prior_kl" in log[0] and "prior_weight" in log[0]
     spec = json.loads((run / "run.json").read_text())["spec"]
-    assert spec["prior"] == str(prior_file) and spec["decoder"] == ("closed" if args else "open")
+    assert spec["prior"] == str(prior_file) and spec["loop"] == ("closed" if args else "open")
     assert spec["label"] == ("famarl+prior+closed" if args else "famarl+prior")
     assert len(json.loads((run / "run.json").read_text())["provenance"]["inputs"]) == 2
     # the run carries its prior: evaluation needs no prior file
@@ -324,7 +324,7 @@ def test_kill_and_resume_of_a_guided_closed_loop_run_is_exact(prior_file, favae_
         ppo=config,
         favae=str(favae_file),
         prior=str(prior_file),
-        decoder=MacroDecoder.CLOSED,
+        loop=MacroDecoder.CLOSED,
         prior_target_kl=0.5,
         residual=0.25,
         macro_horizon=10,

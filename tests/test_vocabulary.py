@@ -136,3 +136,19 @@ def test_the_macro_wrapper_takes_loop_and_its_former_name_decoder(favae_file):
         MacroActionWrapper(gymnasium.make(base), favae_file, loop="closed", decoder="open")
     with pytest.raises(ValueError, match="loop must be 'open' or 'closed'"):
         MacroActionWrapper(gymnasium.make(base), favae_file, loop="sideways")
+
+
+def test_a_run_records_its_loop_as_the_command_line_names_it_and_older_runs_still_read():
+    """run.json's spec says ``loop`` (famarl train --loop), as MacroActionWrapper does; a spec recorded as
+    ``decoder`` reads back the same."""
+    from famarl_cli.cli.train import setting_options
+    from famarl_cli.rl import Agent, MacroDecoder
+    from famarl_cli.rl.ppo import PPOConfig
+    from famarl_cli.rl.training import RunSpec
+
+    spec = RunSpec("famarl/ContinuousWorld-Maze-v0", Agent.FAMARL, 0, PPOConfig(), loop=MacroDecoder.CLOSED)
+    written = spec.to_dict()
+    assert written["loop"] == "closed" and "decoder" not in written
+    older = {("decoder" if name == "loop" else name): value for name, value in written.items()}
+    assert RunSpec.from_dict(older) == spec == RunSpec.from_dict(written)
+    assert setting_options()["loop"] == setting_options()["decoder"] == "--loop"

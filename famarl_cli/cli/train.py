@@ -151,10 +151,13 @@ def setting_options() -> dict[str, str]:
     from dataclasses import fields
 
     from famarl_cli.artifacts.made import option_names
+    from famarl_cli.core.declare import declared
     from famarl_cli.rl.ppo import PPOConfig
     from famarl_cli.rl.training import RunSpec
 
     flags = option_names(TrainOptions)
+    # a run recorded before a setting was renamed names it by its former name (``decoder``, now ``loop``)
+    former = {old: declaration.flag for declaration in declared(TrainOptions) for old in declaration.former}
     settings = [f.name for f in fields(RunSpec) if f.name != "ppo"] + [f"ppo.{f.name}" for f in fields(PPOConfig)]
     named = {setting: _SETTING_OPTIONS.get(setting, setting.removeprefix("ppo.")) for setting in settings}
-    return {setting: flags[option] for setting, option in named.items() if option in flags}
+    return {**former, **{setting: flags[option] for setting, option in named.items() if option in flags}}

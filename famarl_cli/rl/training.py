@@ -68,8 +68,10 @@ class RunSpec:
     prior_obs_prefix: bool = False
     """The prior's networks read the first values of the env's observation (demos from an env whose observation
     begins this one's); otherwise the sizes must be equal."""
-    decoder: MacroDecoder = MacroDecoder.OPEN
-    """Which decoder turns a latent into actions: the FAVAE's (open-loop) or the prior file's closed-loop one."""
+    loop: MacroDecoder = MacroDecoder.OPEN
+    """Open or closed loop (``famarl train --loop``): the FAVAE's decoder turns a latent into actions fixed when the
+    macro starts, or the prior file's closed-loop decoder chooses each from the state reached. Runs written before
+    recorded it as ``decoder`` (:meth:`from_dict` reads both)."""
     label: str = ""
     """How plots and reports name this kind of run; seeds of one experiment share it."""
     env_kwargs: dict = field(default_factory=dict)
@@ -82,7 +84,7 @@ class RunSpec:
         # Held in one form whatever the caller gave (an enum or its value, a Path or its text), so that the spec
         # written into run.json and checkpoint.pt is plain data that reads back equal.
         object.__setattr__(self, "agent", Agent(self.agent))
-        object.__setattr__(self, "decoder", MacroDecoder(self.decoder))
+        object.__setattr__(self, "loop", MacroDecoder(self.loop))
         for name in ("favae", "prior"):
             if (path := getattr(self, name)) is not None:
                 object.__setattr__(self, name, os.fspath(path))
@@ -96,7 +98,8 @@ class RunSpec:
         # Runs written before 0 meant "whole macros" stored None.
         horizon = values.get("macro_horizon") or 0
         ppo = PPOConfig.from_dict(values["ppo"])
-        return RunSpec(**{"decoder": MacroDecoder.OPEN, **values, "ppo": ppo, "macro_horizon": horizon})
+        values = {("loop" if name == "decoder" else name): value for name, value in values.items()}
+        return RunSpec(**{"loop": MacroDecoder.OPEN, **values, "ppo": ppo, "macro_horizon": horizon})
 
     @property
     def guided(self) -> bool:
@@ -104,13 +107,13 @@ class RunSpec:
 
 
 def default_label(
-    agent: Agent, favae: str | os.PathLike | None, guided: bool = False, decoder: MacroDecoder = MacroDecoder.OPEN
+    agent: Agent, favae: str | os.PathLike | None, guided: bool = False, loop: MacroDecoder = MacroDecoder.OPEN
 ) -> str:
     """``<agent>[+prior][+closed] (<FAVAE file name>)``, without the name for a FAVAE named favae.pt (famarl macros
     folders)."""
     if not agent.decodes_macros:
         return str(agent)
-    name = f"{agent}{'+prior' if guided else ''}{'+closed' if decoder == MacroDecoder.CLOSED else ''}"
+    name = f"{agent}{'+prior' if guided else ''}{'+closed' if loop == MacroDecoder.CLOSED else ''}"
     return name if not favae or Path(favae).stem == "favae" else f"{name} ({Path(favae).stem})"
 
 
@@ -121,7 +124,7 @@ def build_mode(spec: RunSpec, env: BatchedEnv, favae: Favae | None, skills: Skil
     if spec.agent == Agent.FIGAR:
         return RepeatedActions(low, high, spec.max_repeat)
     try:
-        if spec.decoder == MacroDecoder.CLOSED:
+        if spec.loop == MacroDecoder.CLOSED:
             decoder = skills.decoder.frozen()
             macros = ClosedLoopMacroActions(favae, decoder, low, high, spec.latent_bound, spec.macro_horizon)
         else:
@@ -379,7 +382,7 @@ class TrainedAgent:
         return (action[0] if one else action), state
 
     def _decide(self, deterministic: bool, rng: np.random.Generator | None) -> FrozenActor:
-        if self.spec.decoder == MacroDecoder.CLOSED:
+        if self.spec.loop == MacroDecoder.CLOSED:
             raise UsageError("a closed-loop run decides each action from the state reached; use MacroActionWrapper")
         actor = self._actor
         actor.rng = None if deterministic else (rng if rng is not None else self.rng)

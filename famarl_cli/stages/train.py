@@ -67,12 +67,12 @@ class TrainOptions:
         "demos were recorded in another env whose observation begins this one's: ContinuousWorld Base's 8 values "
         "begin the Maze's 12).",
     )
-    decoder: MacroDecoder = option(
+    loop: MacroDecoder = option(
         MacroDecoder.OPEN,
         "famarl, hybrid: open: the FAVAE's decoder, fixed when the macro starts (the paper's); closed: the "
         "closed-loop decoder of --prior, which chooses each action from the state reached.",
-        flags=("--loop",),
         renamed=("--decoder",),
+        former=("decoder",),
     )
     steps: int | None = option(
         None, f"Budget in environment steps.  [default: {DEFAULT_STEPS:,}; on --resume, the run's own]", min=1
@@ -158,9 +158,7 @@ class TrainOptions:
         env_name = self.env.split("/")[-1].rsplit("-v", 1)[0].lower()
         suffix = f"-{inputs.named_after(self.favae_file)}" if self.agent.decodes_macros else ""
         if self.agent.decodes_macros and self.prior is not None:
-            suffix += ("-prior" if self.prior_guide else "") + (
-                "-closed" if self.decoder == MacroDecoder.CLOSED else ""
-            )
+            suffix += ("-prior" if self.prior_guide else "") + ("-closed" if self.loop == MacroDecoder.CLOSED else "")
         return Path("data/runs") / f"{env_name}-{self.agent}{suffix}-seed{self.seed}"
 
     @property
@@ -170,7 +168,7 @@ class TrainOptions:
         return self.favae or inputs.favae("--favae", self.seed)
 
     def __post_init__(self) -> None:
-        if self.decoder == MacroDecoder.CLOSED and self.prior is None:
+        if self.loop == MacroDecoder.CLOSED and self.prior is None:
             raise UsageError("--loop closed needs --prior: the closed-loop decoder is in the prior file")
         if self.prior is not None and not self.agent.decodes_macros:
             raise UsageError(
@@ -228,10 +226,10 @@ def run_spec(options: TrainOptions):
         prior_weight=o.prior_weight,
         prior_target_kl=o.prior_target_kl,
         prior_obs_prefix=o.prior_obs_prefix,
-        decoder=o.decoder,
+        loop=o.loop,
         label=o.label
         or default_label(
-            o.agent, o.favae_file if o.agent.decodes_macros else None, o.prior is not None and o.prior_guide, o.decoder
+            o.agent, o.favae_file if o.agent.decodes_macros else None, o.prior is not None and o.prior_guide, o.loop
         ),
         success_return=o.success_return,
     )
