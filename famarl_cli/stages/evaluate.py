@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
 from famarl_cli.artifacts import provenance, write_json
-from famarl_cli.artifacts.made import Replaceable, claim_output, making, option_names
+from famarl_cli.artifacts.made import Replaceable, made_result, making, option_names
 from famarl_cli.artifacts.tracked import refuse_tracked
 from famarl_cli.core.declare import option, same_as
 from famarl_cli.core.errors import ArtifactError
@@ -71,30 +70,22 @@ class EvaluateOptions(Replaceable):
         return [defaults.runs("--run", manual)]
 
 
-def evaluation_state(run: Path, into: Path, options: EvaluateOptions, overwrite: bool) -> str:
-    """What ``famarl evaluate`` does for the run folder ``run`` evaluated into ``into``: ``"reuse"`` the evaluation
-    there (made from this checkpoint and these options), ``"make"`` it, or ``"remake"`` one that is out of date (the
-    run was trained further since, or an older famarl wrote it in another layout): the rule of every command for a
-    derived output (:mod:`famarl_cli.artifacts.made`). A usage error where the one there was made with other
-    options (named as the command line names them) or where ``into`` lies in a DVC stage's output
-    (:mod:`famarl_cli.artifacts.tracked`)."""
+def evaluation_state(run: Path, into: Path, options: EvaluateOptions, overwrite: bool) -> tuple[str, dict | None]:
+    """What ``famarl evaluate`` does for the run folder ``run`` evaluated into ``into``, and the evaluation there
+    where it is reused: ``"reuse"`` it (made from this checkpoint and these options), ``"make"`` it, or ``"remake"``
+    one that is out of date (the run was trained further since, or an older famarl wrote it in another layout): the
+    rule of every command for a derived output (:func:`~famarl_cli.artifacts.made.made_result`). A usage error where
+    the one there was made with other options (named as the command line names them) or where ``into`` lies in a
+    DVC stage's output (:mod:`famarl_cli.artifacts.tracked`)."""
     from famarl_cli.artifacts.runs import CHECKPOINT_FILE, EVAL_FILE, EVAL_SCHEMA_VERSION
 
     target = into / EVAL_FILE
     made = making("famarl evaluate", options, [run / CHECKPOINT_FILE])
-    instead = "give --out to keep both"
-    if not claim_output([target], made, overwrite, instead, option_names(EvaluateOptions), derived=True):
-        if _schema_version(target) == EVAL_SCHEMA_VERSION:
-            return "reuse"
+    found = made_result(target, made, overwrite, "give --out to keep both", option_names(EvaluateOptions))
+    if found is not None and found.get("schema_version") == EVAL_SCHEMA_VERSION:
+        return "reuse", found
     refuse_tracked(target, "give --out to evaluate elsewhere")
-    return "remake" if target.exists() and not overwrite else "make"
-
-
-def _schema_version(path: Path) -> int:
-    try:
-        return int(json.loads(path.read_text()).get("schema_version", 1))
-    except (OSError, ValueError, AttributeError, TypeError):
-        return 0
+    return ("remake" if target.exists() and not overwrite else "make"), None
 
 
 def evaluate_run(
@@ -130,10 +121,9 @@ def evaluate_run(
 
     run_folder, into_folder = Path(run), Path(into)
     options = EvaluateOptions(episodes=episodes, seed=seed, success_return=success_return)
-    state = evaluation_state(run_folder, into_folder, options, overwrite)
-    if state == "reuse":
-        found = json.loads((into_folder / EVAL_FILE).read_text())
-        return {**{key: value for key, value in found.items() if key != "provenance"}, "state": state}
+    state, found = evaluation_state(run_folder, into_folder, options, overwrite)
+    if found is not None:
+        return {**found, "state": state}
     agent = load_agent(run_folder)
     mode = evaluate(agent, episodes, seed, rollouts, success_return=success_return)
     sampled = evaluate(agent, episodes, seed, 0, sample=True, success_return=success_return)
