@@ -1,10 +1,10 @@
-"""Environment throughput: ContinuousWorld single env and batched env, RobotHand single env, in env steps per
-second.
+"""Environment throughput in env steps per second: ContinuousWorld single and batched, RobotHand single.
 
-    python benchmarks/env_throughput.py [--seconds 2] [--out benchmarks/results/env_throughput.json]
+    python benchmarks/env_throughput.py [--seconds 2] [--robot-hand-only] [--out benchmarks/results/env_throughput.json]
 
 Each measurement steps random actions for about ``--seconds`` (after a short warm-up) and counts every
-world's step, resets included. Prints a table and writes the numbers as JSON.
+world's step, resets included. Prints a table and writes the numbers as JSON. ``--robot-hand-only`` measures
+RobotHand's rows alone and records nothing in measured.json, whose entries need every row.
 """
 
 from __future__ import annotations
@@ -76,11 +76,12 @@ def records(rows: list[tuple[str, str, int, float]], command: str) -> dict[str, 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=2.0)
+    parser.add_argument("--robot-hand-only", action="store_true", help="RobotHand's rows alone, unrecorded")
     parser.add_argument("--out", type=Path, default=RESULTS / "env_throughput.json")
     args = parser.parse_args()
 
     rows = []
-    for task in ("base", "maze"):
+    for task in () if args.robot_hand_only else ("base", "maze"):
         rows.append((task, "single (gym.make)", 1, single_env(task, args.seconds, unwrapped=False)))
         rows.append((task, "single (unwrapped)", 1, single_env(task, args.seconds, unwrapped=True)))
         for n_envs in (1, 64, 1024):
@@ -99,8 +100,9 @@ def main() -> None:
             "rows": [{"task": t, "env": k, "worlds": n, "env_steps_per_s": round(r)} for t, k, n, r in rows],
         },
     )
-    for name, entry in records(rows, command_line(__file__, parser, args)).items():
-        record(name, **entry)
+    if not args.robot_hand_only:
+        for name, entry in records(rows, command_line(__file__, parser, args)).items():
+            record(name, **entry)
 
 
 if __name__ == "__main__":

@@ -31,10 +31,12 @@ Steps report ``info["success"]``: in BallPlacing an episode can terminate withou
 from __future__ import annotations
 
 from dataclasses import dataclass
+from math import copysign, cos, hypot, isfinite, sin
 
 import gymnasium as gym
 import numpy as np
 import pymunk
+from pymunk._chipmunk_cffi import lib as chipmunk
 
 from famarl_cli.envs.render import Canvas
 
@@ -133,6 +135,8 @@ OBSERVATION_NAMES = (
 """Observation layout, the same in every task. ``closure`` is the fingers' mean inward angle scaled to 0 (open)
 .. 1 (closed). The object is the rod or the ball (zeros in Reaching); the target is the red basket or the
 goal; the source is the blue basket or the cup (zeros in Reaching)."""
+NO_OBJECT = (0.0,) * 6
+"""The object's part of the observation in Reaching, which has none."""
 
 ACTION_SPACE = gym.spaces.Box(-1.0, 1.0, shape=(4,), dtype=np.float32)
 """(move x, move y, rotate, grasp); grasp > 0 closes the fingers, < 0 opens them, 0 holds them where they are."""
@@ -177,6 +181,17 @@ def _rotate(vector: tuple[float, float], angle: float) -> np.ndarray:
     return np.array([c * vector[0] - s * vector[1], s * vector[0] + c * vector[1]])
 
 
+# chipmunk's own accessors, which a step calls some twenty times: pymunk's Body and Constraint properties wrap each
+# in Python (a Vec2d built per read, an assert per write) that costs several times the call. They take the handles
+# pymunk keeps as _body, _constraint and _space, its private cffi layer (pyproject pins pymunk 7; a release that moved
+# them would fail every RobotHand test at once).
+_position, _velocity = chipmunk.cpBodyGetPosition, chipmunk.cpBodyGetVelocity
+_angle, _angular_velocity = chipmunk.cpBodyGetAngle, chipmunk.cpBodyGetAngularVelocity
+_set_position, _set_angle = chipmunk.cpBodySetPosition, chipmunk.cpBodySetAngle
+_set_velocity, _set_angular_velocity = chipmunk.cpBodySetVelocity, chipmunk.cpBodySetAngularVelocity
+_set_rate, _space_step = chipmunk.cpSimpleMotorSetRate, chipmunk.cpSpaceStep
+
+
 class Hand:
     """Palm, two fingers and the kinematic control body that drags them, added to ``space``."""
 
@@ -199,7 +214,7 @@ class Hand:
             finger = pymunk.Body(FINGER_MASS, pymunk.moment_for_box(FINGER_MASS, FINGER_SIZE))
             pivot = (side * FINGER_X, -PALM_SIZE[1] / 2)
             finger.position = (palm_xy[0] + pivot[0], palm_xy[1] + pivot[1] - FINGER_SIZE[1] / 2)
-            shapes += [pymunk.Poly.create_box(finger, FINGER_SIZE), pymunk.Poly(finger, _pad_vertices(side))]
+            shapes += [pymunk.Poly.create_box(finger, FINGER_SIZE), pymunk.Poly(finger, PAD_VERTICES[side])]
             hinge = pymunk.PivotJoint(self.palm, finger, pivot, (0, FINGER_SIZE[1] / 2))
             # The left finger (side -1) closes by turning counter-clockwise, the right one clockwise.
             low, high = (FINGER_OPEN, FINGER_CLOSED) if side < 0 else (-FINGER_CLOSED, -FINGER_OPEN)
@@ -212,38 +227,59 @@ class Hand:
         for shape in shapes:
             shape.filter, shape.friction = hand_only, FRICTION
         space.add(self.control, self.palm, *self.fingers, *shapes, *constraints)
+        # chipmunk's handles of the bodies and motors, for its accessors
+        self._control, self._palm = self.control._body, self.palm._body
+        self._fingers = tuple(finger._body for finger in self.fingers)
+        self._motors = tuple(motor._constraint for motor in self.motors)
 
-    def command(self, action: np.ndarray) -> None:
-        self.control.velocity = (float(action[0]) * HAND_SPEED, float(action[1]) * HAND_SPEED)
-        self.control.angular_velocity = float(action[2]) * TURN_SPEED
+    def step(self, space: pymunk.Space, action) -> None:
+        """One environment step of ``space`` with the hand driven by ``action``'s four numbers (clipped to the action
+        bounds)."""
+        x, y, turn, grasp = [-1.0 if a < -1.0 else 1.0 if a > 1.0 else float(a) for a in action]
+        _set_velocity(self._control, (x * HAND_SPEED, y * HAND_SPEED))
+        _set_angular_velocity(self._control, turn * TURN_SPEED)
         # SimpleMotor drives (finger - palm) angular velocity to minus its rate.
-        for side, motor in zip((-1.0, 1.0), self.motors, strict=True):
-            motor.rate = side * float(action[3]) * FINGER_SPEED
-
-    def step(self, space: pymunk.Space, action: np.ndarray) -> None:
-        """One environment step of ``space`` with the hand driven by ``action`` (clipped to the action bounds)."""
-        self.command(np.clip(action, -1.0, 1.0))
+        _set_rate(self._motors[0], -grasp * FINGER_SPEED)
+        _set_rate(self._motors[1], grasp * FINGER_SPEED)
+        # chipmunk's step without pymunk's Space.step around it, whose bookkeeping (bodies just added checked;
+        # additions, removals and callbacks queued during a step) RobotHand never needs.
+        handle, dt = space._space, DT / SUBSTEPS
         for _ in range(SUBSTEPS):
-            space.step(DT / SUBSTEPS)
+            _space_step(handle, dt)
         self.keep_on_leash()
 
     def keep_on_leash(self) -> None:
-        inside = np.clip(self.control.position, (0.0, 0.0), (WIDTH, HEIGHT))  # never pull the palm out of the world
-        offset = inside - np.asarray(self.palm.position)
-        distance = float(np.hypot(*offset))
-        self.control.position = tuple(np.asarray(self.palm.position) + offset * min(1.0, LEASH / max(distance, 1e-12)))
-        turn = self.control.angle - self.palm.angle
+        """Bring the control body back within LEASH of the palm, in position and in angle, and into the world."""
+        control, palm = self._control, self._palm
+        pull, at = _position(control), _position(palm)
+        x, y = pull.x, pull.y
+        # never pull the palm out of the world
+        dx = (0.0 if x < 0.0 else WIDTH if x > WIDTH else x) - at.x
+        dy = (0.0 if y < 0.0 else HEIGHT if y > HEIGHT else y) - at.y
+        # abs(complex) is the C library's hypot, which np.hypot called before this step was rewritten in floats;
+        # math.hypot rounds differently in the last bit, and the leash feeds back into the physics.
+        distance = abs(complex(dx, dy))
+        scale = LEASH / distance if distance > LEASH else 1.0
+        _set_position(control, (at.x + dx * scale, at.y + dy * scale))
+        palm_angle = _angle(palm)
+        turn = _angle(control) - palm_angle
         if abs(turn) > LEASH:
-            self.control.angle = self.palm.angle + np.sign(turn) * LEASH
+            _set_angle(control, palm_angle + copysign(LEASH, turn))
 
     @property
     def grip(self) -> np.ndarray:
-        return np.asarray(self.palm.position) + _rotate((0.0, -GRIP_DEPTH), self.palm.angle)
+        return np.array(_grip(_position(self._palm), _angle(self._palm)))
 
-    @property
-    def closure(self) -> float:
-        inward = (self.fingers[0].angle - self.palm.angle) - (self.fingers[1].angle - self.palm.angle)
-        return float((inward / 2 - FINGER_OPEN) / (FINGER_CLOSED - FINGER_OPEN))
+    def closure(self, palm_angle: float) -> float:
+        """The fingers' closure as observed (0 open .. 1 closed), given the palm's angle, read already."""
+        inward = (_angle(self._fingers[0]) - palm_angle) - (_angle(self._fingers[1]) - palm_angle)
+        return (inward / 2 - FINGER_OPEN) / (FINGER_CLOSED - FINGER_OPEN)
+
+
+def _grip(palm, angle: float) -> tuple[float, float]:
+    """The grip point (between the tips of the open fingers) of a palm at ``palm`` (a position, with x and y) turned
+    by ``angle``."""
+    return palm.x + sin(angle) * GRIP_DEPTH, palm.y - cos(angle) * GRIP_DEPTH
 
 
 def _pad_vertices(side: float) -> list[tuple[float, float]]:
@@ -260,6 +296,10 @@ def _pad_vertices(side: float) -> list[tuple[float, float]]:
     corners = [(outer, tip_y), (inner, tip_y), (inner, tip_y + PAD_HEIGHT), (outer, tip_y + PAD_HEIGHT)]
     centre = pivot + _rotate((0.0, -FINGER_SIZE[1] / 2), inward)
     return [tuple(_rotate(np.subtract(c, centre), -inward)) for c in corners]
+
+
+PAD_VERTICES = {side: _pad_vertices(side) for side in (-1.0, 1.0)}
+"""The pads' vertices by side, laid out once: every reset builds a hand."""
 
 
 def _add_basket(space: pymunk.Space, x: float, floor_y: float, depth: float = BASKET_HEIGHT) -> list[pymunk.Segment]:
@@ -442,45 +482,58 @@ class RobotHandEnv(gym.Env):
     def step(self, action):
         if self.space is None:
             raise RuntimeError("call reset() before step()")
-        action = np.asarray(action, dtype=np.float64).reshape(4)
-        if not np.isfinite(action).all():
-            raise ValueError(f"action must be finite, got {action}")
-        self.hand.step(self.space, action)
+        values = np.asarray(action).reshape(4).tolist()
+        if not all(map(isfinite, values)):
+            raise ValueError(f"action must be finite, got {np.asarray(values)}")
+        self.hand.step(self.space, values)
         self.steps += 1
-        reward, terminated, success = self._outcome()
-        return self._observe(), reward, terminated, False, self._info(success)
+        state = self._state()
+        reward, terminated, success = self._outcome(state)
+        return np.array(state, dtype=np.float32), reward, terminated, False, self._info(success)
 
-    def _outcome(self) -> tuple[float, bool, bool]:
-        """(reward, terminated, success) of the state just reached."""
-        if self.task.name == "base":
-            success = rod_in_basket(self.object, *self.layout.target) and self.hand.closure < 0.5
-            return -float(np.linalg.norm(self._object_position() - self.layout.target)), success, success
+    # A step reads the world once, into Python floats: numpy's arrays of two cost more to make than the arithmetic.
+    def _state(self) -> list[float]:
+        """The observation's values (OBSERVATION_NAMES), in double precision."""
+        palm = self.hand._palm
+        at, velocity, angle = _position(palm), _velocity(palm), _angle(palm)
+        state = [
+            *_grip(at, angle),
+            velocity.x,
+            velocity.y,
+            sin(angle),
+            cos(angle),
+            _angular_velocity(palm),
+            self.hand.closure(angle),
+        ]
+        if self.object is None:
+            state += NO_OBJECT
+        else:
+            body = self.object._body
+            at, velocity, angle = _position(body), _velocity(body), _angle(body)
+            state += (at.x, at.y, velocity.x, velocity.y, sin(angle), cos(angle))
+        state += self.layout.target.tolist()
+        state += self.layout.source.tolist()
+        return state
+
+    def _outcome(self, state: list[float] | None = None) -> tuple[float, bool, bool]:
+        """(reward, terminated, success) of the state just reached (``state``: its :meth:`_state`, where read)."""
+        # OBSERVATION_NAMES' order
+        grip_x, grip_y, _, _, _, _, _, closure, x, y, _, vy, _, _, target_x, target_y, _, _ = state or self._state()
         if self.task.name == "reaching":
-            success = bool(np.linalg.norm(self.hand.grip - self.layout.target) < GOAL_RADIUS)
+            success = hypot(grip_x - target_x, grip_y - target_y) < GOAL_RADIUS
             return (REACH_REWARD if success else -1.0 if self.time_penalty else 0.0), success, success
-        distance = float(np.linalg.norm(self._object_position() - self.layout.target))
+        distance = hypot(x - target_x, y - target_y)
+        if self.task.name == "base":
+            success = rod_in_basket(x, y, _angle(self.object._body), vy, target_x, target_y) and closure < 0.5
+            return -distance, success, success
         success = distance < GOAL_RADIUS
-        dropped = not success and ball_hits_edge(self._object_position())
+        dropped = not success and ball_hits_edge((x, y))
         rest = max(self.task.max_episode_steps - self.steps, 0) if dropped and self.task.drop_costs_rest else 0
         reward = -distance * (1 + rest) + (self.ball_reward if success else 0.0)
         return reward, success or dropped, success
 
-    def _object_position(self) -> np.ndarray:
-        return np.asarray(self.object.position, dtype=np.float64)
-
     def _observe(self) -> np.ndarray:
-        hand, palm = self.hand, self.hand.palm
-        obs = np.zeros(len(OBSERVATION_NAMES), dtype=np.float32)
-        obs[0:2] = hand.grip
-        obs[2:4] = palm.velocity
-        obs[4:8] = np.sin(palm.angle), np.cos(palm.angle), palm.angular_velocity, hand.closure
-        if self.object is not None:
-            obs[8:10] = self.object.position
-            obs[10:12] = self.object.velocity
-            obs[12:14] = np.sin(self.object.angle), np.cos(self.object.angle)
-        obs[14:16] = self.layout.target
-        obs[16:18] = self.layout.source
-        return obs
+        return np.array(self._state(), dtype=np.float32)
 
     def _info(self, success: bool) -> dict:
         return {"success": bool(success)}
@@ -492,15 +545,15 @@ class RobotHandEnv(gym.Env):
         return render_scene(self)
 
 
-def rod_in_basket(rod: pymunk.Body, basket_x: float, floor_y: float) -> bool:
-    """Whether the rod stands upright inside the basket centred at ``basket_x`` with its floor at ``floor_y``
-    (resting on its floor, slowly)."""
-    bottom = rod.position.y - floor_y - ROD_SIZE[1] / 2 * np.cos(rod.angle)
-    inside = abs(rod.position.x - basket_x) < BASKET_INNER / 2
-    return bool(inside and bottom < BASKET_HEIGHT / 2 and abs(rod.angle) < 0.3 and abs(rod.velocity.y) < 0.5)
+def rod_in_basket(x: float, y: float, angle: float, vertical_speed: float, basket_x: float, floor_y: float) -> bool:
+    """Whether the rod, its centre at (``x``, ``y``), stands upright inside the basket centred at ``basket_x`` with
+    its floor at ``floor_y`` (resting on its floor, slowly)."""
+    bottom = y - floor_y - ROD_SIZE[1] / 2 * cos(angle)
+    inside = abs(x - basket_x) < BASKET_INNER / 2
+    return inside and bottom < BASKET_HEIGHT / 2 and abs(angle) < 0.3 and abs(vertical_speed) < 0.5
 
 
-def ball_hits_edge(position: np.ndarray) -> bool:
+def ball_hits_edge(position: tuple[float, float]) -> bool:
     reach = BALL_RADIUS + EDGE_MARGIN
     x, y = position
     return bool(x < reach or x > WIDTH - reach or y < reach or y > HEIGHT - reach)
