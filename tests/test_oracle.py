@@ -8,11 +8,15 @@ import pytest
 from cli_helpers import famarl, one_line_error
 
 from famarl_cli.core.errors import UsageError
+from famarl_cli.envs import CONTINUOUS_WORLD_IDS
+from famarl_cli.envs.batched import ContinuousWorldBatch
+from famarl_cli.envs.continuous_world import GOAL_RADIUS, distance_to_goal
 from famarl_cli.rl.action_modes import HybridActions, LatentMacroActions, PrimitiveActions, RepeatedActions
-from famarl_cli.rl.oracle import OracleOptions, by_chance, rollout, search, start_of
-from famarl_cli.rl.vector import GymBatch
+from famarl_cli.rl.oracle import OracleOptions, by_chance, draw, initial, rollout, search, start_of
+from famarl_cli.rl.vector import GymBatch, make_batch
 
 REACHING = "famarl/RobotHand-Reaching-v0"
+MAZE = CONTINUOUS_WORLD_IDS["maze"]
 
 
 def _batch(n: int) -> GymBatch:
@@ -48,6 +52,36 @@ def test_chance_runs_the_plans_of_the_searchs_first_iteration():
         assert chance.shape == (16,) and chance.dtype == bool and first.success == chance.any()
         solved.append(int(chance.sum()))
     assert solved[0] == 0 < solved[1], solved  # both outcomes occur, so the agreement above is not vacuous
+
+
+@pytest.mark.parametrize("max_repeat", [0, 8])
+def test_maze_plans_end_alike_in_the_numpy_batch_and_in_gymnasium_copies(max_repeat):
+    """The oracle runs a ContinuousWorld run's plans in ContinuousWorldBatch (what make_batch gives, not reset by
+    itself), every world loaded with the layout the single env's seeded reset draws. The same plans (PPO's space,
+    and FiGAR's with repeats that outlast the 400-step limit) on three Maze layouts end with the same success and
+    return as in gymnasium copies reset with the seed. Both paths run the same physics_step on float64 arrays, with
+    one world per call or many, and sum the same rewards in the same order, so the returns are equal to the bit
+    today; the tolerance only allows a future numpy to round a batched reduction differently in the last place."""
+    n, decisions = 16, 400 if not max_repeat else 100
+    gymnasium = GymBatch.make(MAZE, n, 0)
+    gymnasium.autoreset = False
+    batch = make_batch(MAZE, n, 0)
+    batch.autoreset = False
+    assert isinstance(batch, ContinuousWorldBatch)
+    low, high = batch.action_bounds
+    mode = RepeatedActions(low, high, max_repeat) if max_repeat else PrimitiveActions(low, high)
+    drift = (np.array([0.0, -0.6]), np.ones(2))  # down the maze, so that some plans reach the goal and some do not
+    rng, solved = np.random.default_rng(3), 0
+    for layout in (11, 12, 13):
+        u, _, index = draw(*initial(drift, decisions, mode.choices), mode.choices, n, rng)
+        expected = rollout(gymnasium, mode, u, index, layout)
+        success, returns = rollout(batch, mode, u, index, layout)
+        np.testing.assert_array_equal(success, expected[0])
+        np.testing.assert_allclose(returns, expected[1], rtol=1e-12, atol=0)
+        # an episode that ended stays as it ended: a solved world is still at its goal
+        assert (distance_to_goal(batch.pos, batch.layouts)[success] < GOAL_RADIUS).all()
+        solved += int(success.sum())
+    assert 0 < solved < 3 * n, solved  # both ends occur, so the agreement is not vacuous
 
 
 def test_the_search_starts_in_each_spaces_middle_and_refuses_the_hybrid():

@@ -9,6 +9,10 @@ episodes reached the goal.
 
 ``step(actions, active)`` moves only the worlds selected by ``active`` (the others keep their state and get
 reward 0): that is how macro actions of different lengths run side by side (:mod:`famarl_cli.rl.executor`).
+
+``autoreset = False`` leaves an ended episode as it ended, and :meth:`reset_all` starts every world on the
+episode that the single env's ``reset(seed=seed)`` starts: together they run many open-loop plans from one
+reset (the action-space oracle, :mod:`famarl_cli.rl.oracle`).
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+from gymnasium.utils import seeding
 
 from famarl_cli.envs.continuous_world import (
     ACTION_SPACE,
@@ -36,6 +41,8 @@ class ContinuousWorldBatch:
     when it terminates: only reaching the goal does."""
 
     success_rule = "reaching the goal (famarl's ContinuousWorld reports it)"
+    autoreset = True
+    """Whether an ended episode restarts in the step it ends (module doc); False leaves it as it ended."""
 
     def __init__(
         self,
@@ -106,6 +113,13 @@ class ContinuousWorldBatch:
     def reset(self) -> np.ndarray:
         return self.load(self._draw(np.ones(self.n_envs, dtype=bool)))
 
+    def reset_all(self, seed: int) -> np.ndarray:
+        """Start every world on the episode that :class:`~famarl_cli.envs.continuous_world.ContinuousWorldEnv`'s
+        ``reset(seed=seed)`` starts (its layout, drawn from gymnasium's generator of ``seed`` as the env draws it);
+        returns the observations."""
+        one = sample_layouts(seeding.np_random(seed)[0], 1, self.task, self.goal_rows)
+        return self.load(Layouts.concatenate([one] * self.n_envs))
+
     @property
     def observation_size(self) -> int:
         return observation_space(self.task).shape[0]
@@ -133,6 +147,7 @@ class ContinuousWorldBatch:
         if done.any():
             info["final_obs"] = obs.copy()
             info["success"] = terminated.astype(np.float64)
+        if done.any() and self.autoreset:
             fresh = self._draw(done)
             self.layouts = self.layouts.assign(done, fresh)
             self.pos[done] = fresh.start

@@ -13,7 +13,9 @@ solvable (the search is finite): the oracle's rate is a lower bound of what the 
 
 Plans are open loop, as FaMARL's macros are: each decision is fixed before the episode. Every plan of a layout
 starts from the same reset (the env is reset with the same seed for each), so the env must be deterministic given
-its seed, as famarl's are.
+its seed, as famarl's are. The plans of a layout run side by side, one per env of a batch that does not reset
+itself: ContinuousWorld's numpy batch, whose transitions and seeded layouts are its single env's (so the search
+finds what it finds in gymnasium copies, in a fraction of the time), else gymnasium copies of the env.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ import numpy as np
 
 from famarl_cli.core.errors import UsageError
 from famarl_cli.core.seeding import Stream, generator, seed_of
+from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.rl.action_modes import ActionMode, LatentMacroActions, PrimitiveActions
 from famarl_cli.rl.executor import run_sequences
 from famarl_cli.rl.vector import GymBatch
@@ -33,6 +36,9 @@ ELITE_SHARE = 0.1
 """The share of a CEM iteration's plans that refit its Gaussian."""
 MIN_STD = 0.05
 """The Gaussian's spread never shrinks below this (in the policy output's units): the search keeps exploring."""
+
+SearchBatch = GymBatch | ContinuousWorldBatch
+"""The batches the plans run in: both reset every env to one seeded episode (``reset_all``)."""
 
 
 @dataclass(frozen=True)
@@ -61,7 +67,7 @@ class Searched:
 
 
 def search(
-    batch: GymBatch,
+    batch: SearchBatch,
     mode: ActionMode,
     start: tuple[np.ndarray, np.ndarray],
     layout_seed: int,
@@ -103,7 +109,7 @@ def initial(
 
 
 def by_chance(
-    batch: GymBatch,
+    batch: SearchBatch,
     mode: ActionMode,
     start: tuple[np.ndarray, np.ndarray],
     layout_seed: int,
@@ -137,14 +143,13 @@ def draw(
 
 
 def rollout(
-    batch: GymBatch, mode: ActionMode, u: np.ndarray, index: np.ndarray, layout_seed: int
+    batch: SearchBatch, mode: ActionMode, u: np.ndarray, index: np.ndarray, layout_seed: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """Run plan i (``u[i]`` (decisions, outputs), ``index[i]`` (decisions,)) in env i, every env reset to the
-    layout of ``layout_seed``; (success (N,) bool, return (N,))."""
+    layout of ``layout_seed``; (success (N,) bool, return (N,)). An env whose episode ended takes no further step,
+    so a plan's result is its one episode's."""
     n = batch.n_envs
-    for i in range(n):
-        batch.reset_one(i, seed=layout_seed)
-    obs, alive = batch.obs.copy(), np.ones(n, dtype=bool)
+    obs, alive = batch.reset_all(layout_seed), np.ones(n, dtype=bool)
     success, returns = np.zeros(n, dtype=bool), np.zeros(n)
     for k in range(u.shape[1]):
         actions, lengths = mode.to_sequences(u[:, k], index[:, k])
@@ -177,7 +182,7 @@ def streams(replicate: int, seed: int) -> tuple[int, np.random.Generator]:
 
 
 def oracle(
-    batch: GymBatch,
+    batch: SearchBatch,
     mode: ActionMode,
     start: tuple[np.ndarray, np.ndarray],
     options: OracleOptions,

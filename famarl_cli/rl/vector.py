@@ -108,6 +108,19 @@ class GymBatch:
             self.reset_one(i, seed=self.seed + i)
         return self.obs.copy()
 
+    def reset_all(self, seed: int) -> np.ndarray:
+        """Reset every environment with ``reset(seed=seed)``, so that all start the same episode (the oracle's
+        plans, :mod:`famarl_cli.rl.oracle`); returns the observations."""
+        for i in range(self.n_envs):
+            self.reset_one(i, seed=seed)
+        return self.obs.copy()
+
+    @property
+    def max_episode_steps(self) -> int | None:
+        """The environments' time limit (gymnasium's ``TimeLimit``), None where they have none."""
+        spec = self.envs[0].spec
+        return spec.max_episode_steps if spec is not None else None
+
     def step(self, actions: np.ndarray, active: np.ndarray | None = None):
         active = np.ones(self.n_envs, dtype=bool) if active is None else active
         rewards = np.zeros(self.n_envs)

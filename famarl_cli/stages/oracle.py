@@ -14,8 +14,8 @@ from famarl_cli.stages.evaluate import EvaluateOptions
 
 if TYPE_CHECKING:  # named in annotations only: reading this module does not load torch
     from famarl_cli.rl.action_modes import ActionMode
+    from famarl_cli.rl.oracle import SearchBatch
     from famarl_cli.rl.training import RunSpec
-    from famarl_cli.rl.vector import GymBatch
 
 
 @dataclass(frozen=True)
@@ -50,20 +50,20 @@ class OracleStageOptions(Replaceable):
     out: Path = option(Path("data/oracle"), "Folder for OUT/<run folder name>/oracle.json.", path="dir", affects=False)
 
 
-def searched_space(run: str, plans: int, seed: int) -> tuple[RunSpec, GymBatch, ActionMode, int | None]:
+def searched_space(run: str, plans: int, seed: int) -> tuple[RunSpec, SearchBatch, ActionMode, int | None]:
     """The action space of the run folder ``run`` as the oracle searches it: the run's spec, a batch of ``plans``
-    of its envs (made from ``seed``) that do not reset themselves, the mode that decodes its decisions, and the
-    env's time limit (None where it has none). Only the run's action space is used, not its policy."""
+    of its envs (made from ``seed``, the fastest kind, as training's) that do not reset themselves, the mode that
+    decodes its decisions, and the env's time limit (None where it has none). Only the run's action space is
+    used, not its policy."""
     from famarl_cli.rl.training import build_mode, load_agent
-    from famarl_cli.rl.vector import GymBatch
+    from famarl_cli.rl.vector import make_batch
 
     agent = load_agent(run)
     spec = agent.spec
-    batch = GymBatch.make(spec.env_id, plans, seed, spec.env_kwargs, spec.success_return)
+    batch = make_batch(spec.env_id, plans, seed, spec.env_kwargs, spec.success_return)
     batch.autoreset = False
     mode = build_mode(spec, batch, agent.favae, agent.skills)
-    limit = batch.envs[0].spec.max_episode_steps if batch.envs[0].spec is not None else None
-    return spec, batch, mode, limit
+    return spec, batch, mode, batch.max_episode_steps
 
 
 def oracle_run(
