@@ -10,13 +10,26 @@ from famarl_cli.stages.demos import record_demos
 torch.set_num_threads(1)
 
 
-FIRST = "test_pipelines.py"
-"""The longest module (its pipelines run end to end, whole in one worker): started first, so that the other
-workers share everything else meanwhile instead of waiting for it at the end."""
+FIRST = (
+    "test_pipelines.py",
+    "test_sweep.py",
+    "test_faults.py",
+    "test_cli.py",
+    "test_sweep_dvc.py",
+    "test_prior.py",
+    "test_report.py",
+    "test_evaluate_compose.py",
+    "test_docs_tables.py",
+)
+"""The longest modules, longest first (``--durations=0`` of the whole suite; test_pipelines.py's run whole in one
+worker for several minutes): started first, so that the other workers share the short rest meanwhile instead of
+one waiting at the end for a long module started late. The rest keep their order. xdist keeps this order only
+with ``--no-loadscope-reorder`` (pyproject.toml); by default it starts the files with the most tests first."""
 
 
 def pytest_collection_modifyitems(items):
-    items.sort(key=lambda item: item.path.name != FIRST)  # stable: the order within each part stays
+    rank = {name: i for i, name in enumerate(FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(FIRST)))  # stable: the order within each part stays
 
 
 @pytest.fixture(scope="session")

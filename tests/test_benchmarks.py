@@ -1,8 +1,12 @@
 """The benchmark scripts' options this repository's tools added: a bad input is one ``error:`` line, a non-zero exit
 and nothing written."""
 
+import contextlib
+import io
+import runpy
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import pytest
@@ -11,14 +15,8 @@ import torch
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
 
-def run(script: str, *args) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, str(BENCHMARKS / script), *map(str, args)], capture_output=True, text=True, timeout=120
-    )
-
-
-def run_recording(script: str, measured: Path, *args) -> subprocess.CompletedProcess:
-    """``script`` run with ``args``, its figures recorded in ``measured`` rather than benchmarks/measured.json."""
+def run_process(script: str, *args, env: dict | None = None) -> subprocess.CompletedProcess:
+    """``python benchmarks/SCRIPT ARGS`` in an interpreter of its own, with ``env`` added to the environment."""
     import os
 
     return subprocess.run(
@@ -26,8 +24,49 @@ def run_recording(script: str, measured: Path, *args) -> subprocess.CompletedPro
         capture_output=True,
         text=True,
         timeout=120,
-        env={**os.environ, "FAMARL_MEASURED": str(measured)},
+        env={**os.environ, **(env or {})},
     )
+
+
+def _to_stderr(message, category, filename, lineno, file=None, line=None) -> None:
+    sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
+
+
+def run(script: str, *args, env: dict | None = None) -> subprocess.CompletedProcess:
+    """``python benchmarks/SCRIPT ARGS`` (with ``env`` added to the environment) run in this process: what the
+    interpreter would print and exit with, without one more interpreter importing torch (about 2 s each, the most
+    of a refusal's time). As there: the script's folder first on sys.path, Python's default warning filters with
+    the warnings printed on stderr (a warning beside an error is a second line), and a ``SystemExit`` of a message
+    printed and exit 1. Only for scripts that start no pool of processes (a worker could not import the script's
+    functions from a ``__main__`` that is pytest); test_pipeline_stages_against_a_revision_that_is_not_there runs a
+    script in an interpreter of its own, as a user does."""
+    argv, out, err = [str(BENCHMARKS / script), *map(str, args)], io.StringIO(), io.StringIO()
+    code = 0
+    with pytest.MonkeyPatch.context() as patch, warnings.catch_warnings():
+        patch.syspath_prepend(str(BENCHMARKS))
+        patch.setattr(sys, "argv", argv)
+        for name, value in (env or {}).items():
+            patch.setenv(name, value)
+        warnings.resetwarnings()
+        for category in (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning):
+            warnings.simplefilter("ignore", category)
+        warnings.filterwarnings("default", category=DeprecationWarning, module="__main__")
+        warnings.showwarning = _to_stderr
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                runpy.run_path(argv[0], run_name="__main__")
+            except SystemExit as exc:
+                if exc.code is None or isinstance(exc.code, int):
+                    code = exc.code or 0
+                else:
+                    print(exc.code, file=sys.stderr)
+                    code = 1
+    return subprocess.CompletedProcess(argv, code, out.getvalue(), err.getvalue())
+
+
+def run_recording(script: str, measured: Path, *args) -> subprocess.CompletedProcess:
+    """``script`` run with ``args``, its figures recorded in ``measured`` rather than benchmarks/measured.json."""
+    return run(script, *args, env={"FAMARL_MEASURED": str(measured)})
 
 
 def one_error_line(result: subprocess.CompletedProcess, needle: str) -> None:
@@ -55,7 +94,8 @@ def test_favae_replicates_on_a_gpu_that_is_not_there(tmp_path):
 
 def test_pipeline_stages_against_a_revision_that_is_not_there(tmp_path):
     out = tmp_path / "result.json"
-    one_error_line(run("pipeline_stages.py", "--against", "no-such-revision", "--out", out), "git archive")
+    # In an interpreter of its own: the interpreter itself prints the script's error line and exits with 1.
+    one_error_line(run_process("pipeline_stages.py", "--against", "no-such-revision", "--out", out), "git archive")
     assert not out.exists()
 
 
@@ -106,7 +146,8 @@ def test_robothand_grasp_finds_the_window_the_control_holds_in(tmp_path):
 
     out, measured, picture = tmp_path / "grasp.json", tmp_path / "measured.json", tmp_path / "grasp.png"
     args = ["--layouts", 2, "--dx=-0.3,0,0.3", "--dy=0,0.3", "--jobs", 1, "--out", out, "--picture", picture]
-    result = run_recording("robothand_grasp.py", measured, *args)
+    # its layouts run in a pool of processes: the script in an interpreter of its own
+    result = run_process("robothand_grasp.py", *args, env={"FAMARL_MEASURED": str(measured)})
     assert result.returncode == 0, result.stderr
     assert json.loads(out.read_text())["solved"] == [[0, 2, 0], [0, 0, 0]]
     rows = {name: row["measured"] for name, row in json.loads(measured.read_text()).items()}
@@ -117,16 +158,11 @@ def test_robothand_grasp_finds_the_window_the_control_holds_in(tmp_path):
     assert picture.read_bytes()[:4] == b"\x89PNG"
 
 
-@pytest.mark.slow  # 25 interpreters, each importing torch
 def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
-    import os
-
     out, measured = tmp_path / "result.json", tmp_path / "measured.json"
-    env = {**os.environ, "FAMARL_MEASURED": str(measured)}
 
     def run_with(script: str, *args) -> subprocess.CompletedProcess:
-        command = [sys.executable, str(BENCHMARKS / script), *map(str, args), "--out", str(out)]
-        return subprocess.run(command, capture_output=True, text=True, timeout=120, env=env)
+        return run_recording(script, measured, *args, "--out", out)
 
     one_error_line(run_with("robothand_budget.py", "--settings", "nope"), "unknown setting 'nope'")
     one_error_line(run_with("robothand_budget.py", "--seeds", "abc"), "--seeds 'abc'")

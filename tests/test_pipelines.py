@@ -12,7 +12,9 @@ import itertools
 import json
 import shlex
 import shutil
+from collections.abc import Iterator
 from pathlib import Path, PurePosixPath
+from typing import Any, NamedTuple
 
 import networkx as nx
 import numpy as np
@@ -173,46 +175,76 @@ def _under(path: str, folder: str) -> bool:
     return PurePosixPath(path) == PurePosixPath(folder) or PurePosixPath(folder) in PurePosixPath(path).parents
 
 
+@functools.cache
+def _parser():
+    """famarl's option parser, as typer builds it from ``app``: built once, not for each of a hundred stages."""
+    return typer.main.get_command(app)
+
+
 def _command(args: list[str]) -> tuple[list[str], dict]:
     """The famarl (sub)command ``args`` name and the values its parser gives them; a bad option fails here."""
     assert args[0] == "famarl", args
-    command, rest, names = typer.main.get_command(app), args[1:], []
+    command, rest, names = _parser(), args[1:], []
     while hasattr(command, "commands") and rest and rest[0] in command.commands:
         names.append(rest[0])
         command = command.commands[rest.pop(0)]
     return names, command.make_context(" ".join(["famarl", *names]), rest).params
 
 
+class Parsed(NamedTuple):
+    """A stage of a tiny project as DVC reads it, with its command as famarl parses it and, for a sweep, its plan."""
+
+    stage: Any
+    names: list[str]
+    values: dict
+    jobs: list | None
+
+
+@pytest.fixture(scope="module")
+def stages(tmp_path_factory) -> Iterator[tuple[Path, Any, list[Parsed]]]:
+    """Every pipeline's stages at tiny params, read and parsed once (the project, the DVC repo, each stage parsed):
+    reading DVC's index and planning each sweep are most of the tests that read them, which only read them."""
+    from dvc.repo import Repo
+
+    root = _tiny_project(tmp_path_factory.mktemp("stages"), EXPERIMENTS)
+    Repo.init(root, no_scm=True)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.chdir(root)  # stages are named, and the sweeps' inputs found, relative to it
+        repo = Repo(root)
+        parsed = []
+        for stage in repo.index.stages:
+            names, values = _command(shlex.split(stage.cmd))
+            jobs = None
+            if names == ["sweep"]:
+                jobs = plan(
+                    values["command"], values["options"] or [], values["seeds"], values["over"] or [], values["name"]
+                )
+            parsed.append(Parsed(stage, names, values, jobs))
+    yield root, repo, parsed
+    repo.close()
+
+
 @pytest.mark.filterwarnings("ignore:_NoneStep.value:DeprecationWarning")  # DVC's own, of pygtrie
-def test_every_stage_parses_reads_only_its_deps_and_a_parameter_reaches_only_what_is_downstream(tmp_path, monkeypatch):
+def test_every_stage_parses_reads_only_its_deps_and_a_parameter_reaches_only_what_is_downstream(stages, monkeypatch):
     """Without running anything: each stage's command as famarl parses it (a sweep: its plan, every run's options
     parsed by their command), each file a run reads or a command names under data/ among the stage's deps or outs,
     each dep under data/ made by some stage, each --out holding the stage's outs."""
-    from dvc.repo import Repo
-
-    root = _tiny_project(tmp_path, EXPERIMENTS)
-    Repo.init(root, no_scm=True)
+    root, repo, parsed = stages
     monkeypatch.chdir(root)  # stages are named relative to it
-    repo = Repo(root)
-    stages = list(repo.index.stages)
 
     def relative(outputs) -> list[str]:
         return [str(Path(output.fs_path).relative_to(root)) for output in outputs]
 
-    made = [out for stage in stages for out in relative(stage.outs)]
-    assert len(stages) >= len(EXPERIMENTS) * 2
+    made = [out for p in parsed for out in relative(p.stage.outs)]
+    assert len(parsed) >= len(EXPERIMENTS) * 2
     faults = []
-    for stage in stages:
+    for stage, names, values, jobs in parsed:
         where = stage.addressing
         assert Path(stage.wdir) == root, f"{where} runs outside the project root"
         deps, outs = relative(d for d in stage.deps if not hasattr(d, "params")), relative(stage.outs)
         args = shlex.split(stage.cmd)
-        names, values = _command(args)
         read = [arg for before, arg in itertools.pairwise(args) if arg.startswith("data/") and before != "--out"]
         if names == ["sweep"]:
-            jobs = plan(
-                values["command"], values["options"] or [], values["seeds"], values["over"] or [], values["name"]
-            )
             assert jobs, where
             read = [path for job in jobs for path in map(str, job.inputs) if path.startswith("data/")]
         faults += [f"{where} reads {path}, not a dep" for path in read if not any(_under(path, d) for d in deps + outs)]
@@ -234,7 +266,7 @@ def test_every_stage_parses_reads_only_its_deps_and_a_parameter_reaches_only_wha
     assert not faults, "\n".join(sorted(set(faults)))
     # The headline's evaluation reaches the reports that read it, and nothing that trains.
     graph = repo.index.graph
-    evaluate = next(stage for stage in stages if stage.addressing == "evaluate")
+    evaluate = next(p.stage for p in parsed if p.stage.addressing == "evaluate")
     assert {stage.addressing for stage in nx.ancestors(graph, evaluate)} == {
         "report",
         "pipelines/scripts/dvc.yaml:report",
@@ -299,22 +331,15 @@ def _code_reached(entries: tuple[str, ...]) -> frozenset[Path]:
 
 
 @pytest.mark.filterwarnings("ignore:_NoneStep.value:DeprecationWarning")  # DVC's own, of pygtrie
-def test_every_stage_declares_the_code_it_runs(tmp_path, monkeypatch):
+def test_every_stage_declares_the_code_it_runs(stages, monkeypatch):
     """``dvc status`` names a stage stale when the code that makes its numbers changed: every module its command
     reaches (method, agent, env, expert, sweep, report) lies under one of its deps."""
-    from dvc.repo import Repo
-
-    root = _tiny_project(tmp_path, EXPERIMENTS)
-    Repo.init(root, no_scm=True)
+    root, _, parsed = stages
     monkeypatch.chdir(root)
     faults = []
-    for stage in Repo(root).index.stages:
+    for stage, names, _, jobs in parsed:
         declared = [PurePosixPath(d.def_path) for d in stage.deps if not hasattr(d, "params")]
-        names, values = _command(shlex.split(stage.cmd))
         if names == ["sweep"]:
-            jobs = plan(
-                values["command"], values["options"] or [], values["seeds"], values["over"] or [], values["name"]
-            )
             entries = sorted({job.runner.partition(":")[0] for job in jobs} | {"famarl_cli.sweep.driver"})
         else:
             entries = ENTRIES[tuple(names)]

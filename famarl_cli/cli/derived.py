@@ -3,6 +3,7 @@ an option with its type, default, help and bounds, and the command's function re
 
 from __future__ import annotations
 
+import functools
 import inspect
 import typing
 from collections.abc import Callable
@@ -115,13 +116,21 @@ def command(registrar: typer.Typer, options: type, name: str | None = None, **se
     return register
 
 
+@functools.cache
+def _parser(registrar: typer.Typer):
+    """The click command typer builds for ``registrar``, built once: building it reads every command's signature
+    (tens of milliseconds), and a sweep parses each of its runs' options with it. Every command has registered
+    itself by then (importing famarl_cli.cli imports them all), and parsing leaves the command as it was."""
+    return typer.main.get_command(registrar)
+
+
 def parse_options(registrar: typer.Typer, name: str, options: type, argv: list[str]) -> dict:
     """The values of ``famarl NAME ARGV`` by option name, as the command derived from ``options`` parses them
     (bounds checked, texts parsed), before the declaration is built; a usage error is one line. ``NAME`` may name a
     subcommand ("prior fit")."""
     from famarl_cli.core.errors import UsageError
 
-    parser = typer.main.get_command(registrar)
+    parser = _parser(registrar)
     for part in name.split():
         parser = parser.commands[part]
     try:
