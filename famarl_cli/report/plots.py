@@ -7,6 +7,7 @@ import warnings
 
 import numpy as np
 from matplotlib import cm
+from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
@@ -209,13 +210,23 @@ def plot_rollouts(traces: list, path: str | os.PathLike, title: str) -> None:
         ax.add_patch(Circle(layout.goal[0], GOAL_RADIUS, color="tab:red", alpha=0.4))
         decisions = np.unique(trace.decision)
         macros = {int(trace.decision[step]) for step in np.flatnonzero(trace.macro)}
+        # one artist per kind, not one per decision: a PPO episode has hundreds of decisions, and an artist each
+        # cost over a second a picture
+        sequences, colour_of, singles = [], [], []
         for decision in decisions:
             steps = np.flatnonzero(trace.decision == decision)
             stretch = trace.positions[steps[0] : steps[-1] + 2]
             if decision in macros or len(steps) > 1:
-                ax.plot(stretch[:, 0], stretch[:, 1], color=colours[decision % len(colours)], lw=1.8)
+                sequences.append(stretch)
+                colour_of.append(colours[decision % len(colours)])
             else:
-                ax.plot(stretch[:, 0], stretch[:, 1], color="black", lw=0.8, marker=".", ms=2)
+                singles += [stretch, np.full((1, 2), np.nan)]  # NaN: the line breaks between steps
+        ax.add_collection(LineCollection(sequences, colors=colour_of, lw=1.8))
+        if singles:
+            walked = np.concatenate(singles)
+            ax.plot(walked[:, 0], walked[:, 1], color="black", lw=0.8)
+            # the dots apart: on a line, matplotlib's path simplification drops the dots of collinear steps
+            ax.plot(walked[:, 0], walked[:, 1], color="black", ls="none", marker=".", ms=2)
         ax.plot(*trace.positions[0], "o", color="tab:blue", ms=5)
         ax.set(xlim=(0, size), ylim=(0, size), aspect="equal", xticks=[], yticks=[])
         outcome = "reached" if trace.success else "missed"
