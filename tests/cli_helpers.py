@@ -1,6 +1,5 @@
 """Running famarl commands in-process and checking how they fail."""
 
-import functools
 import hashlib
 import json
 import os
@@ -9,11 +8,11 @@ import subprocess
 import sys
 from pathlib import Path
 
-import typer.main
 import typer.testing
 from typer.testing import CliRunner
 
 from famarl_cli.cli import app
+from famarl_cli.cli.derived import click_command
 
 runner = CliRunner()
 
@@ -21,7 +20,7 @@ if hasattr(typer.testing, "_get_command"):
     # typer's runner rebuilds the click command from every command's signature on each invoke (about 15 ms), and the
     # suite invokes famarl over a thousand times: built once per app instead. Every command has registered itself by
     # now, and a click command is left as it was by a run (environment and working folder are read as it runs).
-    typer.testing._get_command = functools.cache(typer.main.get_command)
+    typer.testing._get_command = click_command
 
 
 def famarl(*args):

@@ -19,11 +19,11 @@ from typing import Any, NamedTuple
 import networkx as nx
 import numpy as np
 import pytest
-import typer
 import yaml
 from cli_helpers import dvc, dvc_json
 
 from famarl_cli.cli import app
+from famarl_cli.cli.derived import click_command
 from famarl_cli.cli.sweep import plan
 from famarl_cli.report.experiments import experiments
 
@@ -175,16 +175,10 @@ def _under(path: str, folder: str) -> bool:
     return PurePosixPath(path) == PurePosixPath(folder) or PurePosixPath(folder) in PurePosixPath(path).parents
 
 
-@functools.cache
-def _parser():
-    """famarl's option parser, as typer builds it from ``app``: built once, not for each of a hundred stages."""
-    return typer.main.get_command(app)
-
-
 def _command(args: list[str]) -> tuple[list[str], dict]:
     """The famarl (sub)command ``args`` name and the values its parser gives them; a bad option fails here."""
     assert args[0] == "famarl", args
-    command, rest, names = _parser(), args[1:], []
+    command, rest, names = click_command(app), args[1:], []
     while hasattr(command, "commands") and rest and rest[0] in command.commands:
         names.append(rest[0])
         command = command.commands[rest.pop(0)]

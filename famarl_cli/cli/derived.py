@@ -117,7 +117,7 @@ def command(registrar: typer.Typer, options: type, name: str | None = None, **se
 
 
 @functools.cache
-def _parser(registrar: typer.Typer):
+def click_command(registrar: typer.Typer):
     """The click command typer builds for ``registrar``, built once: building it reads every command's signature
     (tens of milliseconds), and a sweep parses each of its runs' options with it. Every command has registered
     itself by then (importing famarl_cli.cli imports them all), and parsing leaves the command as it was."""
@@ -130,7 +130,7 @@ def parse_options(registrar: typer.Typer, name: str, options: type, argv: list[s
     subcommand ("prior fit")."""
     from famarl_cli.core.errors import UsageError
 
-    parser = _parser(registrar)
+    parser = click_command(registrar)
     for part in name.split():
         parser = parser.commands[part]
     try:

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import typer
 from typer.core import TyperOption
 
+from famarl_cli.cli.derived import click_command
 from famarl_cli.core.declare import declared
 
 OWN = {
@@ -61,7 +61,7 @@ def options() -> list[Named]:
             for flag in (f for f in param.opts if f.startswith("--")):
                 found.append(Named(path, flag, concept, param.help or "", param.hidden))
 
-    walk(typer.main.get_command(app), "")
+    walk(click_command(app), "")
     return found
 
 

@@ -147,13 +147,13 @@ class ContinuousWorldBatch:
         if done.any():
             info["final_obs"] = obs.copy()
             info["success"] = terminated.astype(np.float64)
-        if done.any() and self.autoreset:
-            fresh = self._draw(done)
-            self.layouts = self.layouts.assign(done, fresh)
-            self.pos[done] = fresh.start
-            self.vel[done] = 0.0
-            self.elapsed[done] = 0
-            obs[done] = observe(self.pos[done], self.vel[done], fresh, self.task.entrances_observed)
+            if self.autoreset:
+                fresh = self._draw(done)
+                self.layouts = self.layouts.assign(done, fresh)
+                self.pos[done] = fresh.start
+                self.vel[done] = 0.0
+                self.elapsed[done] = 0
+                obs[done] = observe(self.pos[done], self.vel[done], fresh, self.task.entrances_observed)
         return obs, np.where(active, -dist, 0.0), terminated, truncated, info
 
     def state_dict(self) -> dict:

@@ -224,9 +224,7 @@ def plot_rollouts(traces: list, path: str | os.PathLike, title: str) -> None:
         ax.add_collection(LineCollection(sequences, colors=colour_of, lw=1.8))
         if singles:
             walked = np.concatenate(singles)
-            ax.plot(walked[:, 0], walked[:, 1], color="black", lw=0.8)
-            # the dots apart: on a line, matplotlib's path simplification drops the dots of collinear steps
-            ax.plot(walked[:, 0], walked[:, 1], color="black", ls="none", marker=".", ms=2)
+            ax.plot(walked[:, 0], walked[:, 1], color="black", lw=0.8, marker=".", ms=2)
         ax.plot(*trace.positions[0], "o", color="tab:blue", ms=5)
         ax.set(xlim=(0, size), ylim=(0, size), aspect="equal", xticks=[], yticks=[])
         outcome = "reached" if trace.success else "missed"
