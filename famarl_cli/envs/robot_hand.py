@@ -126,6 +126,50 @@ NEAR_CLEARANCE = 0.25
 """BallPlacing with ``hand_near``: the lowest start of the grip point above the ball's centre (m), the open
 fingertips 0.1 m over the ball."""
 REACH_REWARD, BALL_REWARD = 100.0, 200.0
+CUP_WIDTH_RANGE = (2 * BALL_RADIUS + 0.01, 2 * (CUP_MARGIN - BASKET_WALL) - 0.1)
+"""BallPlacing's ``cup_width`` (m): wider than the ball, and the cup's walls at least 0.05 m in from the least
+distance of its centre from a side wall."""
+CUP_DEPTH_RANGE = (0.01, 1.0)
+"""BallPlacing's ``cup_depth`` (m)."""
+FINGER_OPEN_RANGE = (-0.8, 0.0)
+"""BallPlacing's ``finger_open`` (rad): from splayed by 0.8 rad (about 46 degrees) to hanging straight down."""
+
+CALIBRATION_GRID = {
+    "cup": {"cup": {}, "bowl": {"cup_width": 1.0, "cup_depth": 0.3}, "wide-bowl": {"cup_width": 1.4, "cup_depth": 0.3}},
+    "fingers": {"fingers-0.1": {}, "fingers-0.5": {"finger_open": -0.5}},
+    "cups": {"cups-1.5-4": {}, "cups-5-6.5": {"cup_x": [5.0, 6.5]}},
+    "hand": {"hand-anywhere": {}, "hand-near-1": {"hand_near": 1.0}},
+}
+"""The candidate values of BallPlacing's open constants that docs/robothand.md's calibration protocol measures
+(``benchmarks/robothand_calibration.py``), each value a name and the keyword arguments it sets; every combination is
+a candidate setting. The first value of each is today's (no keyword arguments: ``RobotHand-BallPlacing-v0`` as
+registered). The cup: today's shallow cup (0.36 m wide, 0.08 m walls), or a bowl 1 m or 1.4 m wide with 0.3 m walls
+that keeps a ball a missed grasp pushed within reach; the fingers' open limit: today's -0.1 rad or splayed to -0.5;
+the cup's range: today's, 3.5-6 m left of the goal, or 1-2.5 m; the hand's start: anywhere in the upper world, or
+within 1 m of the ball (``hand_near``)."""
+
+
+def calibration_candidates() -> dict[str, dict]:
+    """Every setting of CALIBRATION_GRID by name ("bowl+fingers-0.1+cups-5-6.5+hand-near-1"), as BallPlacing's
+    keyword arguments (``gym.make("famarl/RobotHand-BallPlacing-v0", **kwargs)``); today's setting,
+    "cup+fingers-0.1+cups-1.5-4+hand-anywhere", has none."""
+    settings = {"": {}}
+    for values in CALIBRATION_GRID.values():
+        settings = {
+            f"{name}+{value}".lstrip("+"): kwargs | more
+            for name, kwargs in settings.items()
+            for value, more in values.items()
+        }
+    return settings
+
+
+def calibration_kwargs(name: str) -> dict:
+    """The keyword arguments of the candidate setting ``name`` (:func:`calibration_candidates`)."""
+    candidates = calibration_candidates()
+    if name not in candidates:
+        raise ValueError(f"unknown BallPlacing setting {name!r}; expected one of {sorted(candidates)}")
+    return dict(candidates[name])
+
 
 OBSERVATION_NAMES = (
     "grip_x", "grip_y", "hand_vx", "hand_vy", "hand_sin", "hand_cos", "hand_omega", "closure",
@@ -195,7 +239,10 @@ _set_rate, _space_step = chipmunk.cpSimpleMotorSetRate, chipmunk.cpSpaceStep
 class Hand:
     """Palm, two fingers and the kinematic control body that drags them, added to ``space``."""
 
-    def __init__(self, space: pymunk.Space, grip: tuple[float, float]) -> None:
+    def __init__(self, space: pymunk.Space, grip: tuple[float, float], finger_open: float = FINGER_OPEN) -> None:
+        """``finger_open``: the fingers' open limit (inward angle, rad); FINGER_OPEN unless a BallPlacing setting
+        opens them wider (a wider grasp window: docs/robothand.md's calibration)."""
+        self.finger_open = finger_open
         palm_xy = (grip[0], grip[1] + GRIP_DEPTH)
         self.control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
         self.control.position = palm_xy
@@ -217,7 +264,7 @@ class Hand:
             shapes += [pymunk.Poly.create_box(finger, FINGER_SIZE), pymunk.Poly(finger, PAD_VERTICES[side])]
             hinge = pymunk.PivotJoint(self.palm, finger, pivot, (0, FINGER_SIZE[1] / 2))
             # The left finger (side -1) closes by turning counter-clockwise, the right one clockwise.
-            low, high = (FINGER_OPEN, FINGER_CLOSED) if side < 0 else (-FINGER_CLOSED, -FINGER_OPEN)
+            low, high = (finger_open, FINGER_CLOSED) if side < 0 else (-FINGER_CLOSED, -finger_open)
             limit = pymunk.RotaryLimitJoint(self.palm, finger, low, high)
             motor = pymunk.SimpleMotor(self.palm, finger, 0.0)
             motor.max_force = GRIP_TORQUE
@@ -273,7 +320,8 @@ class Hand:
     def closure(self, palm_angle: float) -> float:
         """The fingers' closure as observed (0 open .. 1 closed), given the palm's angle, read already."""
         inward = (_angle(self._fingers[0]) - palm_angle) - (_angle(self._fingers[1]) - palm_angle)
-        return (inward / 2 - FINGER_OPEN) / (FINGER_CLOSED - FINGER_OPEN)
+        # scaled by this hand's own open limit, so that 0 is open whatever the setting
+        return (inward / 2 - self.finger_open) / (FINGER_CLOSED - self.finger_open)
 
 
 def _grip(palm, angle: float) -> tuple[float, float]:
@@ -302,10 +350,12 @@ PAD_VERTICES = {side: _pad_vertices(side) for side in (-1.0, 1.0)}
 """The pads' vertices by side, laid out once: every reset builds a hand."""
 
 
-def _add_basket(space: pymunk.Space, x: float, floor_y: float, depth: float = BASKET_HEIGHT) -> list[pymunk.Segment]:
-    """A basket (or cup) with its floor at ``floor_y``, on a post down to the world's floor when raised; returns
-    the basket's own segments (the ones drawn in its colour)."""
-    half = BASKET_INNER / 2 + BASKET_WALL
+def _add_basket(
+    space: pymunk.Space, x: float, floor_y: float, depth: float = BASKET_HEIGHT, inner: float = BASKET_INNER
+) -> list[pymunk.Segment]:
+    """A basket (or cup) of inner width ``inner`` with its floor at ``floor_y``, on a post down to the world's floor
+    when raised; returns the basket's own segments (the ones drawn in its colour)."""
+    half = inner / 2 + BASKET_WALL
     body = space.static_body
     segments = [
         pymunk.Segment(body, (x - half, floor_y), (x + half, floor_y), BASKET_WALL),
@@ -375,13 +425,21 @@ class RobotHandEnv(gym.Env):
         cup_x: tuple[float, float] = CUP_X,
         ball_reward: float = BALL_REWARD,
         hand_near: float | None = None,
+        cup_width: float = BASKET_INNER,
+        cup_depth: float = CUP_DEPTH,
+        finger_open: float = FINGER_OPEN,
     ) -> None:
         """``cup_x``: BallPlacing's range of the cup's centre, where the ball starts (the paper does not say; the
         sensitivity pipeline varies it). ``ball_reward``: BallPlacing's reward on arrival (the paper's +200), weighed
         against ``-|b - g|`` a step, whose scale the paper's unstated world size sets. ``hand_near``: BallPlacing's
         grip starts within this distance (m) sideways of the cup's centre and up to this far above NEAR_CLEARANCE
         over the ball's centre (within the start box's x range and under its top), not anywhere in the start box:
-        where the hand starts is not in the paper, and it decides how often random actions touch the ball."""
+        where the hand starts is not in the paper, and it decides how often random actions touch the ball.
+        ``cup_width``, ``cup_depth``: the inner width and wall height of BallPlacing's cup (m); a wide deep cup (a
+        bowl) keeps a ball that a missed grasp pushed within reach, where today's shallow cup lets it fall to the floor,
+        an edge, and ends the episode. ``finger_open``: the open fingers' inward angle (rad; negative splays them),
+        the calibration's lever on how far off the ball's centre a grasp still takes it. The defaults are the setting
+        every run so far used (docs/robothand.md's calibration protocol lists the candidates, CALIBRATION_GRID)."""
         if task not in TASKS:
             raise ValueError(f"unknown RobotHand task {task!r}; expected one of {sorted(TASKS)}")
         if render_mode not in (None, "rgb_array"):
@@ -407,6 +465,9 @@ class RobotHandEnv(gym.Env):
         if hand_near is not None and self.task.name != "ball-placing":
             raise ValueError(f"hand_near is BallPlacing's; the task is {task!r}")
         self.hand_near = None if hand_near is None else float(hand_near)
+        self.cup_width = _ball_placing_number("cup_width", cup_width, task, BASKET_INNER, CUP_WIDTH_RANGE)
+        self.cup_depth = _ball_placing_number("cup_depth", cup_depth, task, CUP_DEPTH, CUP_DEPTH_RANGE)
+        self.finger_open = _ball_placing_number("finger_open", finger_open, task, FINGER_OPEN, FINGER_OPEN_RANGE)
         self.time_penalty = time_penalty and self.task.time_penalty
         self.render_mode = render_mode
         self.observation_space = gym.spaces.Box(-np.inf, np.inf, shape=(len(OBSERVATION_NAMES),), dtype=np.float32)
@@ -455,7 +516,7 @@ class RobotHandEnv(gym.Env):
                 x = np.clip(cup + rng.uniform(-self.hand_near, self.hand_near), *HAND_START_X)
                 grip = np.array([x, min(ball_y + NEAR_CLEARANCE + rng.uniform(0, self.hand_near), HAND_START_Y[1])])
         self.layout = Layout(grip=grip, target=target, source=source)
-        self.hand = Hand(self.space, tuple(grip))
+        self.hand = Hand(self.space, tuple(grip), self.finger_open)
         self.steps = 0
         return self._observe(), self._info(False)
 
@@ -468,7 +529,8 @@ class RobotHandEnv(gym.Env):
         return rod
 
     def _add_cup(self, x: float) -> None:
-        self.colours.update(dict.fromkeys(_add_basket(self.space, x, CUP_HEIGHT, CUP_DEPTH), COLOURS["blue"]))
+        cup = _add_basket(self.space, x, CUP_HEIGHT, self.cup_depth, self.cup_width)
+        self.colours.update(dict.fromkeys(cup, COLOURS["blue"]))
 
     def _add_ball(self, x: float) -> pymunk.Body:
         ball = pymunk.Body(BALL_MASS, pymunk.moment_for_circle(BALL_MASS, 0, BALL_RADIUS))
@@ -543,6 +605,18 @@ class RobotHandEnv(gym.Env):
         if self.render_mode != "rgb_array" or self.space is None:
             return None
         return render_scene(self)
+
+
+def _ball_placing_number(name: str, value, task: str, default: float, bounds: tuple[float, float]) -> float:
+    """``value`` of BallPlacing's setting ``name`` as a float, checked within ``bounds`` (inclusive); a value other
+    than ``default`` only in a BallPlacing task. One clear error line otherwise."""
+    low, high = bounds
+    # a bool is an int to Python; True as a width is a mistake, not 1.0
+    if isinstance(value, bool) or not isinstance(value, int | float) or not low <= value <= high:
+        raise ValueError(f"{name} must be a number in [{low:g}, {high:g}], got {value!r}")
+    if value != default and TASKS[task].name != "ball-placing":
+        raise ValueError(f"{name} is BallPlacing's; the task is {task!r}")
+    return float(value)
 
 
 def rod_in_basket(x: float, y: float, angle: float, vertical_speed: float, basket_x: float, floor_y: float) -> bool:
