@@ -78,7 +78,7 @@ def main() -> None:
             start = time.perf_counter()
             train_together(together, [Path(folder) / f"t{k}" for k in range(len(seeds))], 20)
             together_s = time.perf_counter() - start
-        steps = sum(run.trainer.members[run.member].env_steps for run in together)
+        steps = sum(run.own.env_steps for run in together)
         row = {"agent": name, "seeds": len(seeds), "alone_s": alone_s, "together_s": together_s, "env_steps": steps}
         rows.append(row)
         print(

@@ -23,10 +23,9 @@ import torch
 from common import RESULTS, command_line, peak_rss_mib, rate, record, rounded, timed, verdict, write_result
 
 from famarl_cli.method.favae.checkpoint import load_favae
-from famarl_cli.rl import DECISIONS_PER_ROLLOUT, Agent
-from famarl_cli.rl.ppo import PPOConfig, PPOTrainer
-from famarl_cli.rl.training import RunSpec, build_mode
-from famarl_cli.rl.vector import make_batch
+from famarl_cli.rl import Agent
+from famarl_cli.rl.training import Run
+from famarl_cli.stages.train import TrainOptions, run_spec
 
 BATCHES = (1, 16, 64, 256)
 
@@ -41,11 +40,9 @@ def decoding(favae, seconds: float) -> list[dict]:
     return rows
 
 
-def training(agent: Agent, favae, favae_path: Path, steps: int) -> dict:
-    config = PPOConfig(total_steps=steps, n_steps=DECISIONS_PER_ROLLOUT[agent])
-    spec = RunSpec("famarl/ContinuousWorld-Maze-v0", agent, seed=0, ppo=config, favae=str(favae_path))
-    env = make_batch(spec.env_id, config.n_envs, seed=0)
-    trainer = PPOTrainer(env, build_mode(spec, env, favae if agent == Agent.FAMARL else None), spec.ppo, seed=0)
+def training(agent: Agent, favae_path: Path, steps: int) -> dict:
+    """The run ``famarl train --agent AGENT --favae FAVAE_PATH --steps STEPS`` makes, trained and clocked."""
+    trainer = Run.start(run_spec(TrainOptions(agent=agent, favae=favae_path, steps=steps))).trainer
     spent = {"decoding": 0.0, "update": 0.0}
 
     def clocked(name, function):
@@ -56,16 +53,16 @@ def training(agent: Agent, favae, favae_path: Path, steps: int) -> dict:
 
         return call
 
-    trainer.mode.to_sequences = clocked("decoding", trainer.mode.to_sequences)
+    trainer.members[0].mode.to_sequences = clocked("decoding", trainer.members[0].mode.to_sequences)
     trainer.update = clocked("update", trainer.update)
     _, seconds = timed(trainer.train)
     return {
         "agent": str(agent),
-        "env_steps": trainer.env_steps,
-        "decisions": trainer.decisions,
+        "env_steps": trainer.members[0].env_steps,
+        "decisions": trainer.members[0].decisions,
         "seconds": seconds,
-        "env_steps_per_s": trainer.env_steps / seconds,
-        "decisions_per_s": trainer.decisions / seconds,
+        "env_steps_per_s": trainer.members[0].env_steps / seconds,
+        "decisions_per_s": trainer.members[0].decisions / seconds,
         "decoding_s": spent["decoding"],
         "rollout_other_s": seconds - spent["decoding"] - spent["update"],
         "update_s": spent["update"],
@@ -112,7 +109,7 @@ def main() -> None:
     for row in decode_rows:
         print(f"{row['batch']:>16} {row['decisions_per_s']:>12,.0f} {row['ms_per_call']:>12.3f}")
 
-    train_rows = [training(agent, favae, args.favae, args.steps) for agent in (Agent.FAMARL, Agent.PPO, Agent.FIGAR)]
+    train_rows = [training(agent, args.favae, args.steps) for agent in (Agent.FAMARL, Agent.PPO, Agent.FIGAR)]
     print(f"\n{'agent':<8} {'env steps/s':>12} {'decisions/s':>12} {'decoding':>9} {'rollout':>9} {'update':>9}")
     for row in train_rows:
         shares = [row[k] / row["seconds"] for k in ("decoding_s", "rollout_other_s", "update_s")]

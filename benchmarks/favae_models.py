@@ -1,52 +1,59 @@
-"""The batched FAVAE derived from the single one by torch.func against the hand-written ensemble: a training step's
-forward, loss and backward per replicate at K replicates.
+"""The one batched FAVAE against the two hand-written models it replaced: a training step's forward, loss,
+backward and gradient row (what the fit's Adam steps) of K replicates, and at K = 1 a rollout's decoding.
 
     python benchmarks/favae_models.py [--replicates 1,5,10] [--steps 100] [--macros data/maze/macros]
-                                      [--device cpu|cuda]
+                                      [--device cpu|cuda] [--against REV]
 
-``derived``: ``torch.func.stack_module_state`` of K :class:`~famarl_cli.method.favae.model.Favae` modules and
-``vmap`` over ``functional_call`` of one (encode, sample with the given noise, decode) and of its loss, so the model
-is defined once; ``ensemble``: :class:`~famarl_cli.method.favae.ensemble.FavaeEnsemble`, every layer written out as
-a batched matmul. Both compute the same loss and gradients (checked here, at float32 tolerance, before timing). vmap
-needs one shape for all replicates, so every replicate here fits segments of one L (replicate 0's, or random
-segments of the same shape; the ensemble also batches unequal L, which vmap cannot). One torch thread; the median of
-``--repeats`` timings of ``--steps`` steps each.
+``batched``: :class:`~famarl_cli.method.favae.model.Favae`, K replicates as one model, a single FAVAE its K = 1
+case. ``ensemble`` and ``single``: revision REV's ``FavaeEnsemble`` (the batched model every fit trained) and its
+``Favae`` module (Conv1d and ConvTranspose1d layers, the model every other stage loaded and decoded with), read
+from git (``git show REV:famarl_cli/method/favae/...``), so the comparison needs no copy of them here. All start
+from the same weights and compute the same loss (checked here, at float32 tolerance, before timing). Every
+replicate fits segments of one L (replicate 0's, or random segments of the same shape). One torch thread; the
+median of ``--repeats`` timings of ``--steps`` steps each.
 """
 
 from __future__ import annotations
 
 import argparse
-import copy
 import statistics
+import subprocess
+import sys
 import time
+import types
 from pathlib import Path
 
+import numpy as np
 import torch
-from common import RESULTS, command_line, record, write_result
+from common import RESULTS, ROOT, command_line, record, write_result
 from favae_replicates import segments_of, wait
-from torch import nn
-from torch.func import functional_call, stack_module_state, vmap
 
-from famarl_cli.method.favae.ensemble import FavaeEnsemble
+from famarl_cli.core.flat_parameters import gather
 from famarl_cli.method.favae.loss import replicate_loss
 from famarl_cli.method.favae.model import Favae, FavaeConfig
 from famarl_cli.sweep.plan import parse_values
 
 BATCH = 64
+DECODED = 16
+"""Latents a rollout step decodes at once (one per environment)."""
+BEFORE = "98d71ea"
+"""The last revision with the two hand-written models."""
 
 
-class Sampled(nn.Module):
-    """A Favae's forward with the sampling noise given (what the ensemble's forward takes)."""
-
-    def __init__(self, favae: Favae) -> None:
-        super().__init__()
-        self.favae = favae
-
-    def forward(self, x: torch.Tensor, noise: torch.Tensor, weights: torch.Tensor):
-        mus, logvars = self.favae.encode(x)
-        eps = torch.split(noise, list(self.favae.config.latent_dims), dim=1)
-        zs = [mu + e * (0.5 * lv).exp() for mu, lv, e in zip(mus, logvars, eps, strict=True)]
-        return self.favae.decode(torch.cat(zs, dim=1), list(weights.unbind(0))), mus, logvars, zs
+def replaced(revision: str) -> tuple[types.ModuleType, types.ModuleType]:
+    """``revision``'s favae/model.py and favae/ensemble.py, imported under names of their own."""
+    modules = []
+    for name in ("model", "ensemble"):
+        path = f"famarl_cli/method/favae/{name}.py"
+        shown = subprocess.run(["git", "show", f"{revision}:{path}"], cwd=ROOT, capture_output=True, text=True)
+        if shown.returncode:
+            raise SystemExit(f"error: git show {revision}:{path}: {shown.stderr.strip()}")
+        module = types.ModuleType(f"replaced_favae_{name}")
+        sys.modules[module.__name__] = module  # dataclasses look their module up there
+        source = shown.stdout.replace("famarl_cli.method.favae.model", "replaced_favae_model")
+        exec(compile(source, f"{revision}:{path}", "exec"), module.__dict__)
+        modules.append(module)
+    return modules[0], modules[1]
 
 
 def loss_of(reconstruction, x, mus, logvars, zs, beta, capacities, population):
@@ -54,49 +61,56 @@ def loss_of(reconstruction, x, mus, logvars, zs, beta, capacities, population):
     return replicate_loss(reconstruction, x, mus, logvars, zs, beta, capacities, population).total
 
 
-def derived_step(models: list[Favae], device: str):
-    params, _ = stack_module_state([Sampled(m) for m in models])
-    params = {name: value.detach().to(device).requires_grad_() for name, value in params.items()}
-    base = Sampled(copy.deepcopy(models[0])).to("meta")
-
-    def one(p, x, noise, weights, beta, capacities, population):
-        reconstruction, mus, logvars, zs = functional_call(base, p, (x, noise, weights))
-        total = loss_of(
-            reconstruction.transpose(1, 2)[None],
-            x.transpose(1, 2)[None],
-            [m[None] for m in mus],
-            [lv[None] for lv in logvars],
-            [z[None] for z in zs],
-            beta[None],
-            capacities[None],
-            population[None],
-        )
-        return total[0]
-
-    batched = vmap(one)
+def batched_step(configs: list[FavaeConfig], device: str):
+    model = Favae(configs, device, seeds=list(range(len(configs))))
+    gradient = torch.empty_like(model.flat)
 
     def step(x, noise, weights, beta, capacities, population):
-        total = batched(params, x.transpose(2, 3), noise, weights, beta, capacities, population)
-        return total, torch.autograd.grad(total.sum(), list(params.values()))
+        reconstruction, *latents = model.batched(x, noise, weights)
+        total = loss_of(reconstruction, x, *latents, beta, capacities, population)
+        return total, gather(torch.autograd.grad(total.sum(), model.parameters()), gradient)
+
+    return step, model
+
+
+def ensemble_step(old: types.ModuleType, ensemble: types.ModuleType, config: FavaeConfig, k: int, device: str):
+    models = []
+    for seed in range(k):
+        torch.manual_seed(seed)
+        models.append(old.Favae(old.FavaeConfig(**vars(config))))
+    replaced_ensemble = ensemble.FavaeEnsemble(models, device)
+    gradient = torch.empty_like(replaced_ensemble.flat)
+
+    def step(x, noise, weights, beta, capacities, population):
+        reconstruction, *latents = replaced_ensemble.forward(x, noise, weights)
+        total = loss_of(reconstruction, x, *latents, beta, capacities, population)
+        gradients = torch.autograd.grad(total.sum(), replaced_ensemble.parameters)
+        return total, torch.cat([g.reshape(k, -1) for g in gradients], dim=1, out=gradient)
+
+    return step, models[0]
+
+
+def single_step(model, device: str):
+    """The replaced module's step (K = 1): encode, sample with the given noise, decode, as its fits did."""
+    model = model.to(device)
+    parameters = list(model.parameters())
+    dims = list(model.config.latent_dims)
+
+    def step(x, noise, weights, beta, capacities, population):
+        mus, logvars = model.encode(x[0].transpose(1, 2))
+        eps = torch.split(noise[0], dims, dim=1)
+        zs = [mu + e * (0.5 * lv).exp() for mu, lv, e in zip(mus, logvars, eps, strict=True)]
+        reconstruction = model.decode(torch.cat(zs, dim=1), list(weights[0].unbind(0)))
+        batched = [[t[None] for t in ts] for ts in (mus, logvars, zs)]
+        total = loss_of(reconstruction.transpose(1, 2)[None], x, *batched, beta, capacities, population)
+        return total, torch.autograd.grad(total.sum(), parameters)
 
     return step
 
 
-def ensemble_step(models: list[Favae], device: str):
-    ensemble = FavaeEnsemble(models, device)
-
-    def step(x, noise, weights, beta, capacities, population):
-        reconstruction, mus, logvars, zs = ensemble.forward(x, noise, weights)
-        total = loss_of(reconstruction, x, mus, logvars, zs, beta, capacities, population)
-        return total, torch.autograd.grad(total.sum(), ensemble.parameters)
-
-    return step
-
-
-def inputs(segments, k: int, device: str):
+def inputs(segments, k: int, device: str, latent: int):
     generator = torch.Generator().manual_seed(k)
     rows = torch.stack([torch.as_tensor(segments[torch.randperm(len(segments), generator=generator)[:BATCH]])] * k)
-    latent = 6
     return (
         rows.to(device),
         torch.randn(k, BATCH, latent, generator=generator).to(device),
@@ -128,49 +142,73 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--macros", type=Path, default=Path("data/maze/macros"))
     parser.add_argument("--device", choices=("cpu", "cuda"), default="cpu")
+    parser.add_argument("--against", default=BEFORE, help="The git revision of the replaced models.")
     parser.add_argument("--out", type=Path, default=None, help="[default: results/favae_models[_cuda].json]")
     args = parser.parse_args()
     suffix = "" if args.device == "cpu" else f"_{args.device}"
     if args.device == "cuda" and not torch.cuda.is_available():
         raise SystemExit("error: --device cuda: torch sees no CUDA GPU here")
+    old, ensemble = replaced(args.against)
     torch.set_num_threads(1)
     segments = segments_of(args.macros, 0)
     config = FavaeConfig(action_dim=segments.shape[2] - 2, length=segments.shape[1])
     rows = []
     for k in map(int, parse_values(args.replicates)):
-        models = []
-        for seed in range(k):
-            torch.manual_seed(seed)
-            models.append(Favae(config))
-        batch = inputs(segments, k, args.device)
-        derived, written = derived_step(models, args.device), ensemble_step(models, args.device)
-        (total_d, _), (total_e, _) = derived(*batch), written(*batch)
-        torch.testing.assert_close(total_d, total_e, rtol=1e-4, atol=1e-3)
-        times = {
-            name: timed(f, batch, args.steps, args.repeats, args.device)
-            for name, f in (("derived", derived), ("ensemble", written))
-        }
-        rows.append({"replicates": k, **{f"{n}_ms": 1000 * t for n, t in times.items()}})
+        batch = inputs(segments, k, args.device, config.latent_size)
+        steps = {"batched": batched_step([config] * k, args.device)[0]}
+        steps["ensemble"], first = ensemble_step(old, ensemble, config, k, args.device)
+        if k == 1:
+            steps["single"] = single_step(first, args.device)
+        totals = {name: step(*batch)[0] for name, step in steps.items()}
+        for name, total in totals.items():
+            torch.testing.assert_close(total, totals["batched"], rtol=1e-4, atol=1e-3, msg=name)
+        times = {name: timed(step, batch, args.steps, args.repeats, args.device) for name, step in steps.items()}
+        row = {"replicates": k, **{f"{name}_ms": 1000 * t for name, t in times.items()}}
         print(
-            f"K {k:3d}: derived {1000 * times['derived']:7.2f} ms, ensemble {1000 * times['ensemble']:7.2f} ms a step: "
-            f"derived / ensemble {times['derived'] / times['ensemble']:.2f}x"
+            f"K {k:3d}: batched {1000 * times['batched']:7.2f} ms a step, "
+            + ", ".join(
+                f"{n} {1000 * t:7.2f} ms ({times['batched'] / t:.2f}x)" for n, t in times.items() if n != "batched"
+            )
         )
+        if k == 1 and args.device == "cpu":  # decoding runs where the rollouts run
+            _, model = batched_step([config], args.device)
+            latents = np.random.default_rng(0).standard_normal((DECODED, config.latent_size)).astype(np.float32)
+            decodes = {"batched": model, "single": first.eval()}
+            for a, b in zip(*(m.decode_macro_actions(latents) for m in decodes.values()), strict=True):
+                np.testing.assert_allclose(a, b, rtol=1e-4, atol=1e-4)
+            decoding = {
+                name: timed(lambda m=m, z=latents: m.decode_macro_actions(z), (), args.steps, args.repeats, args.device)
+                for name, m in decodes.items()
+            }
+            row.update({f"{name}_decode_ms": 1000 * t for name, t in decoding.items()})
+            print(
+                f"      decoding {DECODED} latents: batched {1000 * decoding['batched']:.3f} ms, single "
+                f"{1000 * decoding['single']:.3f} ms ({decoding['batched'] / decoding['single']:.2f}x)"
+            )
+        rows.append(row)
     write_result(
         args.out or RESULTS / f"favae_models{suffix}.json",
-        {"device": args.device, "rows": rows, "length": config.length},
+        {"device": args.device, "against": args.against, "rows": rows, "length": config.length},
     )
     where = "" if args.device == "cpu" else f" on {args.device}"
+
+    def measured(row: dict) -> str:
+        text = f"{row['batched_ms']:.2f} vs {row['ensemble_ms']:.2f} ms ({row['batched_ms'] / row['ensemble_ms']:.2f}x)"
+        if "single_ms" in row:
+            text += f", single {row['single_ms']:.2f} ms ({row['batched_ms'] / row['single_ms']:.2f}x)"
+        if "single_decode_ms" in row:
+            decode = row["batched_decode_ms"] / row["single_decode_ms"]
+            text += f", decoding {row['batched_decode_ms']:.3f} vs {row['single_decode_ms']:.3f} ms ({decode:.2f}x)"
+        return text
+
     record(
         f"favae_models{suffix}",
-        what="a FAVAE step's forward, loss and backward of K replicates, the batched model derived from the single one "
-        f"(torch.func vmap over functional_call) against the hand-written ensemble{where}, K = "
-        + " / ".join(str(r["replicates"]) for r in rows),
+        what=f"a FAVAE step's forward, loss and backward of K replicates{where}, the one batched model against the "
+        f"hand-written ensemble it replaced ({args.against}), at K = 1 also against that revision's single module "
+        f"(and its decoding of {DECODED} latents), K = " + " / ".join(str(r["replicates"]) for r in rows),
         command=command_line(__file__, parser, args, shown=("macros",)),
-        measured=" / ".join(
-            f"{r['derived_ms']:.2f} vs {r['ensemble_ms']:.2f} ms ({r['derived_ms'] / r['ensemble_ms']:.2f}x)"
-            for r in rows
-        ),
-        target="derived no slower, to keep one definition",
+        measured=" / ".join(map(measured, rows)),
+        target="the one definition at most 1.2x slower than what it replaced",
     )
 
 

@@ -59,7 +59,7 @@ for agent in ("famarl", "ppo", "figar"):
     start = time.process_time()
     run.trainer.train()
     out[f"{agent}_cpu_s"] = time.process_time() - start
-    log = json.dumps(run.trainer.log, sort_keys=True).encode()
+    log = json.dumps(run.own.log, sort_keys=True).encode()
     out[f"{agent}_hash"] = hashlib.sha256(log).hexdigest()[:16]
 print(json.dumps(out))
 """

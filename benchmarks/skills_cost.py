@@ -4,7 +4,7 @@ the env steps per second of FaMARL's rollouts with the open-loop and the closed-
     python benchmarks/skills_cost.py [--replicate data/maze/macros/seed0]
         [--prior data/skills/maze/prior/seed0/prior.pt] [--out benchmarks/results/skills_cost.json]
 
-1. Minibatch step: ``clipped_objective_gradient`` + gradient clip + Adam on a 2048/8-row minibatch of a FaMARL
+1. Minibatch step: ``ppo_loss`` and its gradient + gradient clip + Adam on a 2048/8-row minibatch of a FaMARL
    policy (12 observations, the FAVAE's latent), without and with the prior (its KL term, the per-row std):
    median over ``--repeats`` of the mean of ``--steps`` steps.
 2. Rollouts: ``PPOTrainer.collect_rollout`` on the Maze, 16 environments, 16 decisions each, open-loop (the FAVAE)
@@ -24,12 +24,12 @@ import numpy as np
 import torch
 from common import RESULTS, command_line, record, rounded, write_result
 
+from famarl_cli.core.replicate_adam import ReplicateAdam
 from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.method.prior.checkpoint import load_skills
 from famarl_cli.rl import Agent, MacroDecoder
-from famarl_cli.rl.optimizer import FlatAdam, clip_norms
 from famarl_cli.rl.policy import ActorCritic
-from famarl_cli.rl.ppo import Minibatch, PPOConfig, PPOTrainer, clipped_objective_gradient
+from famarl_cli.rl.ppo import Minibatch, PPOConfig, PPOTrainer, clip_rows, ppo_loss
 from famarl_cli.rl.training import RunSpec, build_guide, build_mode
 from famarl_cli.rl.vector import make_batch
 
@@ -39,7 +39,7 @@ MAZE = "famarl/ContinuousWorld-Maze-v0"
 def minibatch_step(latent: int, guided: bool, steps: int) -> float:
     torch.manual_seed(0)
     policy = ActorCritic(12, latent)
-    optimizer = FlatAdam(policy.flat, lr=3e-4, eps=1e-5)
+    optimizer = ReplicateAdam(policy.flat, lr=3e-4, eps=1e-5)
     rows = 256
     obs, u = torch.randn(rows, 12), torch.randn(rows, latent)
     base = (torch.randn(rows, latent), 0.3 * torch.randn(rows, latent)) if guided else (None, None)
@@ -47,14 +47,17 @@ def minibatch_step(latent: int, guided: bool, steps: int) -> float:
                       torch.randn(rows), torch.randn(rows), *base)  # fmt: skip
     mask = torch.ones(latent)
     cfg = PPOConfig()
-    with torch.inference_mode():
-        for _ in range(20):
-            clipped_objective_gradient(policy, batch, cfg, 0.0, 0.1 if guided else 0.0, mask if guided else None)
-        start = time.perf_counter()
-        for _ in range(steps):
-            clipped_objective_gradient(policy, batch, cfg, 0.0, 0.1 if guided else 0.0, mask if guided else None)
-            clip_norms(policy.gradient_pieces, policy.rows, cfg.max_grad_norm)
-            optimizer.step(policy.gradient)
+
+    def step() -> None:
+        loss, _ = ppo_loss(policy, batch, cfg, 0.0, 0.1 if guided else 0.0, mask if guided else None)
+        loss.backward()
+        optimizer.step(clip_rows(policy.gradient(), cfg.max_grad_norm))
+
+    for _ in range(20):
+        step()
+    start = time.perf_counter()
+    for _ in range(steps):
+        step()
     return (time.perf_counter() - start) / steps
 
 
@@ -67,10 +70,10 @@ def rollout_rate(favae_path: Path, prior_path: Path, decoder: MacroDecoder, guid
     mode = build_mode(spec, env, favae, skills)
     trainer = PPOTrainer(env, mode, config, 0, build_guide(spec, mode, skills))
     trainer.collect_rollout()
-    before, start = trainer.env_steps, time.perf_counter()
+    before, start = trainer.members[0].env_steps, time.perf_counter()
     for _ in range(rollouts):
         trainer.collect_rollout()
-    return (trainer.env_steps - before) / (time.perf_counter() - start)
+    return (trainer.members[0].env_steps - before) / (time.perf_counter() - start)
 
 
 def records(step: dict[str, float], rates: dict[str, float], command: str) -> dict[str, dict]:

@@ -23,8 +23,9 @@ from famarl_cli.envs import ENV_IDS
 from famarl_cli.method.favae.checkpoint import save_favae
 from famarl_cli.method.favae.model import Favae, FavaeConfig
 from famarl_cli.rl import Agent, MacroDecoder, MacroDiscount
+from famarl_cli.rl.agent import load_agent
 from famarl_cli.rl.ppo import PPOConfig
-from famarl_cli.rl.training import Run, RunSpec, load_agent
+from famarl_cli.rl.training import Run, RunSpec
 
 MAZE = ENV_IDS["maze"]
 TINY = {"total_steps": 64, "n_envs": 2, "n_steps": 16, "minibatches": 2, "epochs": 1}

@@ -87,9 +87,10 @@ def project(tmp_path: Path, monkeypatch) -> Path:
     (tmp_path / "docs" / "verdicts.md").write_text("# Verdicts\n")
     for page in ("robothand", "external", "hybrid", "commands"):
         (tmp_path / "docs" / f"{page}.md").write_text(f"# {page}\n")
-    (tmp_path / "docs" / "aggregate.md").write_text(
-        f"{docs.BEGIN.format(name='aggregate')}\n{docs.END.format(name='aggregate')}\n"
-    )
+    (tmp_path / "docs" / "aggregate.md").write_text("# aggregate\n")
+    entry = {"what": "a step", "command": "python benchmarks/step.py", "measured": "1 ms", "target": ""}
+    entry |= {"date": "2026-12-04", "revision": "abc1234", "machine": "CPU, AVX2, 2 cores"}
+    (tmp_path / docs.MEASURED).write_text(json.dumps({"step": entry}))
     return tmp_path
 
 
@@ -110,7 +111,7 @@ def test_the_committed_docs_are_what_the_committed_metrics_give():
 
 
 def test_tables_carry_each_claim_with_its_interval_n_rule_and_where_it_was_made(project):
-    assert docs.write_docs(project) == ["README.md", "docs/pipelines.md", "docs/performance.md", "docs/aggregate.md"]
+    assert docs.write_docs(project) == ["README.md", "docs/pipelines.md", "docs/performance.md"]
     readme = (project / "README.md").read_text()
     row = "| `dvc.yaml` | maze | 1 | 1 | 0 | 0 | 0.05 | 2026-12-04, `abc1234`, CPU, AVX2, 2 cores | current |"
     assert row in readme
@@ -156,6 +157,7 @@ def test_changed_code_or_params_mark_the_pipeline_stale_and_missing_data_does_no
 
 
 def test_the_performance_table_is_each_benchmark_s_recorded_result_with_where_it_ran(project):
+    (project / docs.MEASURED).unlink()
     assert "No benchmark has recorded a result yet" in docs.tables(project)["performance"]
     (project / "benchmarks").mkdir(exist_ok=True)
     entry = {
@@ -199,6 +201,9 @@ def test_the_aggregate_pools_the_paper_agents_runs_over_the_tasks_all_three_ran(
     }  # fmt: skip
     (project / "summary.json").write_text(json.dumps(summary))
     table = docs.tables(project)["aggregate"]
+    (project / "docs" / "aggregate.md").write_text(
+        f"{docs.BEGIN.format(name='aggregate')}\n{docs.END.format(name='aggregate')}\n"
+    )
     assert "`famarl/ContinuousWorld-Maze-v0`" in table and "| famarl over ppo | 1.00 [1.00, 1.00] |" in table
     assert "| figar |" in table and "10 of 10 |" in table  # every FiGAR run at 0.2: failed
     docs.write_docs(project)
@@ -209,11 +214,62 @@ def test_the_aggregate_pools_the_paper_agents_runs_over_the_tasks_all_three_ran(
     assert "No committed summary" in docs.tables(project)["aggregate"]
 
 
-def test_a_pipeline_without_committed_metrics_says_how_to_make_them(project):
+def test_a_pipeline_without_committed_metrics_says_how_to_make_them_and_its_headline_block_fails(project):
     (project / "summary.json").unlink()
     tables = docs.tables(project)
     assert "**not run** with this layout: `dvc repro dvc.yaml`" in tables["verdicts"]
     assert "No committed metrics of the default pipeline yet" in tables["headline"]
+    (project / "README.md").write_text("# x\n")  # its claims block would fail first, for the same reason
+    before = {name: (project / name).read_text() for name in docs.FILES}
+    # a block with no record to fill it is an error, never a placeholder where results belong
+    one_line_error(
+        famarl("docs", "--root", project, "--check"),
+        1,
+        "docs/pipelines.md: the headline table has no record to fill it: No committed metrics of the default",
+    )
+    one_line_error(famarl("docs", "--root", project), 1, "the headline table has no record to fill it")
+    assert {name: (project / name).read_text() for name in docs.FILES} == before
+
+
+def test_a_pipeline_without_agents_shows_its_judged_claims(project):
+    """A summary with claims and no agents' headline (the traversal pipeline judges FAVAE fits) fills its block
+    with the claims; one with neither fails."""
+    summary = _summary()
+    del summary["maze"]["headline"]
+    (project / "summary.json").write_text(json.dumps(summary))
+    docs.write_docs(project)
+    shown = (project / "docs/pipelines.md").read_text()
+    assert "| FaMARL completes the Maze | famarl: n=3: 0.90 [0.85, 0.95] | reproduces |" in shown
+    assert "| agent |" not in shown and "No committed metrics" not in shown
+    del summary["maze"]["judged"]
+    (project / "summary.json").write_text(json.dumps(summary))
+    (project / "README.md").write_text("# x\n")
+    with pytest.raises(ArtifactError, match="headline table .* holds none of headline, judged, controls, oracle"):
+        docs.write_docs(project, check=True)
+
+
+@pytest.mark.parametrize("block", ["performance", "aggregate", "claims"])
+def test_a_block_whose_record_is_empty_fails_the_check(project, block):
+    (project / docs.MEASURED).write_text("{}")
+    summary = _summary()
+    del summary["maze"]["judged"]
+    (project / "summary.json").write_text(json.dumps(summary))
+    page = project / "docs" / "aggregate.md"
+    page.write_text(f"{docs.BEGIN.format(name=block)}\n{docs.END.format(name=block)}\n")
+    (project / "README.md").write_text("# x\n")
+    (project / "docs" / "pipelines.md").write_text("# pipelines\n")
+    (project / "docs" / "performance.md").write_text("# performance\n")
+    with pytest.raises(ArtifactError, match=f"docs/aggregate.md: the {block} table has no record to fill it"):
+        docs.write_docs(project, check=True)
+
+
+def test_every_generated_block_of_the_committed_pages_has_a_record():
+    """No committed page holds a block its record cannot fill (docs/favae.md's traversal claims among them)."""
+    made = docs.tables(ROOT)
+    used = {name for page in docs.FILES for name, _ in docs.MARKER.findall((ROOT / page).read_text())}
+    empty = sorted(name for name in used if isinstance(made.get(name), docs.Unfilled))
+    assert not empty, f"blocks with no record: {empty}"
+    assert "| traversing one latent variable changes the direction of the trajectory |" in made["headline-traversal"]
 
 
 def test_an_unknown_table_name_is_an_error_and_nothing_is_written(project):

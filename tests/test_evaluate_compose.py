@@ -72,8 +72,8 @@ def test_a_bare_evaluate_of_a_stages_runs_writes_beside_them(project, monkeypatc
 
 
 def test_the_judged_success_leads_eval_json_the_table_and_inspect(run, monkeypatch):
+    from famarl_cli.rl.agent import load_agent
     from famarl_cli.rl.evaluation import evaluate
-    from famarl_cli.rl.training import load_agent
 
     monkeypatch.setenv("COLUMNS", "200")
 
@@ -152,9 +152,8 @@ def test_every_setting_a_train_option_sets_is_named_by_it():
     """A refusal names a changed setting by the option that sets it: every option of famarl train that changes the
     run names one setting at least."""
     from famarl_cli.artifacts.made import option_names
-    from famarl_cli.cli.train import setting_options
     from famarl_cli.core.declare import declared
-    from famarl_cli.stages.train import TrainOptions
+    from famarl_cli.stages.train import TrainOptions, setting_options
 
     named = set(setting_options().values())
     flags = option_names(TrainOptions)

@@ -136,7 +136,7 @@ def test_a_checkpoint_of_the_layout_before_the_ladder_decoder_loads_and_decodes_
 
     torch.manual_seed(0)
     shared = Favae(FavaeConfig(action_dim=2, length=16, decoder="shared"))
-    config = {k: v for k, v in shared.checkpoint_config().items() if k != "decoder"}
+    config = {k: v for k, v in shared.config.to_dict().items() if k != "decoder"}
     path = tmp_path / "old.pt"
     save_checkpoint(path, SCHEMA, 1, config, shared.state_dict(), {}, {"training": {"kl_per_dim": [0.0] * 6}})
     loaded, _ = load_favae(path)
@@ -170,12 +170,14 @@ def test_the_ladder_decoder_joins_each_latent_at_its_own_depth():
     transposed convolutions only: cutting the k-th (from the deepest) cuts off exactly the ladders deeper than 3 - k.
     """
     z = torch.randn(3, 6)
-    assert [j.out_features for j in Favae(FavaeConfig(action_dim=2, length=32)).joins] == [32 * 16, 64 * 8]
+    state = Favae(FavaeConfig(action_dim=2, length=32)).state_dict()
+    assert [state[f"joins.{depth}.weight"].shape[0] for depth in range(2)] == [32 * 16, 64 * 8]
     for cut in range(3):
         torch.manual_seed(0)
         model = Favae(FavaeConfig(action_dim=2, length=32))
-        with torch.no_grad():
-            model.deconvs[cut].weight.zero_()
+        state = model.state_dict()
+        state[f"deconvs.{cut}.weight"].zero_()
+        model.load_state_dict(state)
         reaches = []
         for ladder in range(3):
             moved = z.clone()
@@ -212,8 +214,9 @@ def test_traversal_variables_and_a_variable_that_does_nothing():
         with pytest.raises(UsageError, match=message):
             variables_of(model, ladder, index)
 
-    with torch.no_grad():
-        model.top[0].weight[:, 0] = 0.0  # the deepest ladder's first latent no longer reaches the decoder
+    state = model.state_dict()
+    state["top.0.weight"][:, 0] = 0.0  # the deepest ladder's first latent no longer reaches the decoder
+    model.load_state_dict(state)
     result = traverse(model, [(3, 1), (3, 2)], [-3.0, 0.0, 3.0])
     assert result.paths.shape == (2, 3, 17, 2) and result.lengths.shape == (2, 3)
     assert result.effects[0] == 0.0 and result.effects[1] > 0.0
@@ -320,10 +323,10 @@ def test_fit_scores_tell_information_from_a_shift():
     """A ladder whose posterior is the same for every segment has KL and no information, and is not active."""
     padded, lengths, factors = toy_segments()
     model = Favae(CONFIG)
-    with torch.no_grad():
-        last = model.heads[2][-1]
-        last.weight.zero_()
-        last.bias.copy_(torch.tensor([3.0, 3.0, 0.0, 0.0]))  # mean 3, log-variance 0
+    state = model.state_dict()
+    state["heads.2.2.weight"].zero_()
+    state["heads.2.2.bias"].copy_(torch.tensor([3.0, 3.0, 0.0, 0.0]))  # mean 3, log-variance 0
+    model.load_state_dict(state)
     scores = evaluate_fit(model, padded, lengths, factors)
     assert scores["kl_per_ladder"][2] == pytest.approx(9.0, abs=1e-4)
     assert scores["information_per_ladder"][2] == pytest.approx(0.0, abs=1e-5)

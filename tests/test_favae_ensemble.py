@@ -1,4 +1,4 @@
-"""Replicates fitted as one batched model are the replicates each would be alone."""
+"""Replicates batched as one model are the replicates each would be alone."""
 
 import json
 
@@ -10,7 +10,6 @@ from cli_helpers import famarl, one_line_error
 from famarl_cli.core.macro_actions import pad
 from famarl_cli.core.replay import Replayed
 from famarl_cli.core.replicate_adam import ReplicateAdam
-from famarl_cli.method.favae.ensemble import FavaeEnsemble
 from famarl_cli.method.favae.lockstep import Lockstep, plan_epoch
 from famarl_cli.method.favae.loss import favae_loss, replicate_loss
 from famarl_cli.method.favae.model import Favae, FavaeConfig
@@ -26,12 +25,26 @@ def replicate_segments(n: int, length: int, seed: int) -> np.ndarray:
     return pad(macros, length)
 
 
-def models_of(decoder: str, head: str, join: str = "linear") -> list[Favae]:
-    models = []
-    for seed, length in enumerate(LENGTHS):
+def configs_of(decoder: str, head: str, join: str = "linear") -> list[FavaeConfig]:
+    return [FavaeConfig(action_dim=2, length=length, decoder=decoder, head=head, join=join) for length in LENGTHS]
+
+
+def models_of(decoder: str, head: str, join: str = "linear") -> tuple[Favae, list[Favae]]:
+    """The replicates batched, and each alone (the same seeds)."""
+    configs = configs_of(decoder, head, join)
+    alone = []
+    for seed, config in enumerate(configs):
         torch.manual_seed(seed)
-        models.append(Favae(FavaeConfig(action_dim=2, length=length, decoder=decoder, head=head, join=join)))
-    return models
+        alone.append(Favae(config))
+    return Favae(configs, seeds=list(range(len(configs)))), alone
+
+
+def as_weights(model: Favae, gradients: tuple[torch.Tensor, ...], replicate: int) -> dict[str, torch.Tensor]:
+    """Gradients of ``model``'s parameters in the layout of its state dict (replicate ``replicate``'s own)."""
+    rows = Favae(model.configs)
+    with torch.no_grad():
+        rows.flat.copy_(torch.cat([g.flatten(1) for g in gradients], dim=1))
+    return rows.state_dict(replicate)
 
 
 def batched_inputs(rows: int) -> tuple[list[torch.Tensor], torch.Tensor]:
@@ -46,19 +59,18 @@ def batched_inputs(rows: int) -> tuple[list[torch.Tensor], torch.Tensor]:
 
 @pytest.mark.parametrize(("decoder", "join"), [("ladder", "linear"), ("ladder", "mlp"), ("shared", "linear")])
 @pytest.mark.parametrize("head", ["flatten", "pool"])
-def test_the_ensemble_computes_each_replicates_own_favae_forward_and_backward(decoder, join, head):
-    models = models_of(decoder, head, join)
-    ensemble = FavaeEnsemble(models)
-    for model, back in zip(models, ensemble.models(), strict=True):
+def test_a_batch_of_replicates_computes_each_replicates_own_forward_and_backward(decoder, join, head):
+    together, models = models_of(decoder, head, join)
+    for model, back in zip(models, together.models(), strict=True):
         for (name, a), b in zip(model.state_dict().items(), back.state_dict().values(), strict=True):
             assert torch.equal(a, b), name
     singles, batched = batched_inputs(5)
     weights = torch.tensor([[0.5, 1.0, 1.0]] * len(LENGTHS))
-    reconstruction, mus, logvars, _ = ensemble.forward(batched, None, weights)
+    reconstruction, mus, logvars, _ = together.batched(batched, None, weights)
     loss = reconstruction.pow(2).sum() + sum(
         m.pow(2).sum() + lv.exp().sum() for m, lv in zip(mus, logvars, strict=True)
     )
-    gradients = torch.autograd.grad(loss, ensemble.parameters)
+    gradients = torch.autograd.grad(loss, together.parameters())
     for k, (model, x) in enumerate(zip(models, singles, strict=True)):
         output = model(x, sample=False, weights=[0.5, 1.0, 1.0])
         length = x.shape[2]
@@ -66,31 +78,25 @@ def test_the_ensemble_computes_each_replicates_own_favae_forward_and_backward(de
         assert not reconstruction[k, :, length:].any(), "a shorter replicate's output is zero past its own L"
         torch.testing.assert_close(torch.cat(mus, 2)[k], torch.cat(output.mus, 1))
         torch.testing.assert_close(torch.cat(logvars, 2)[k], torch.cat(output.logvars, 1))
-        model.zero_grad()
         own = output.reconstruction.pow(2).sum() + sum(
             m.pow(2).sum() + lv.exp().sum() for m, lv in zip(output.mus, output.logvars, strict=True)
         )
-        own.backward()
-        named = dict(model.named_parameters())
-        for slot, gradient in zip(ensemble.slots, gradients, strict=True):
-            steps = ensemble.own_steps[slot.steps][k] if slot.steps is not None else 0
-            expected = named[slot.name].grad
-            torch.testing.assert_close(slot.to_single(gradient[k], steps), expected, rtol=1e-4, atol=1e-5)
+        expected = as_weights(model, torch.autograd.grad(own, model.parameters()), 0)
+        found = as_weights(together, gradients, k)
+        for (name, gradient), padded in zip(found.items(), gradients, strict=True):
+            torch.testing.assert_close(gradient, expected[name], rtol=1e-4, atol=1e-5)
             # the padding of a shorter replicate's weights gets no gradient, so it stays zero
-            assert gradient[k].abs().sum().item() == pytest.approx(
-                slot.to_batched(expected, steps).abs().sum().item(), rel=1e-4
-            ), slot.name
+            assert padded[k].abs().sum().item() == pytest.approx(gradient.abs().sum().item(), rel=1e-4), name
 
 
 def test_the_batched_loss_is_each_replicates_loss_with_padded_rows_and_steps_left_out():
-    models = models_of("ladder", "flatten")
-    ensemble = FavaeEnsemble(models)
+    together, models = models_of("ladder", "flatten")
     singles, batched = batched_inputs(6)
     batched[..., -2:] = (batched[..., -2:] > 0).float()  # on/off as 0/1 targets
     rows = torch.ones(len(LENGTHS), 6)
     rows[1, 4:] = 0.0  # replicate 1 has 4 real rows in this batch
     batched[1, 4:] = 0.0
-    reconstruction, mus, logvars, samples = ensemble.forward(batched, None)
+    reconstruction, mus, logvars, samples = together.batched(batched, None)
     capacities = torch.tensor([[0.5, 0.0, 2.0]] * len(LENGTHS))
     terms = replicate_loss(
         reconstruction,
@@ -103,7 +109,7 @@ def test_the_batched_loss_is_each_replicates_loss_with_padded_rows_and_steps_lef
         rows.sum(dim=1),
         "information",
         rows,
-        ensemble.step_mask,
+        together.step_mask,
     )
     for k, model in enumerate(models):
         n, length = int(rows[k].sum()), LENGTHS[k]
@@ -117,15 +123,15 @@ def test_the_batched_loss_is_each_replicates_loss_with_padded_rows_and_steps_lef
 
 @pytest.mark.parametrize("decoder", ["ladder", "shared"])
 @pytest.mark.parametrize("head", ["flatten", "pool"])
-def test_the_batched_step_keeps_every_tensor_on_the_ensembles_device(decoder, head):
+def test_the_batched_step_keeps_every_tensor_on_the_models_device(decoder, head):
     # The meta device stands in for a GPU on a machine without one: a tensor the step made on the CPU and mixed
-    # with the ensemble's would fail here as it would on CUDA (only the rounding of a real GPU goes unchecked).
-    ensemble = FavaeEnsemble(models_of(decoder, head), "meta")
+    # with the model's would fail here as it would on CUDA (only the rounding of a real GPU goes unchecked).
+    together = Favae(configs_of(decoder, head), "meta")
     _, batched = batched_inputs(6)
     rows = torch.ones(len(LENGTHS), 6, device="meta")
-    noise = torch.zeros(len(LENGTHS), 6, ensemble.config.latent_size, device="meta")
+    noise = torch.zeros(len(LENGTHS), 6, together.config.latent_size, device="meta")
     weights = torch.ones(len(LENGTHS), 3, device="meta")
-    reconstruction, mus, logvars, samples = ensemble.forward(batched.to("meta"), noise, weights)
+    reconstruction, mus, logvars, samples = together.batched(batched.to("meta"), noise, weights)
     terms = replicate_loss(
         reconstruction,
         batched.to("meta"),
@@ -137,9 +143,9 @@ def test_the_batched_step_keeps_every_tensor_on_the_ensembles_device(decoder, he
         rows.sum(dim=1),
         "information",
         rows,
-        ensemble.step_mask,
+        together.step_mask,
     )
-    gradients = torch.autograd.grad(terms.total.sum(), ensemble.parameters)
+    gradients = torch.autograd.grad(terms.total.sum(), together.parameters())
     assert all(g.device.type == "meta" for g in gradients)
     assert reconstruction.shape == batched.shape
 
@@ -190,7 +196,7 @@ def test_a_lockstep_epoch_reads_nothing_back_and_makes_nothing_on_the_host(monke
         weights, capacities, "meta",
     )  # fmt: skip
     fit.run(2)
-    assert fit.sums.device.type == "meta" and fit.ensemble.flat.device.type == "meta"
+    assert fit.sums.device.type == "meta" and fit.model.flat.device.type == "meta"
     with pytest.raises(Exception, match="meta"):
         fit.epoch.item()  # the check above is a check: a host read fails here
 
@@ -241,20 +247,25 @@ def fit(segments: list[np.ndarray], seeds: list[int], epochs: int = 6):
 
 def test_a_batched_fit_gives_each_replicate_the_model_it_fits_alone():
     """Three replicates of different L and numbers of segments (20, 12 and 25: 3, 2 and 4 batches of 8 an epoch, so
-    the ensemble pads rows and the shorter replicates skip steps), fitted together and each alone.
+    the batch pads rows and the shorter replicates skip steps), fitted together and each alone.
 
     The tolerance: the batched and the lone fit run the same arithmetic in another grouping (a batched matmul over
     replicates, padded rows adding zeros to a sum), so they differ by float reassociation, ~1e-7 relative per step;
     over 6 epochs of Adam that stays below 1e-4 (measured: 8e-7 after one epoch, 1.3e-5 after six, Adam amplifying
     it where gradients are small), while any difference in what a replicate sees (another replicate's rows, a
-    shuffle, a noise draw) moves weights by ~1e-3 after one step."""
+    shuffle, a noise draw) moves weights by ~1e-3 after one step. But a weight whose gradient is a sum that cancels
+    to the size of Adam's eps (1e-8) steps by lr * g / (|g| + eps), a size that rides on the sum's rounding: one of
+    replicate 0's 6144 weights of its second convolution starts so (its first gradient 7.5e-9 batched, 1.05e-8
+    alone) and ends six epochs 2e-3 apart, moving a few of its neighbours past 1e-4 with it. So each tensor is
+    compared as a whole: its distance from the lone fit's, relative to its norm, below 1e-3 (measured: 1.5e-4
+    for that convolution, below 1e-6 for the others; two of replicate 0's segments swapped in its data: 0.1)."""
     segments = [replicate_segments(20, 16, 0), replicate_segments(12, 24, 1), replicate_segments(25, 16, 2)]
     seeds = [4, 5, 6]
     together = fit(segments, seeds)
     for k, (model, log) in enumerate(together):
         [(alone, alone_log)] = fit([segments[k]], [seeds[k]])
         for (name, a), b in zip(model.state_dict().items(), alone.state_dict().values(), strict=True):
-            torch.testing.assert_close(a, b, rtol=1e-4, atol=1e-4, msg=name)
+            assert (a - b).norm() < 1e-3 * b.norm(), name
         assert [row["loss"] for row in log] == pytest.approx([row["loss"] for row in alone_log], rel=1e-4)
         z = np.random.default_rng(k).normal(size=(16, model.config.latent_size))
         np.testing.assert_array_equal(model.decode_macro_actions(z)[1], alone.decode_macro_actions(z)[1])
@@ -279,7 +290,7 @@ def test_a_batched_fit_is_deterministic_and_refuses_replicates_of_different_trai
             ]
         )
     with pytest.raises(ValueError, match="same FAVAE config but for L"):
-        FavaeEnsemble([Favae(config), Favae(FavaeConfig(action_dim=2, length=16, latent_dims=(3, 3, 3)))])
+        Favae([config, FavaeConfig(action_dim=2, length=16, latent_dims=(3, 3, 3))])
 
 
 def test_batches_split_each_setting_over_the_workers_and_leave_other_jobs_alone():

@@ -10,7 +10,7 @@ from famarl_cli.envs import ENV_IDS
 from famarl_cli.method.favae.model import Favae, FavaeConfig
 from famarl_cli.rl.action_modes import HybridActions, LatentMacroActions, PrimitiveActions
 from famarl_cli.rl.policy import ActorCritic
-from famarl_cli.rl.ppo import Minibatch, PPOConfig, PPOTrainer, clipped_objective_gradient
+from famarl_cli.rl.ppo import Minibatch, PPOConfig, PPOTrainer, ppo_loss
 from famarl_cli.rl.semi_mdp import path_value
 from famarl_cli.rl.vector import make_batch
 
@@ -34,7 +34,8 @@ def test_joint_log_probability_is_the_type_plus_the_chosen_branch_only(branches)
     policy = hybrid_policy(branches=branches)
     obs = np.random.default_rng(0).normal(size=(500, 4)).astype(np.float32)
     action = policy.act(obs, np.random.default_rng(1), np.random.default_rng(2))
-    heads = policy(torch.from_numpy(obs))
+    with torch.no_grad():
+        heads = policy(torch.from_numpy(obs))
     std = policy.log_std.exp()
     for i in range(0, 500, 50):
         k = int(action.index[i])
@@ -56,7 +57,8 @@ def test_joint_log_probability_is_the_type_plus_the_chosen_branch_only(branches)
 def _batch(policy, size=64, seed=0, index=None):
     generator = torch.Generator().manual_seed(seed)
     obs = torch.randn(size, 4, generator=generator)
-    heads = policy(obs)
+    with torch.no_grad():
+        heads = policy(obs)
     action = policy.act(obs.numpy(), np.random.default_rng(seed), np.random.default_rng(seed + 1))
     u, chosen, logp = (torch.from_numpy(x) for x in (action.u, action.index, action.logp))
     if index is not None:
@@ -74,26 +76,29 @@ def _batch(policy, size=64, seed=0, index=None):
 
 @pytest.mark.parametrize("floor", [0.0, 0.68])
 @pytest.mark.parametrize("branches", [BRANCHES, RESIDUAL], ids=["hybrid", "residual"])
-def test_written_out_hybrid_gradient_equals_autograd(floor, branches):
+def test_hybrid_loss_and_its_gradient_equal_the_reference(floor, branches):
     policy = hybrid_policy(branches=branches)
     # the second half of the rows has a confident type head, so a floor of 0.68 nats binds there and not elsewhere
     policy.params["w_choice"][:, 0].add_(torch.linspace(-1.5, 1.5, 16))
     cfg = PPOConfig(ent_coef=0.01, type_entropy_coef=0.7)
     batch = _batch(policy)
-    stats = clipped_objective_gradient(policy, batch, cfg, floor)
+    loss, stats = ppo_loss(policy, batch, cfg, floor)
+    loss.backward()
+    found = policy.named(policy.gradient()[0])
     expected, losses = autograd_ppo_loss(policy, batch, cfg, floor, branches)
     for name, gradient in expected.items():
-        torch.testing.assert_close(policy.grads[name], gradient, rtol=1e-4, atol=1e-6, msg=name)
+        torch.testing.assert_close(found[name], gradient, rtol=1e-4, atol=1e-6, msg=name)
     torch.testing.assert_close(stats[:3], torch.stack(losses).detach(), rtol=1e-5, atol=1e-6)
 
 
 @pytest.mark.parametrize("chosen", [0, 1])
 def test_the_inactive_head_gets_exactly_zero_gradient(chosen):
     policy = hybrid_policy()
-    stats = clipped_objective_gradient(policy, _batch(policy, index=chosen), PPOConfig(ent_coef=0.0))
+    loss, stats = ppo_loss(policy, _batch(policy, index=chosen), PPOConfig(ent_coef=0.0))
+    loss.backward()
     assert torch.isfinite(stats).all()
     inactive, active = ~BRANCHES[chosen], BRANCHES[chosen]
-    g = policy.grads
+    g = policy.named(policy.gradient()[0])
     assert g["w_mean"][:, inactive].abs().max() == 0 and g["b_mean"][inactive].abs().max() == 0
     assert g["log_std"][inactive].abs().max() == 0
     assert g["w_mean"][:, active].abs().max() > 0 and g["log_std"][active].abs().max() > 0
@@ -102,7 +107,7 @@ def test_the_inactive_head_gets_exactly_zero_gradient(chosen):
 @pytest.fixture(scope="module")
 def favae():
     torch.manual_seed(0)
-    return Favae(FavaeConfig(action_dim=2, length=16)).eval()
+    return Favae(FavaeConfig(action_dim=2, length=16))
 
 
 def _trainer(mode, cfg, env_seed=3):
@@ -113,7 +118,7 @@ def _trainer(mode, cfg, env_seed=3):
 def _force(trainer, kind, reference):
     """Copy ``reference``'s weights into the hybrid ``trainer`` and pin its type head on ``kind``."""
     ours, theirs = trainer.policy.params, reference.policy.params
-    columns = torch.from_numpy(trainer.mode.branches[kind])
+    columns = torch.from_numpy(trainer.members[0].mode.branches[kind])
     for name in ("w1", "b1", "w2", "b2", "w_value", "b_value"):
         ours[name].copy_(theirs[name])
     ours["w_mean"][:, columns] = theirs["w_mean"]
@@ -138,14 +143,15 @@ def test_a_hybrid_pinned_on_one_type_reproduces_the_agent_of_that_type(favae, ki
     hybrid = _trainer(lambda env: HybridActions(macros(env)), cfg)
     _force(hybrid, kind, alone)
     for trainer in (alone, hybrid):
-        trainer.shuffles.manual_seed(11)  # the minibatch shuffles
+        trainer.members[0].shuffles.manual_seed(11)  # the minibatch shuffles
         trainer.train()
-    assert [row["env_steps"] for row in hybrid.log] == [row["env_steps"] for row in alone.log]
-    assert [row["episodes"] for row in hybrid.log] == [row["episodes"] for row in alone.log]
-    assert all(row["macro_share"] == (kind == HybridActions.MACRO) for row in hybrid.log)
+    ours, theirs = hybrid.members[0].log, alone.members[0].log
+    assert [row["env_steps"] for row in ours] == [row["env_steps"] for row in theirs]
+    assert [row["episodes"] for row in ours] == [row["episodes"] for row in theirs]
+    assert all(row["macro_share"] == (kind == HybridActions.MACRO) for row in ours)
     for key in ("episode_return", "policy_loss", "value_loss", "approx_kl"):
-        np.testing.assert_allclose([r[key] for r in hybrid.log], [r[key] for r in alone.log], rtol=1e-3, atol=1e-5)
-    columns = torch.from_numpy(hybrid.mode.branches[kind])
+        np.testing.assert_allclose([r[key] for r in ours], [r[key] for r in theirs], rtol=1e-3, atol=1e-5)
+    columns = torch.from_numpy(hybrid.members[0].mode.branches[kind])
     ours, theirs = hybrid.policy.params, alone.policy.params
     torch.testing.assert_close(ours["w1"], theirs["w1"], rtol=1e-3, atol=1e-5)
     torch.testing.assert_close(ours["w_mean"][:, columns], theirs["w_mean"], rtol=1e-3, atol=1e-5)
@@ -220,9 +226,10 @@ def test_a_macro_stops_at_termination_and_the_budget_counts_every_step(favae):
     trainer = _pinned_macro_trainer(favae, env, n_steps=4, total_steps=50, macro_discount="steps")
     trainer.train()
     rollout_steps = [5, 2, 5, 2]  # a 5-step macro, then one cut at the 7th step by termination, then a new episode
-    assert trainer.log[0]["env_steps"] == 2 * sum(rollout_steps)
-    assert trainer.env_steps == env.stepped >= 50 and len(trainer.log) == 2
-    assert trainer.episodes.finished == 2 * 2 * 2 and trainer.episodes.summary()["episode_length"] == 7
+    run = trainer.members[0]
+    assert run.log[0]["env_steps"] == 2 * sum(rollout_steps)
+    assert run.env_steps == env.stepped >= 50 and len(run.log) == 2
+    assert run.episodes.finished == 2 * 2 * 2 and run.episodes.summary()["episode_length"] == 7
 
 
 def test_semi_mdp_discounting_is_length_neutral_and_per_decision_discounting_is_not():
@@ -251,19 +258,19 @@ def test_the_hybrid_trains_on_every_registered_env(env_id):
     cfg = PPOConfig(total_steps=300, n_envs=2, n_steps=8, minibatches=2, epochs=1, macro_discount="steps")
     env = make_batch(env_id, cfg.n_envs, 0)
     torch.manual_seed(0)
-    favae = Favae(FavaeConfig(action_dim=len(env.action_bounds[0]), length=16)).eval()
+    favae = Favae(FavaeConfig(action_dim=len(env.action_bounds[0]), length=16))
     macros = LatentMacroActions(favae, *env.action_bounds, bound=3.0, horizon=10)
     trainer = PPOTrainer(env, HybridActions(macros, residual=0.25), cfg, seed=0)
     trainer.train()
-    assert trainer.env_steps >= 300 and all(0 <= row["macro_share"] <= 1 for row in trainer.log)
-    assert all(np.isfinite(row["policy_loss"]) for row in trainer.log)
+    assert trainer.members[0].env_steps >= 300 and all(0 <= row["macro_share"] <= 1 for row in trainer.members[0].log)
+    assert all(np.isfinite(row["policy_loss"]) for row in trainer.members[0].log)
 
 
 def test_a_films_band_marks_macro_actions_in_colour_and_single_primitive_steps_in_black(tmp_path):
     from PIL import Image, ImageSequence
 
-    from famarl_cli.report.plots import save_film
     from famarl_cli.rl.evaluation import Film
+    from famarl_cli.rl.plots import save_film
 
     # light grey frames, each a shade apart so that the GIF keeps them all; a 3-step macro, then two primitive steps
     frames = [np.full((40, 40, 3), 250 - 8 * i, dtype=np.uint8) for i in range(6)]

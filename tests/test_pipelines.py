@@ -78,6 +78,7 @@ TINY = {
     },
     "pipelines/macro-length/params.yaml": {"seeds": "0-1", "train": TINY_TRAIN, "evaluate": TINY_EVALUATE},
     "pipelines/robothand-sensitivity/params.yaml": {"seeds": "0-1", "train": TINY_TRAIN, "evaluate": TINY_EVALUATE},
+    "pipelines/robothand-calibration/params.yaml": {"seeds": "0-1", "train": TINY_TRAIN, "evaluate": TINY_EVALUATE},
     "pipelines/hybrid/params.yaml": {
         "seeds": "0-1",
         "maze": TINY_TRAIN,
@@ -127,6 +128,7 @@ EXPERIMENTS = (
     "robothand",
     "macro-length",
     "robothand-sensitivity",
+    "robothand-calibration",
     "hybrid",
     "bipedal",
     "pointmaze",

@@ -237,11 +237,13 @@ def test_an_interval_holds_its_estimate_widens_with_its_level_and_narrows_with_m
 
 
 @settings(max_examples=6, deadline=None)
-@given(n=st.sampled_from([3, 5, 10]), mean=st.floats(-5, 5), spread=st.floats(0.01, 10), seed=st.integers(0, 2**16))
-def test_a_mean_interval_covers_the_true_mean_at_its_level(n, mean, spread, seed):
+@given(n=st.sampled_from([3, 5, 10]), mean=st.floats(-5, 5), spread=st.floats(0.01, 10))
+def test_a_mean_interval_covers_the_true_mean_at_its_level(n, mean, spread):
     """1000 simulated sets of n normal seeds: the 95% interval covers the truth in 95% of them (within 4 standard
-    errors of a binomial share, 0.922-0.978: a 90% interval called 95% fails), a 90% interval in 90%."""
-    draws = np.random.default_rng(seed).normal(mean, spread, size=(1000, n))
+    errors of a binomial share, 0.922-0.978: a 90% interval called 95% fails), a 90% interval in 90%. The draws are
+    fixed (a generator seeded n): a drawn seed would, once in some hundred thousand, give a set of draws more than 4
+    standard errors out (seed 2237 covers in 91.9% at n = 10), failing an interval that is right."""
+    draws = np.random.default_rng(n).normal(mean, spread, size=(1000, n))
     for level in (0.95, 0.90):
         covered = [(interval := mean_interval(row, level=level)).low <= mean <= interval.high for row in draws]
         assert abs(np.mean(covered) - level) <= 4 * np.sqrt(level * (1 - level) / len(draws))

@@ -11,12 +11,13 @@ from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.method.favae.model import Favae, FavaeConfig
 from famarl_cli.rl import Agent
 from famarl_cli.rl.action_modes import LatentMacroActions, PrimitiveActions, RepeatedActions
+from famarl_cli.rl.agent import load_agent
 from famarl_cli.rl.evaluation import evaluate
 from famarl_cli.rl.executor import discounted_sum, run_sequences
 from famarl_cli.rl.normalization import RewardScaler, RunningMeanStd
 from famarl_cli.rl.policy import ActorCritic
-from famarl_cli.rl.ppo import STATS, Minibatch, PPOConfig, PPOTrainer, clipped_objective_gradient, compute_gae
-from famarl_cli.rl.training import Run, RunSpec, load_agent, train_together
+from famarl_cli.rl.ppo import STATS, Minibatch, PPOConfig, PPOTrainer, compute_gae, ppo_loss
+from famarl_cli.rl.training import Run, RunSpec, train_together
 from famarl_cli.rl.vector import GymBatch
 
 MAZE = "famarl/ContinuousWorld-Maze-v0"
@@ -194,7 +195,8 @@ def test_numpy_acting_agrees_with_the_torch_network_and_samples_its_distribution
     policy = ActorCritic(obs_size=3, action_size=2, choices=choices)
     policy.params["log_std"].fill_(-0.5)
     obs = np.random.default_rng(0).normal(size=(4000, 3)).astype(np.float32)
-    heads = policy(torch.from_numpy(obs))
+    with torch.no_grad():
+        heads = policy(torch.from_numpy(obs))
     mode, action = policy.act(obs), policy.act(obs, np.random.default_rng(1))
     np.testing.assert_allclose(mode.u, heads.mean.numpy(), rtol=1e-5, atol=1e-6)
     np.testing.assert_allclose(action.value, heads.value.numpy(), rtol=1e-5, atol=1e-6)
@@ -220,13 +222,14 @@ def test_figar_repeats_the_clipped_action_index_plus_one_times():
 
 @pytest.mark.parametrize("choices", [0, 5])
 @pytest.mark.parametrize("clip_value", [True, False])
-def test_written_out_ppo_gradient_equals_autograd(choices, clip_value):
+def test_ppo_loss_and_its_gradient_equal_the_reference(choices, clip_value):
     torch.manual_seed(0)
     policy = ActorCritic(obs_size=4, action_size=2, choices=choices, hidden=16)
     cfg = PPOConfig(clip_value=clip_value, ent_coef=0.01)
     size = 64
     obs = torch.randn(size, 4)
-    heads = policy(obs)
+    with torch.no_grad():
+        heads = policy(obs)
     action = policy.act(obs.numpy(), np.random.default_rng(0))
     u, index, logp = (torch.from_numpy(x) for x in (action.u, action.index, action.logp))
     # Old log-probabilities and values off by enough that both clips are active for some rows and not for others.
@@ -239,17 +242,19 @@ def test_written_out_ppo_gradient_equals_autograd(choices, clip_value):
         torch.randn(size),
         heads.value + torch.randn(size),
     )
-    stats = clipped_objective_gradient(policy, batch, cfg)
+    loss, stats = ppo_loss(policy, batch, cfg)
+    loss.backward()
+    found = policy.named(policy.gradient()[0])
     expected, losses = autograd_ppo_loss(policy, batch, cfg)
     for name, gradient in expected.items():
-        torch.testing.assert_close(policy.grads[name], gradient, rtol=1e-4, atol=1e-6, msg=name)
+        torch.testing.assert_close(found[name], gradient, rtol=1e-4, atol=1e-6, msg=name)
     torch.testing.assert_close(stats[:3], torch.stack(losses).detach(), rtol=1e-5, atol=1e-6)
     clip_fraction = stats[STATS.index("clip_fraction")]
     assert 0.1 < clip_fraction < 0.9
 
 
 def test_latent_mode_clips_latents_and_refuses_another_action_dimension():
-    favae = Favae(FavaeConfig(action_dim=2, length=16)).eval()
+    favae = Favae(FavaeConfig(action_dim=2, length=16))
     mode = LatentMacroActions(favae, np.full(2, -1.0), np.full(2, 1.0), bound=1.0)
     far, edge = mode.to_sequences(np.full((1, 6), 50.0), None), mode.to_sequences(np.ones((1, 6)), None)
     np.testing.assert_array_equal(far[0], edge[0])
@@ -302,9 +307,9 @@ def test_resume_after_a_kill_ends_exactly_where_an_uninterrupted_run_ends(agent,
     with pytest.raises(Killed):
         Run.start(spec).train(tmp_path / "resumed", checkpoint_every=1, on_update=kill_after_second)
     resumed = Run.resume(tmp_path / "resumed")
-    assert resumed.trainer.updates == 2
+    assert resumed.own.updates == 2
     resumed.train(tmp_path / "resumed", checkpoint_every=100)
-    assert straight.trainer.updates > 2
+    assert straight.own.updates > 2
     expected, found = straight.trainer.policy.state_dict(), resumed.trainer.policy.state_dict()
     assert found["layout"] == expected["layout"]
     torch.testing.assert_close(found["flat"], expected["flat"], rtol=0, atol=0)
@@ -326,7 +331,7 @@ def test_seeds_trained_together_are_the_runs_each_makes_alone(agent, favae_file,
     together = [Run.start(spec) for spec in specs]
     train_together(together, [tmp_path / f"together{k}" for k in range(3)], checkpoint_every=2)
     for k, (a, b) in enumerate(zip(alone, together, strict=True)):
-        log_a, log_b = a.trainer.log, b.trainer.members[b.member].log
+        log_a, log_b = a.own.log, b.trainer.members[b.member].log
         for key in ("update", "env_steps", "decisions", "episodes"):
             assert [row[key] for row in log_a] == [row[key] for row in log_b], (k, key)
         state_a, state_b = a.trainer.state_dict(), b.trainer.state_dict(b.member)
@@ -337,9 +342,9 @@ def test_seeds_trained_together_are_the_runs_each_makes_alone(agent, favae_file,
         assert state_b["optimizer"]["steps"] == state_a["optimizer"]["steps"]
         # Each run's folder is the run alone's: it resumes, and as a finished run it trains no further.
         resumed = Run.resume(tmp_path / f"together{k}")
-        assert resumed.trainer.env_steps == a.trainer.env_steps and resumed.trainer.done
+        assert resumed.own.env_steps == a.own.env_steps and resumed.trainer.done
     if agent in (Agent.FIGAR, Agent.FAMARL):
-        assert len({len(run.trainer.log) for run in alone}) > 1, "the seeds should finish at different updates"
+        assert len({len(run.own.log) for run in alone}) > 1, "the seeds should finish at different updates"
 
 
 @pytest.mark.slow
@@ -348,7 +353,7 @@ def test_ppo_learns_on_maze_and_evaluation_is_deterministic(tmp_path):
     spec = _spec(Agent.PPO, steps=60_000, n_steps=128, learning_rate=1e-3)
     run = Run.start(spec)
     run.train(tmp_path, checkpoint_every=1000)
-    returns = [row["episode_return"] for row in run.trainer.log if not np.isnan(row["episode_return"])]
+    returns = [row["episode_return"] for row in run.own.log if not np.isnan(row["episode_return"])]
     assert returns[-1] > returns[0] + 100
     agent = load_agent(tmp_path)
     first, second = evaluate(agent, episodes=6, seed=1), evaluate(agent, episodes=6, seed=1)

@@ -131,8 +131,8 @@ def test_pooled_heads_and_capacity_to_the_deepest_ladder():
     pooled = Favae(FavaeConfig(action_dim=2, length=16, head="pool"))
     flat = Favae(FavaeConfig(action_dim=2, length=16))
     # a pooled head reads one value per channel; a flattening one every channel at every step of its depth
-    assert [head[0].in_features for head in pooled.heads] == [32, 64, 64]
-    assert [head[0].in_features for head in flat.heads] == [32 * 8, 64 * 4, 64 * 2]
+    assert [pooled.state_dict()[f"heads.{d}.0.weight"].shape[1] for d in range(3)] == [32, 64, 64]
+    assert [flat.state_dict()[f"heads.{d}.0.weight"].shape[1] for d in range(3)] == [32 * 8, 64 * 4, 64 * 2]
     mus, _ = pooled.encode(torch.zeros(3, 4, 16))
     assert [mu.shape for mu in mus] == [(3, 2)] * 3
     assert allocate_capacity([4.0, 3.0, 0.5], "deepest") == [0.0, 0.0, 7.5]

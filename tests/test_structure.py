@@ -75,6 +75,19 @@ def test_no_import_runs_back_up():
     assert not upward, "\n".join(upward)
 
 
+CLI_ROOMS = {"cli", "stages", "sweep", "artifacts", "core", "__init__"}
+"""What the command line imports (and famarl_cli's version): it parses options and prints, the stages work."""
+
+
+def test_the_command_line_imports_only_stages_sweep_artifacts_and_core():
+    reached = [
+        f"{source}:{line} imports {target}"
+        for source, target, line in imports()
+        if room(source) == "cli" and room(target) not in CLI_ROOMS
+    ]
+    assert not reached, "\n".join(reached)
+
+
 def test_reading_artifacts_and_declarations_does_not_load_torch():
     import subprocess
     import sys
@@ -124,9 +137,8 @@ def test_every_command_option_is_its_declaration():
 def test_beta_is_declared_once_and_reaches_every_command():
     from famarl_cli.cli import app
     from famarl_cli.cli.derived import parse_options
-    from famarl_cli.cli.macros import MacrosOptions
     from famarl_cli.method.favae import FitChoices
-    from famarl_cli.stages.macros import MacrosConfig
+    from famarl_cli.stages.macros import MacrosConfig, MacrosOptions
     from famarl_cli.stages.method import FitOptions
 
     default = FitChoices().beta
@@ -154,11 +166,12 @@ def test_a_sweep_gives_typed_values_to_its_jobs():
 
 
 def test_every_sweepable_runner_resolves_to_its_function():
-    from famarl_cli.cli import SWEEPABLE
+    import famarl_cli.cli  # noqa: F401 - the commands register what a sweep runs of each
     from famarl_cli.stages.demos import DemosOptions
     from famarl_cli.stages.macros import MacrosConfig
     from famarl_cli.stages.prior import PriorFitOptions
     from famarl_cli.stages.train import TrainOptions
+    from famarl_cli.sweep.registry import SWEEPABLE
     from famarl_cli.sweep.worker import name_of, resolve
 
     examples = {
@@ -176,45 +189,57 @@ def test_every_sweepable_runner_resolves_to_its_function():
 
 
 def test_a_sweepable_names_only_options_its_command_has():
-    from famarl_cli.cli import sweepable
     from famarl_cli.stages.train import TrainOptions
+    from famarl_cli.sweep.registry import sweepable
 
     with pytest.raises(TypeError, match="--no-such"):
         sweepable("train", TrainOptions, owned=("--no-such",))
 
 
-def test_flat_adam_matches_torch_adam():
-    from famarl_cli.rl.optimizer import FlatAdam
+def test_each_row_of_replicate_adam_is_torch_adam_with_its_own_rate_and_survives_a_round_trip():
+    from famarl_cli.core.replicate_adam import ReplicateAdam
 
     torch.manual_seed(0)
-    start = torch.randn(50)
-    ours, theirs = start.clone(), torch.nn.Parameter(start.clone())
-    flat, reference = FlatAdam(ours, lr=3e-3, eps=1e-5), torch.optim.Adam([theirs], lr=3e-3, eps=1e-5)
+    start = torch.randn(3, 50)
+    ours = start.clone()
+    adam = ReplicateAdam(ours, lr=3e-3, eps=1e-5)
+    adam.set_lr([3e-3, 1e-2, 3e-4])
+    references = [torch.nn.Parameter(row.clone()) for row in start]
+    theirs = [torch.optim.Adam([p], lr=lr, eps=1e-5) for p, lr in zip(references, adam.lr, strict=True)]
+
+    def gradient(values, step):
+        return torch.sin(torch.arange(50.0) * (step + 1)) * (1 + values.abs())
+
     for step in range(20):
-        gradient = torch.sin(torch.arange(50.0) * (step + 1)) * (1 + ours.abs())
-        flat.step(gradient)
-        reference.zero_grad()
-        theirs.grad = torch.sin(torch.arange(50.0) * (step + 1)) * (1 + theirs.detach().abs())
-        reference.step()
-        torch.testing.assert_close(ours, theirs.detach(), rtol=1e-6, atol=1e-7)
+        if step == 10:  # row 1 continues in a fresh optimiser from its saved state
+            saved = adam.state_dict(1)
+            adam = ReplicateAdam(ours, lr=1.0, eps=1e-5)
+            for row, state in ((0, None), (1, saved), (2, None)):
+                adam.load_state_dict(state or {"lr": theirs[row].param_groups[0]["lr"], "steps": 0}, row)
+            ours[0], ours[2] = references[0].detach(), references[2].detach()
+            theirs[0] = torch.optim.Adam([references[0]], lr=3e-3, eps=1e-5)
+            theirs[2] = torch.optim.Adam([references[2]], lr=3e-4, eps=1e-5)
+        adam.step(torch.stack([gradient(row, step) for row in ours]))
+        for p, optimiser in zip(references, theirs, strict=True):
+            p.grad = gradient(p.detach(), step)
+            optimiser.step()
+        for row, p in zip(ours, references, strict=True):
+            torch.testing.assert_close(row, p.detach(), rtol=1e-6, atol=1e-7)
+    assert adam.state_dict(1)["steps"] == 20 and adam.state_dict(0)["steps"] == 10
 
 
 def test_gradient_clip_matches_torch_for_each_replicate_alone():
-    from famarl_cli.rl.optimizer import Rows, clip_norms
+    from famarl_cli.rl.ppo import clip_rows
 
-    # Two replicates' values interleaved as a network's flat tensor holds them: one far above the limit, one below.
-    parts = [torch.linspace(-1, 2, 30) * 10.0, torch.linspace(-1, 2, 30) * 0.01]
-    rows = Rows(((0, 10), (10, 10), (20, 20), (40, 20)), (0, 1, 0, 1), 2)
-    gradient = torch.zeros(60)
-    for k, part in enumerate(parts):
-        rows.set_row(gradient, k, part)
-    clip_norms(rows.views(gradient), rows, 0.5)
-    for k, part in enumerate(parts):
+    # Two replicates: one far above the limit, one below.
+    rows = torch.stack([torch.linspace(-1, 2, 30) * 10.0, torch.linspace(-1, 2, 30) * 0.01])
+    clipped = clip_rows(rows.clone(), 0.5)
+    for k, row in enumerate(rows):
         parameter = torch.nn.Parameter(torch.zeros(30))
-        parameter.grad = part.clone()
+        parameter.grad = row.clone()
         torch.nn.utils.clip_grad_norm_([parameter], max_norm=0.5)
-        torch.testing.assert_close(rows.row(gradient, k), parameter.grad, rtol=0, atol=1e-7)
-        assert float(rows.row(gradient, k).norm()) <= 0.5 + 1e-6
+        torch.testing.assert_close(clipped[k], parameter.grad, rtol=0, atol=1e-7)
+        assert float(clipped[k].norm()) <= 0.5 + 1e-6
 
 
 def test_a_policy_checkpoint_carries_its_layout_and_refuses_another_network():

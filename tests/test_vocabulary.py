@@ -141,10 +141,10 @@ def test_the_macro_wrapper_takes_loop_and_its_former_name_decoder(favae_file):
 def test_a_run_records_its_loop_as_the_command_line_names_it_and_older_runs_still_read():
     """run.json's spec says ``loop`` (famarl train --loop), as MacroActionWrapper does; a spec recorded as
     ``decoder`` reads back the same."""
-    from famarl_cli.cli.train import setting_options
     from famarl_cli.rl import Agent, MacroDecoder
     from famarl_cli.rl.ppo import PPOConfig
     from famarl_cli.rl.training import RunSpec
+    from famarl_cli.stages.train import setting_options
 
     spec = RunSpec("famarl/ContinuousWorld-Maze-v0", Agent.FAMARL, 0, PPOConfig(), loop=MacroDecoder.CLOSED)
     written = spec.to_dict()

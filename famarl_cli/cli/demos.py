@@ -8,10 +8,10 @@ from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.artifacts import Demos
-from famarl_cli.cli import JobRecipe, already_made, app, progress_bar, sweepable
+from famarl_cli.cli import already_made, app, progress_bar
 from famarl_cli.cli.derived import command
-from famarl_cli.core.declare import to_json
-from famarl_cli.stages.demos import DemosOptions
+from famarl_cli.stages.demos import DemosOptions, demos_job
+from famarl_cli.sweep.registry import sweepable
 
 
 @command(app, DemosOptions, "demos")
@@ -19,11 +19,7 @@ def demos(options: DemosOptions) -> None:
     """Record expert demos (with their true phase boundaries and factors, where the expert knows them) to an HDF5
     file: famarl's scripted experts, your expert in any gymnasium env, or a Minari dataset imported. The default
     100 episodes take about 1.5 s on one core of a 2-core AMD EPYC VM; your env's steps take what they take."""
-    from dataclasses import replace
-
-    from famarl_cli.artifacts import prepare_output, write_demos
-    from famarl_cli.artifacts.made import making
-    from famarl_cli.report.plots import plot_demos
+    from famarl_cli.stages.demos import write_made_demos
 
     o = options
     if already_made("famarl demos", o, o.outputs()):
@@ -41,14 +37,7 @@ def demos(options: DemosOptions) -> None:
 
                 task = progress.add_task(f"demos {o.script.value}", total=o.episodes)
                 recorded = record_demos(o.script, o.episodes, o.seed, on_episode=lambda _: progress.advance(task))
-    recorded = replace(recorded, provenance={**recorded.provenance, "made_from": making("famarl demos", o)})
-    out = prepare_output(o.destination)
-    write_demos(out, recorded)
-    written = [out]
-    if o.plot:
-        written.append(out.with_suffix(".png"))
-        plot_demos(recorded, written[-1])
-
+    written = write_made_demos(o, recorded)
     table = demos_table(recorded, f"demos: {o.name}")
     table.add_row("written", ", ".join(map(str, written)))
     Console().print(table)
@@ -95,7 +84,7 @@ def _record_expert(progress, options: DemosOptions):
 _ONE_SOURCE = "a sweep records famarl's scripts; record other demos with famarl demos, once per seed"
 
 
-@sweepable(
+sweepable(
     "demos",
     DemosOptions,
     owned=("--out", "--overwrite"),
@@ -110,17 +99,11 @@ _ONE_SOURCE = "a sweep records famarl's scripts; record other demos with famarl 
             "--success-return",
         )
     },
-)
-def demos_job(options: DemosOptions) -> JobRecipe:
-    """``famarl sweep demos``: each job records what ``famarl demos`` with the same options would, into
-    ``<job folder>/demos.h5`` (and ``.png``)."""
-    from famarl_cli.stages.demos import run_job
-
-    return JobRecipe(run_job, {key: value for key, value in to_json(options).items() if key != "overwrite"})
+)(demos_job)
 
 
 def demos_table(demos: Demos, title: str) -> Table:
-    from famarl_cli.envs.success import shown
+    from famarl_cli.stages.evaluate import shown
 
     lengths = [e.length for e in demos.episodes]
     table = Table(title=title, show_header=False)

@@ -47,6 +47,8 @@ def _settings(option: Declared) -> dict[str, Any]:
         settings["file_okay"] = False
     if option.base in (Path, list[Path]):  # one placeholder for each kind of path, whatever typer would print
         settings["metavar"] = "<dir>" if option.path == "dir" else "<file>"
+    if option.placeholder is not None:
+        settings["metavar"] = option.placeholder
     return settings
 
 

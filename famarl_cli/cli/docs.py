@@ -25,14 +25,7 @@ def docs(
     code, params or command changed since its dvc.lock is marked stale. Takes a few seconds (it asks DVC which
     stages are stale)."""
     from famarl_cli.cli.names import names_table
-    from famarl_cli.core.errors import ArtifactError
-    from famarl_cli.report.docs import FILES, write_docs
+    from famarl_cli.stages.report import make_docs
 
-    if not (root / "dvc.yaml").is_file():
-        raise ArtifactError(f"{root}: no dvc.yaml here; run famarl docs in the project's root, or pass --root")
-    changed = write_docs(root, check=check, extra={"names": names_table()})
-    if check and changed:
-        raise ArtifactError(
-            f"generated tables differ from the committed metrics in {', '.join(changed)}: run famarl docs"
-        )
-    typer.echo(f"{', '.join(changed) or 'nothing'} {'would change' if check else 'written'} ({', '.join(FILES)})")
+    changed, files = make_docs(root, check, names_table())
+    typer.echo(f"{', '.join(changed) or 'nothing'} {'would change' if check else 'written'} ({', '.join(files)})")

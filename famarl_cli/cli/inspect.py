@@ -71,7 +71,7 @@ def _hdf5(path: Path, plot: bool) -> tuple[Table, dict]:
         loaded = read_demos(path)
         table = demos_table(loaded, str(path))
         if plot:
-            from famarl_cli.report.plots import plot_demos
+            from famarl_cli.artifacts.pictures import plot_demos
 
             plot_demos(loaded, path.with_suffix(".png"))
             table.add_row("written", str(path.with_suffix(".png")))
@@ -104,27 +104,11 @@ def _checkpoint(path: Path) -> tuple[Table, dict]:
         return _run_folder(path.parent)
     table = Table(title=str(path), show_header=False)
     table.add_row("schema", f"{schema} (version {payload.get('schema_version')})")
-    if schema == "famarl.favae":
-        from famarl_cli.method.favae.checkpoint import load_favae
+    if schema in ("famarl.favae", "famarl.prior"):
+        from famarl_cli.stages.inspect import model_rows
 
-        model, payload = load_favae(path)
-        config, training = model.config, payload.get("training", {})
-        table.add_row(
-            "model",
-            f"{config.ladders} ladders of {', '.join(map(str, config.latent_dims))} latents; actions of "
-            f"{config.action_dim} values, L = {config.length}",
-        )
-        for key in ("beta", "c_last", "capacities"):
-            if key in training:
-                value = training[key]
-                table.add_row(key, ", ".join(f"{v:.3f}" for v in value) if isinstance(value, list) else f"{value:g}")
-    elif schema == "famarl.prior":
-        from famarl_cli.method.prior.checkpoint import load_skills
-
-        skills = load_skills(path)
-        for key in ("held_out_prior_nll", "held_out_standard_nll", "held_out_closed_mse", "held_out_open_mse"):
-            value = skills.scores.get(key)
-            table.add_row(key.replace("_", " "), "n/a" if value is None else f"{value:.4f}")
+        for row in model_rows(path, schema):
+            table.add_row(*row)
     elif schema == "famarl.segmenter":
         table.add_row("config", json.dumps(payload.get("config", {})))
     else:
@@ -134,6 +118,7 @@ def _checkpoint(path: Path) -> tuple[Table, dict]:
 
 def _run_folder(folder: Path) -> tuple[Table, dict]:
     from famarl_cli.artifacts.runs import EVAL_FILE, read_evaluation, read_run_file
+    from famarl_cli.stages.evaluate import judged_success
 
     run = read_run_file(folder)
     spec, ppo = run["spec"], run["spec"]["ppo"]
@@ -150,20 +135,10 @@ def _run_folder(folder: Path) -> tuple[Table, dict]:
     return table, run.get("provenance", {})
 
 
-def judged_success(evaluation: dict) -> str:
-    """An evaluation's success as the verdicts judge it (the policy sampling as in training), its mode's beside."""
-    from famarl_cli.envs.success import shown
-
-    mode = evaluation["deterministic"]["success_rate"]
-    return (
-        f"success {shown(evaluation['success_rate'])} sampling as in training (judged), {shown(mode)} acting with "
-        f"its mode, over {evaluation['episodes']} episodes"
-    )
-
-
 def _evaluation(path: Path) -> tuple[Table, dict]:
     """An eval.json: the judged policy's numbers first, its mode's beside, then the run's."""
     from famarl_cli.artifacts.runs import EVAL_METRICS, read_evaluation
+    from famarl_cli.stages.evaluate import judged_success
 
     found = read_evaluation(path)
     mode = found["deterministic"]

@@ -3,32 +3,14 @@
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
-from pathlib import Path
 
 import typer
 from rich.table import Table
 
-from famarl_cli.artifacts.made import Replaceable
-from famarl_cli.cli import JobRecipe, app, print_written, progress_bar, results_console, sweepable, torch_on_one_thread
+from famarl_cli.cli import app, print_written, progress_bar, results_console, torch_on_one_thread
 from famarl_cli.cli.derived import command
-from famarl_cli.core.declare import option, pick, same_as, to_json
-from famarl_cli.stages.macros import FAVAE, MacrosConfig
-
-
-@dataclass(frozen=True)
-class MacrosOptions(MacrosConfig):
-    """``famarl macros``: a replicate's options and the folder it goes into."""
-
-    out: Path | None = option(
-        None, "Folder.  [default: data/macros/<demos or segments name>/seed<S>]", path="dir", affects=False
-    )
-    overwrite: bool = same_as(
-        Replaceable,
-        "overwrite",
-        help="Start afresh where --out holds what other inputs or options made (or files by hand); without it, a "
-        "folder made from the same inputs and options continues, or is left as it is where it is complete.",
-    )
+from famarl_cli.stages.macros import FAVAE, MacrosOptions, macros_job
+from famarl_cli.sweep.registry import sweepable
 
 
 @command(app, MacrosOptions, "macros")
@@ -44,35 +26,23 @@ def macros(options: MacrosOptions) -> None:
     Time with the defaults (100 demos): about 45 s on one core of a 2-core AMD EPYC VM; 10 replicates with famarl
     sweep macros, about 2.5 minutes on 2 cores (docs/performance.md, docs/pipelines.md).
     """
-    from famarl_cli.artifacts.lock import claim_folder
-    from famarl_cli.stages.macros import learn_macros
-    from famarl_cli.sweep.driver import make_in_folder
-    from famarl_cli.sweep.plan import Job
-    from famarl_cli.sweep.worker import name_of
+    from famarl_cli.stages.macros import make_macros
 
     torch_on_one_thread()
-    config, seed = pick(MacrosConfig, options), options.seed
-    source = config.demos or config.segments
-    out = options.out or Path("data/macros") / source.stem / f"seed{seed}"
-    recipe = macros_job(options)
-    job = Job("macros", name_of(recipe.runner), recipe.config, recipe.inputs, recipe.resumable)
+    out = options.destination
+    with progress_bar() as progress:
+        tasks: dict[str, int] = {}
 
-    def work() -> None:
-        with progress_bar() as progress:
-            tasks: dict[str, int] = {}
+        def show(phase: str, done: int, total: int) -> None:
+            if phase not in tasks:
+                tasks[phase] = progress.add_task(phase, total=total)
+            progress.update(tasks[phase], completed=done)
 
-            def show(phase: str, done: int, total: int) -> None:
-                if phase not in tasks:
-                    tasks[phase] = progress.add_task(phase, total=total)
-                progress.update(tasks[phase], completed=done)
-
-            learn_macros(config, out, show)
-
-    with claim_folder(out):
-        if not make_in_folder(out, job, options.overwrite, work):
-            typer.echo(f"note: {out} already holds these macros, complete; nothing to do", err=True)
+        made = make_macros(options, show)
+    if not made:
+        typer.echo(f"note: {out} already holds these macros, complete; nothing to do", err=True)
     metrics = json.loads((out / FAVAE).with_suffix(".metrics.json").read_text())
-    table = Table(title=f"macro actions of {source}, seed {seed}", show_header=False)
+    table = Table(title=f"macro actions of {options.demos or options.segments}, seed {options.seed}", show_header=False)
     table.add_row("KL per ladder", ", ".join(f"{k:.3f}" for k in metrics["kl_per_ladder"]))
     table.add_row("information per ladder", ", ".join(f"{k:.3f}" for k in metrics["information_per_ladder"]))
     table.add_row(
@@ -83,11 +53,4 @@ def macros(options: MacrosOptions) -> None:
     print_written([out])
 
 
-@sweepable("macros", MacrosOptions, owned=("--out", "--overwrite"))
-def macros_job(options: MacrosOptions) -> JobRecipe:
-    """``famarl sweep macros``: each replicate is what ``famarl macros`` with the same options would make; the
-    replicates of one setting are fitted in batches (famarl sweep --batch)."""
-    from famarl_cli.stages.macros import run_jobs
-
-    config = pick(MacrosConfig, options)
-    return JobRecipe(run_jobs, to_json(config), tuple(map(str, config.inputs)), resumable=True, batched=True)
+sweepable("macros", MacrosOptions, owned=("--out", "--overwrite"))(macros_job)

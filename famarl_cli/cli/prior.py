@@ -5,19 +5,10 @@ from __future__ import annotations
 import typer
 from rich.table import Table
 
-from famarl_cli.cli import (
-    JobRecipe,
-    already_made,
-    app,
-    print_written,
-    progress_bar,
-    results_console,
-    sweepable,
-    torch_on_one_thread,
-)
+from famarl_cli.cli import already_made, app, print_written, progress_bar, results_console, torch_on_one_thread
 from famarl_cli.cli.derived import command
-from famarl_cli.core.declare import to_json
-from famarl_cli.stages.prior import PriorFitOptions
+from famarl_cli.stages.prior import PriorFitOptions, prior_job
+from famarl_cli.sweep.registry import sweepable
 
 prior_app = typer.Typer(
     help="A state-conditioned prior over the FAVAE latent and a closed-loop macro decoder, from the demos.",
@@ -70,12 +61,4 @@ def prior_fit(options: PriorFitOptions) -> None:
     print_written(written)
 
 
-@sweepable("prior", PriorFitOptions, owned=("--out", "--overwrite"), runs="prior fit")
-def prior_job(options: PriorFitOptions) -> JobRecipe:
-    """``famarl sweep prior``: each point is what ``famarl prior fit`` with the same options would write, into the
-    point's folder (prior.pt)."""
-    from famarl_cli.stages.prior import run_job
-
-    config = {key: value for key, value in to_json(options).items() if key not in ("out", "overwrite")}
-    given = (options.demos, options.segments, options.favae)  # a default one is found when the point runs
-    return JobRecipe(run_job, config, tuple(str(path) for path in given if path is not None))
+sweepable("prior", PriorFitOptions, owned=("--out", "--overwrite"), runs="prior fit")(prior_job)

@@ -8,7 +8,6 @@ from typing import Annotated
 import typer
 
 from famarl_cli.cli import app, named_rows, reports_errors, results_console
-from famarl_cli.core.errors import UsageError
 
 
 @app.command()
@@ -42,16 +41,9 @@ def report(
     a table per experiment of the paper, our numbers beside the paper's claims, and a three-way verdict per claim
     (reproduces, does not reproduce, inconclusive) from 95% intervals over seeds. A pipeline's report takes
     3-10 s on one core of a 2-core AMD EPYC VM (its bootstraps and figures; docs/pipelines.md has each stage's)."""
-    from famarl_cli import __version__
-    from famarl_cli.report.experiments import experiments
-    from famarl_cli.report.writer import write_report
+    from famarl_cli.stages.report import make_report
 
-    known = experiments()
-    names = experiment or list(known)
-    unknown = [name for name in names if name not in known]
-    if unknown:
-        raise UsageError(f"unknown experiment {', '.join(unknown)} (known: {', '.join(known)})")
-    sections = write_report(names, data, out, __version__, summary)
+    sections = make_report(experiment, data, out, summary)
     table = named_rows(f"{out / 'report.md'}", ("experiment", "claims", "reproduce", "do not", "inconclusive"))
     for name, section in sections.items():
         counts = section.summary()

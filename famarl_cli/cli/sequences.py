@@ -2,34 +2,9 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from pathlib import Path
-
-from famarl_cli.artifacts.made import Replaceable
 from famarl_cli.cli import already_made, app, results_console
 from famarl_cli.cli.derived import command
-from famarl_cli.core.declare import option, same_as, to_json
-from famarl_cli.method.favae import FavaeOptions
-from famarl_cli.method.segment_params import SegmentParams
-
-
-@dataclass(frozen=True)
-class SequencesOptions:
-    """``famarl sequences``: plain arrays of sequences into a segments file."""
-
-    source: Path = option(help="A .npy (N, T, D) array, or a .npz holding one (see below).", argument=True)
-    out: Path = option(help="Output segments HDF5 (the input of famarl favae fit).", path="file", affects=False)
-    key: str | None = option(None, "The .npz array of sequences.  [default: sequences, or trajectories]")
-    length: int | None = same_as(
-        SegmentParams,
-        "length",
-        help="FAVAE input length L: steps to pad to.  [default: T rounded up to a multiple of 2 ** ladders]",
-    )
-    ladders: int = same_as(
-        FavaeOptions, "ladders", help="Ladders of the FAVAE to be fitted (L must divide by 2 ** it)."
-    )
-    standardize: bool = option(True, "Scale each dimension to mean 0, std 1 (FAVAE's loss assumes unit-scale values).")
-    overwrite: bool = same_as(Replaceable, "overwrite")
+from famarl_cli.stages.sequences import SequencesOptions
 
 
 @command(app, SequencesOptions, "sequences")
@@ -38,19 +13,13 @@ def sequences(options: SequencesOptions) -> None:
 
     A .npz may also hold ``lengths`` (N,) for shorter sequences, ``factors`` (N, F) for MIG and ``factor_names``.
     """
-    from famarl_cli.artifacts import prepare_output, provenance
-    from famarl_cli.artifacts.segments import write_segments
-    from famarl_cli.method.sequences import load_arrays, to_segments
+    from famarl_cli.stages.sequences import import_sequences
 
     if already_made("famarl sequences", options, [options.out]):
         return
-    source, out = options.source, prepare_output(options.out)
-    arrays = load_arrays(source, options.key)
-    recorded = {key: value for key, value in to_json(options).items() if key not in ("source", "out", "overwrite")}
-    made = provenance("famarl sequences", recorded, None, [source], options=options)
-    segments = to_segments(arrays, source, options.length, 2**options.ladders, made, options.standardize)
-    write_segments(out, segments)
+    segments = import_sequences(options)
     results_console().print(
         f"{len(segments.length)} sequences of {segments.action_dim} dimensions, up to {segments.length.max()} steps "
-        f"(padded to {segments.max_length}), factors {', '.join(segments.factor_names) or 'none'}: written {out}"
+        f"(padded to {segments.max_length}), factors {', '.join(segments.factor_names) or 'none'}: written "
+        f"{options.out}"
     )

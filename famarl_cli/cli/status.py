@@ -23,18 +23,14 @@ def status(
     are, whether they are the committed results or were made here otherwise, and the command that makes them with
     its measured time. A fresh clone has committed results for every pipeline and
     the outputs of none: `dvc repro` makes the main job's. Takes a few seconds (it asks DVC)."""
-    from famarl_cli.core.errors import ArtifactError
-    from famarl_cli.report.docs import COUNTS, pipelines
+    from famarl_cli.stages.report import pipelines
 
-    if not (root / "dvc.yaml").is_file():
-        raise ArtifactError(f"{root}: no dvc.yaml here; run famarl status in the project's root, or pass --root")
     table = Table(title="pipelines: what is committed, whether it is current, what ran here")
     for column in ("pipeline", "committed verdicts", "code since its lock", "outputs here", "its wall"):
         table.add_column(column)
     todo, differing = [], ()
-    for p in pipelines(root):
-        claims = sum(section[COUNTS[0]] for section in p.summary.values()) if p.summary else 0
-        committed = f"{claims} claim{'' if claims == 1 else 's'}" if p.summary else "none yet"
+    for p, claims in pipelines(root):
+        committed = "none yet" if claims is None else f"{claims} claim{'' if claims == 1 else 's'}"
         current = f"stale ({len(p.stale)} stages)" if p.stale else "current"
         wall = f"{p.timed['total_s'] / 60:.0f} min" if p.timed else "not timed"
         table.add_row(p.name, committed, current, _here(p), wall)

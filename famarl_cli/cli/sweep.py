@@ -4,15 +4,20 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated
 
 import click
 import typer
 from rich.progress import Progress, TaskID
 
-from famarl_cli.cli import SWEEPABLE, app, named_rows, progress_bar, reports_errors, results_console
+from famarl_cli.artifacts.made import Replaceable
+from famarl_cli.cli import app, named_rows, progress_bar, results_console
+from famarl_cli.cli.derived import command
+from famarl_cli.core.declare import option, same_as
 from famarl_cli.core.errors import FamarlError, UsageError
+from famarl_cli.stages.evaluate import EvaluateOptions
+from famarl_cli.sweep.registry import SWEEPABLE
 
 
 class _SweepCommand(typer.core.TyperCommand):
@@ -48,74 +53,58 @@ def _stage_option_hint(option: str, args: list[str]) -> str | None:
     )
 
 
-@app.command(cls=_SweepCommand, no_args_is_help=True)
-@reports_errors
-def sweep(
-    command: Annotated[
-        str,
-        typer.Argument(
-            help="The command to sweep: train, macros, demos or prior (famarl prior fit).", show_default=False
-        ),
-    ],
-    options: Annotated[
-        list[str] | None,
-        typer.Argument(
-            help="COMMAND's own options, after --; {seed} and {NAME} of each --over axis are filled in per run.",
-            show_default=False,
-        ),
-    ] = None,
-    out: Annotated[
-        Path,
-        typer.Option(
-            help="Folder of the sweep's runs, one folder each, and nothing else. A second sweep into it skips the "
-            "runs complete and continues the stopped ones.",
-            file_okay=False,
-        ),
-    ] = ...,
-    overwrite: Annotated[
-        bool,
-        typer.Option(
-            help="Let the sweep delete the runs in --out no longer in the plan and replace those made from other "
-            "options, inputs or code; without it, it refuses and changes nothing (run by dvc repro, a stage's "
-            "sweep always may).",
-        ),
-    ] = False,
-    seeds: Annotated[str, typer.Option(help="Seeds: a range 0-9, a list 0,3,7, or both (0-4,10).")] = "0",
-    over: Annotated[
-        list[str] | None,
-        typer.Option(
-            metavar="<name=values>",
-            help="Another axis, NAME=V1,V2,... (repeat for more). When COMMAND has an option --NAME, each run "
-            "gets its value; {NAME} in the options is replaced by it.",
-        ),
-    ] = None,
-    name: Annotated[
-        str | None,
-        typer.Option(help="Each run's folder name, with {seed} and the axes.  [default: the values, e.g. ppo-seed3]"),
-    ] = None,
-    jobs: Annotated[
-        int | None,
-        typer.Option(min=1, help="Runs at once on this machine.  [default: $FAMARL_JOBS, else one per usable core]"),
-    ] = None,
-    ray_address: Annotated[
-        str | None,
-        typer.Option(
-            help="Run on the Ray cluster at this address instead (needs famarl[ray]; paths on a shared filesystem). "
-            "[default: $RAY_ADDRESS]"
-        ),
-    ] = None,
-    max_attempts: Annotated[int, typer.Option(min=1, help="Attempts per run when its worker or node dies.")] = 3,
-    batch: Annotated[
-        int | None,
-        typer.Option(
-            min=1,
-            help="For commands that batch their runs (macros: replicates fitted as one batched model; train: seeds "
-            "trained as one batched network), at most this "
-            "many runs in one process; 1 runs each alone.  [default: the runs of each setting split evenly over the "
-            "workers]",
-        ),
-    ] = None,
-) -> None:
+@dataclass(frozen=True)
+class SweepOptions:
+    """``famarl sweep``: many runs of one command, and where and how they run."""
+
+    command: str = option(help="The command to sweep: train, macros, demos or prior (famarl prior fit).", argument=True)
+    out: Path = option(
+        help="Folder of the sweep's runs, one folder each, and nothing else. A second sweep into it skips the runs "
+        "complete and continues the stopped ones.",
+        path="dir",
+    )
+    options: list[str] | None = option(
+        None,
+        "COMMAND's own options, after --; {seed} and {NAME} of each --over axis are filled in per run.",
+        argument=True,
+    )
+    overwrite: bool = same_as(
+        Replaceable,
+        "overwrite",
+        help="Let the sweep delete the runs in --out no longer in the plan and replace those made from other "
+        "options, inputs or code; without it, it refuses and changes nothing (run by dvc repro, a stage's sweep "
+        "always may).",
+    )
+    seeds: str = option("0", "Seeds: a range 0-9, a list 0,3,7, or both (0-4,10).")
+    over: list[str] | None = option(
+        None,
+        "Another axis, NAME=V1,V2,... (repeat for more). When COMMAND has an option --NAME, each run gets its value; "
+        "{NAME} in the options is replaced by it.",
+        placeholder="<name=values>",
+    )
+    name: str | None = option(
+        None, "Each run's folder name, with {seed} and the axes.  [default: the values, e.g. ppo-seed3]"
+    )
+    jobs: int | None = same_as(
+        EvaluateOptions, "jobs", help="Runs at once on this machine.  [default: $FAMARL_JOBS, else one per usable core]"
+    )
+    ray_address: str | None = option(
+        None,
+        "Run on the Ray cluster at this address instead (needs famarl[ray]; paths on a shared filesystem).  "
+        "[default: $RAY_ADDRESS]",
+    )
+    max_attempts: int = option(3, "Attempts per run when its worker or node dies.", min=1)
+    batch: int | None = option(
+        None,
+        "For commands that batch their runs (macros: replicates fitted as one batched model; train: seeds trained "
+        "as one batched network), at most this many runs in one process; 1 runs each alone.  [default: the runs of "
+        "each setting split evenly over the workers]",
+        min=1,
+    )
+
+
+@command(app, SweepOptions, "sweep", cls=_SweepCommand, no_args_is_help=True)
+def sweep(options: SweepOptions) -> None:
     """Run COMMAND once per combination of seeds and --over values, several at once, resuming what is unfinished.
 
     Example: famarl sweep train --seeds 0-9 --over agent=ppo,figar --out data/runs -- --steps 500000
@@ -132,18 +121,19 @@ def sweep(
     from famarl_cli.sweep.driver import run_sweep
     from famarl_cli.sweep.executors import make_executor
 
-    planned = plan(command, options or [], seeds, over or [], name)
-    refuse_tracked(out)
+    o = options
+    planned = plan(o.command, o.options or [], o.seeds, o.over or [], o.name)
+    refuse_tracked(o.out)
     # A pipeline's stage: its output is the sweep's folder and the pipeline its plan, and DVC runs it again exactly
     # when the plan (or the code) changed, so it replaces and deletes as DVC replaces any stage's outputs.
-    overwrite = overwrite or bool(os.environ.get(STAGE_VARIABLE))
-    with make_executor(jobs, ray_address) as executor:
+    overwrite = o.overwrite or bool(os.environ.get(STAGE_VARIABLE))
+    with make_executor(o.jobs, o.ray_address) as executor:
         with progress_bar() as progress:
             display = SweepDisplay(
-                progress, f"sweep {command}: {len(planned)} runs into {out}, {executor.workers} at once"
+                progress, f"sweep {o.command}: {len(planned)} runs into {o.out}, {executor.workers} at once"
             )
-            state = run_sweep(out, planned, executor, max_attempts, display, batch, overwrite)
-    results_console().print(summary_table(state, command, out))
+            state = run_sweep(o.out, planned, executor, o.max_attempts, display, o.batch, overwrite)
+    results_console().print(summary_table(state, o.command, o.out))
     if state.failed:
         first = state.failed[0]
         raise FamarlError(
@@ -166,17 +156,17 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
         raise UsageError(f"cannot sweep {command!r}; sweepable commands: {', '.join(sorted(SWEEPABLE))}")
     sweepable = SWEEPABLE[command]
     fields = {option.name: option for option in declared(sweepable.options)}
-    for option in sweepable.owned:
-        if _given(option, options) and option == "--overwrite":
+    for flag in sweepable.owned:
+        if _given(flag, options) and flag == "--overwrite":
             raise UsageError(
                 f"--overwrite is the sweep's own option: give it before --, e.g. famarl sweep {command} --overwrite "
                 "--out DIR -- ..."
             )
-        if _given(option, options):
-            raise UsageError(f"{option} is set by the sweep (its --out holds every run); leave it out of the options")
-    for option, why in sweepable.refused.items():
-        if _given(option, options):
-            raise UsageError(f"{option} is not available in a sweep: {why}")
+        if _given(flag, options):
+            raise UsageError(f"{flag} is set by the sweep (its --out holds every run); leave it out of the options")
+    for flag, why in sweepable.refused.items():
+        if _given(flag, options):
+            raise UsageError(f"{flag} is not available in a sweep: {why}")
     seed_values = parse_values(seeds)
     if bad := [value for value in seed_values if not value.isdigit()]:
         raise UsageError(f"--seeds {seeds}: {bad[0]!r} is not a seed (a whole number >= 0: a range 0-9, a list 0,3,7)")

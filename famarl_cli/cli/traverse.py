@@ -15,7 +15,6 @@ from famarl_cli.stages.method import TraverseOptions
 def traverse(options: TraverseOptions) -> None:
     """Decode sweeps of single latent variables and draw the paths their macro actions take (paper Fig. 5). With
     the defaults (every variable of a 3-ladder FAVAE, four values), about 3 s on one core of a 2-core AMD EPYC VM."""
-    from famarl_cli.method.traversal import EMPTY_LADDER_NATS, empty_ladders
     from famarl_cli.stages import defaults
     from famarl_cli.stages import method as stages
 
@@ -43,11 +42,10 @@ def traverse(options: TraverseOptions) -> None:
             f"({lad},{i})", f"{effect:.3f}", "?" if carries is None else f"{carries:.3f}", " ".join(map(str, lengths))
         )
     console.print(table)
-    empty = {} if carried.best is None else empty_ladders(result.variables.tolist(), nats)
-    for lad, total in empty.items():
+    for lad, total in carried.empty(result.variables.tolist()).items():
         console.print(
             f"ladder {lad} is empty: its variables carry {total:.3f} nats ({measure}) of the training data (under "
-            f"{EMPTY_LADDER_NATS:g}), so traversing them changes almost nothing"
+            f"{carried.EMPTY_BELOW:g}), so traversing them changes almost nothing"
         )
     written = [out, out.with_suffix(".png"), out.with_suffix(".json")] + (
         [out.with_suffix(".frames.png")] if options.frames else []

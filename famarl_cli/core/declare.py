@@ -37,6 +37,7 @@ def option(
     affects: bool = True,
     renamed: tuple[str, ...] = (),
     former: tuple[str, ...] = (),
+    placeholder: str | None = None,
 ) -> Any:
     """One option's declaration (a dataclass field).
 
@@ -49,6 +50,7 @@ def option(
     ``renamed``: the option's old flags, still accepted, hidden, with a note that names the new one.
     ``former``: the option's old names in records (a setting renamed to the flag's name): a record written before
     still reads (:func:`from_json`, :func:`current_names`).
+    ``placeholder``: what ``--help`` shows for the value where its type says too little (``<name=values>``).
     """
     metadata = {
         "help": help,
@@ -62,6 +64,7 @@ def option(
         "affects": affects,
         "renamed": renamed,
         "former": former,
+        "placeholder": placeholder,
     }
     if factory is not None:
         return dataclasses.field(default_factory=factory, metadata=metadata)
@@ -114,6 +117,7 @@ class Declared:
     affects: bool = True
     renamed: tuple[str, ...] = ()
     former: tuple[str, ...] = ()
+    placeholder: str | None = None
     origin: str = ""
     """The declaration the option was first made in, ``Class.field``: options of one origin are one concept, with
     one name on every command (:func:`same_as` keeps it)."""
@@ -206,7 +210,8 @@ def _typed(kind: Any, value: Any) -> Any:
 
 def pick(cls: type, source: Any, **values: Any) -> Any:
     """The declaration ``cls`` with every option ``source`` also has taken from it, and ``values`` for the rest: a
-    stage's options narrowed to a part's (a FAVAE's options out of ``famarl macros``'s)."""
+    stage's options narrowed to a part's (a FAVAE's options out of ``famarl macros``'s, a run's settings out of
+    ``famarl train``'s)."""
     shared = {f.name: getattr(source, f.name) for f in fields(cls) if f.name not in values and hasattr(source, f.name)}
     return cls(**shared, **values)
 

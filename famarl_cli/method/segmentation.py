@@ -30,7 +30,9 @@ from famarl_cli.artifacts.demos import Demos
 from famarl_cli.artifacts.segments import Segments
 from famarl_cli.core.declare import default_of
 from famarl_cli.core.errors import ArtifactError, FamarlError, UsageError
+from famarl_cli.core.flat_parameters import gather, stacked, views
 from famarl_cli.core.macro_actions import pad, split_long
+from famarl_cli.core.replicate_adam import ReplicateAdam
 from famarl_cli.method.metrics import boundary_scores, length_summary
 from famarl_cli.method.segment_params import LENGTH_MULTIPLE, Distance, LongSegments, SegmenterOptions, SegmentParams
 
@@ -67,8 +69,8 @@ class WindowAutoencoder(nn.Module):
 
     def batched(self, params: dict[str, torch.Tensor], windows: torch.Tensor) -> torch.Tensor:
         """:meth:`forward` of K models at once: ``params`` holds this module's parameters stacked along a first
-        axis of K (``torch.func.stack_module_state``), ``windows`` is (K, B, width); each linear layer is one batched
-        matmul, the others run as they are."""
+        axis of K (:func:`~famarl_cli.core.flat_parameters.stacked`), ``windows`` is (K, B, width); each linear layer
+        is one batched matmul, the others run as they are."""
         h = windows
         for prefix, layers in (("encoder", self.encoder), ("decoder", self.decoder)):
             for i, layer in enumerate(layers):
@@ -123,26 +125,25 @@ def train_autoencoders(
     """Fit one autoencoder per seed on every window of every episode, all of them at once: their parameters stacked
     along a seed axis, each linear layer one batched matmul over the seeds (:meth:`WindowAutoencoder.batched`). Seed
     s starts from the weights ``torch.manual_seed(s); WindowAutoencoder(config)`` gives and shuffles with a
-    generator of its own, as it would alone; every seed has the same windows, so the same batches, and one Adam over
-    the stacked tensors is each seed's own. Returns each model (on the CPU) with its last epoch's mean MSE;
-    ``on_epoch(k, epoch, mse)`` follows seed k. Measured on the default demos (3015 windows, batch 256, one thread):
-    a step of 1 seed 0.94 ms, of 5 seeds 1.42 ms (the module alone with torch's Adam 1.11 ms; ``torch.func.vmap``
-    over it 1.66 and 2.51).
+    generator of its own, as it would alone; every seed has the same windows, so the same batches, and one
+    :class:`~famarl_cli.core.replicate_adam.ReplicateAdam` over the seeds' parameter rows is each seed's own.
+    Returns each model (on the CPU) with its last epoch's mean MSE; ``on_epoch(k, epoch, mse)`` follows seed k.
+    Measured on the default demos (3015 windows, batch 256, one thread): a step of 1 seed 0.94 ms, of 5 seeds 1.42
+    ms (the module alone with torch's Adam 1.11 ms; ``torch.func.vmap`` over it 1.66 and 2.51).
 
     On ``device`` (a GPU) the windows, parameters, optimiser and losses live there; the shuffles are still drawn on
     the CPU from each seed's generator (an epoch's orders are one copy), so a seed's batches are the same on every
     device."""
-    from torch.func import stack_module_state
-
     data = torch.tensor(np.concatenate(episode_windows(episodes_actions, config.window)), dtype=torch.float32)
     data = data.to(device)
     models = []
     for seed in seeds:
         torch.manual_seed(seed)
         models.append(WindowAutoencoder(config))
-    params, _ = stack_module_state(models)
-    params = {name: value.detach().to(device).requires_grad_() for name, value in params.items()}
-    optimiser = torch.optim.Adam(params.values(), lr=training.learning_rate, fused=True)
+    flat, params = stacked(models, device)
+    leaves = [value.requires_grad_() for value in params.values()]
+    optimiser = ReplicateAdam(flat, lr=training.learning_rate)
+    gradient = torch.empty_like(flat)
     shuffles = [torch.Generator().manual_seed(seed) for seed in seeds]
     mse = [float("nan")] * len(seeds)
     for epoch in range(training.epochs):
@@ -151,17 +152,17 @@ def train_autoencoders(
         for start in range(0, len(data), training.batch_size):
             batch = data[order[:, start : start + training.batch_size]]
             values = (models[0].batched(params, batch) - batch).pow(2).mean(dim=(1, 2))  # each seed's MSE
-            optimiser.zero_grad()
-            values.sum().backward()
-            optimiser.step()
+            gradients = torch.autograd.grad(values.sum(), leaves)
+            optimiser.step(gather(gradients, gradient))
             total += values.detach() * batch.shape[1]
         if on_epoch or epoch + 1 == training.epochs:  # the one read back from the device per epoch, if any
             mse = (total / len(data)).tolist()
         if on_epoch:
             for k, value in enumerate(mse):
                 on_epoch(k, epoch, value)
+    trained = views(flat.cpu(), {name: value.shape[1:] for name, value in params.items()})  # one copy from the device
     for k, model in enumerate(models):
-        model.load_state_dict({name: value[k].detach().cpu() for name, value in params.items()})
+        model.load_state_dict({name: value[k] for name, value in trained.items()})
     return [(model.eval(), value) for model, value in zip(models, mse, strict=True)]
 
 

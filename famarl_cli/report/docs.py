@@ -21,6 +21,7 @@ import numpy as np
 from famarl_cli.core.errors import ArtifactError
 from famarl_cli.core.statistics import LEVEL, Interval
 from famarl_cli.report.results import read_json
+from famarl_cli.report.verdicts import family
 
 FILES = (
     "README.md",
@@ -45,6 +46,12 @@ END = "<!-- famarl docs: {name} end -->"
 COUNTS = ("claims", "claims_reproduced", "claims_not_reproduced", "claims_inconclusive")
 """What every experiment's part of a summary holds (``Section.summary``), in the verdicts table's order."""
 MARKER = re.compile(r"<!-- famarl docs: ([a-z-]+) \(generated.*?-->\n(.*?)<!-- famarl docs: \1 end -->", re.S)
+
+
+class Unfilled(str):
+    """A table whose record lacks what it shows (no summary, no benchmark result, no per-run scores): its text says
+    why and what makes the record. A page may not hold it: :func:`fill` fails on the block rather than write a
+    placeholder where results belong, so a record that lost a field is never shown as "not yet run"."""
 
 
 @dataclass(frozen=True)
@@ -186,6 +193,7 @@ def verdicts_table(found: list[Pipeline]) -> str:
         "|---|---|---|---|---|---|---|---|---|",
     ]
     totals = {"current": [0, 0, 0, 0], "stale": [0, 0, 0, 0]}
+    judged: dict[str, list[dict]] = {"current": [], "stale": []}
     for pipeline in found:
         if pipeline.summary is None:
             lines.append(f"| {pipeline.link} | | | | | | | | {_status(pipeline)} |")
@@ -194,28 +202,26 @@ def verdicts_table(found: list[Pipeline]) -> str:
             counts = [section[key] for key in COUNTS]
             kind = "stale" if pipeline.stale else "current"
             totals[kind] = [a + b for a, b in zip(totals[kind], counts, strict=True)]
+            judged[kind] += section.get("judged", [])
+            wrong = family(section.get("judged", [])).expected_wrong
             lines.append(
-                f"| {pipeline.link} | {name} | " + " | ".join(map(str, counts)) + f" | {_chance(counts):.2g} | "
+                f"| {pipeline.link} | {name} | " + " | ".join(map(str, counts)) + f" | {wrong:.2g} | "
                 f"{_made(pipeline)} | {_status(pipeline)} |"
             )
     lines.append("")
     for kind, (claims, held, not_held, open_) in totals.items():
         if claims:
+            together = family(judged[kind])
             lines.append(
                 f"In {kind} pipelines: {claims} claims, {held} reproduce (or met), {not_held} do not (or missed), "
-                f"{open_} inconclusive; at most {_chance([claims, held, not_held, open_]):.2g} of the decisive "
-                "verdicts are expected to be wrong by chance."
+                f"{open_} inconclusive; over their {together.claims} distinct claims with an interval, at most "
+                f'{together.expected_wrong:.2g} wrong verdicts are expected by chance (docs/verdicts.md, "The '
+                'family").'
             )
     missing = [p.name for p in found if p.summary is None]
     if missing:
         lines.append(f"Not yet run with committed metrics: {', '.join(missing)}.")
     return "\n".join(lines).rstrip() + "\n"
-
-
-def _chance(counts: list[int]) -> float:
-    """The wrong verdicts chance allows among a count's decisive ones (reproduce or not; inconclusive is never
-    wrong): each is wrong with probability at most 1 - LEVEL (docs/verdicts.md, "The family")."""
-    return (1 - LEVEL) * (counts[1] + counts[2])
 
 
 def _estimates(claim: dict) -> str:
@@ -240,37 +246,46 @@ def claims_table(found: list[Pipeline]) -> str:
                     f"| {pipeline.link} | {claim['claim']} | {_estimates(claim)} | {claim['rule']} | {verdict} |"
                 )
     if len(lines) == 2:
-        lines.append("| (no pipeline has committed metrics yet) | | | | |")
+        return Unfilled("No pipeline has committed judged claims yet: `dvc repro` writes them.\n")
     return "\n".join(lines) + "\n"
 
 
 def headline_table(found: list[Pipeline], name: str = "default") -> str:
     """Pipeline ``name``'s agents (n, success, AUC, return; from the first experiment of its summary), its claims
     and its instruments where it has them (positive controls, the action-space oracle): the README's headline for
-    the default pipeline,
-    ``headline-NAME`` in a page about pipeline NAME."""
+    the default pipeline, ``headline-NAME`` in a page about pipeline NAME. A pipeline that runs no agents (the
+    traversal pipeline judges FAVAE fits) shows its claims alone; one whose summary holds none of these is
+    :class:`Unfilled`."""
     pipeline = next(p for p in found if p.name == name)
     title = "the default pipeline" if name == "default" else pipeline.link
     sections = _experiments(pipeline)
-    if not sections or "headline" not in sections[0][1]:
-        return f"No committed metrics of {title} yet: {_status(pipeline)}.\n"
+    if not sections:
+        return Unfilled(f"No committed metrics of {title} yet: {_status(pipeline)}.\n")
     experiment, section = sections[0]
-    lines = [
-        f"{title[0].upper()}{title[1:]} ({experiment}; runs made {_made(pipeline)}; {_status(pipeline)}):",
-        "",
-        "| agent | n | success, sampled policy [95% CI] | area under the success curve | return |",
-        "|---|---|---|---|---|",
-    ]
-    agents = list(section["headline"].items())
-    if all(agent.endswith(")") for agent, _ in agents):  # "label (env)": one env's agents together
-        agents.sort(key=lambda item: item[0].rpartition(" (")[2])
-    for agent, h in agents:
-        lines.append(
-            f"| {agent} | {h['n']} | {Interval(h['success'], h['success_low'], h['success_high']).text()} | "
-            f"{h['auc']:.2f} | {h['return']:.1f} |"
+    shown = ("headline", "judged", "controls", "oracle")
+    if not any(section.get(key) for key in shown):
+        return Unfilled(
+            f"The committed summary of {title} ({experiment}) holds none of {', '.join(shown)}: "
+            f"`dvc repro {pipeline.definition}` writes them.\n"
         )
-    lines += ["", "| claim | estimate [95% CI unless marked] | verdict |", "|---|---|---|"]
-    lines += [f"| {c['claim']} | {_estimates(c)} | {c['verdict']} |" for c in section.get("judged", [])]
+    lines = [f"{title[0].upper()}{title[1:]} ({experiment}; runs made {_made(pipeline)}; {_status(pipeline)}):"]
+    if section.get("headline"):
+        lines += [
+            "",
+            "| agent | n | success, sampled policy [95% CI] | area under the success curve | return |",
+            "|---|---|---|---|---|",
+        ]
+        agents = list(section["headline"].items())
+        if all(agent.endswith(")") for agent, _ in agents):  # "label (env)": one env's agents together
+            agents.sort(key=lambda item: item[0].rpartition(" (")[2])
+        for agent, h in agents:
+            lines.append(
+                f"| {agent} | {h['n']} | {Interval(h['success'], h['success_low'], h['success_high']).text()} | "
+                f"{h['auc']:.2f} | {h['return']:.1f} |"
+            )
+    if section.get("judged"):
+        lines += ["", "| claim | estimate [95% CI unless marked] | verdict |", "|---|---|---|"]
+        lines += [f"| {c['claim']} | {_estimates(c)} | {c['verdict']} |" for c in section["judged"]]
     if section.get("controls"):
         lines += [
             "",
@@ -326,6 +341,18 @@ def walls_table(root: Path, found: list[Pipeline]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def wall_value(pipeline: Pipeline) -> str:
+    """Pipeline's measured wall as a value inside a sentence (``wall-NAME``): how long, from which record, when,
+    at which revision and where; :class:`Unfilled` where it was never timed."""
+    wall = pipeline.timed
+    if wall is None:
+        return Unfilled(f"{pipeline.link} was never timed: `python benchmarks/pipeline_walls.py {pipeline.name}`.\n")
+    return (
+        f"{wall['total_s'] / 60:.1f} minutes ({wall['total_s']:.0f} s; `benchmarks/pipeline_walls.json`: "
+        f"{_made(pipeline)})\n"
+    )
+
+
 def performance_table(root: Path, subject: str | None = None) -> str:
     """One row per benchmark result in :data:`MEASURED` (those of one ``subject``, the first word of their names,
     when given), each with the date, revision and machine of its run."""
@@ -334,7 +361,9 @@ def performance_table(root: Path, subject: str | None = None) -> str:
     if subject is not None:
         measured = {name: row for name, row in measured.items() if _subject(name) == subject}
     if not measured:
-        return "No benchmark has recorded a result yet: each script in `benchmarks/` records its own when it runs.\n"
+        return Unfilled(
+            "No benchmark has recorded a result yet: each script in `benchmarks/` records its own when it runs.\n"
+        )
     lines = ["| what | command | measured | target | date, revision, machine |", "|---|---|---|---|---|"]
     for name, row in measured.items():
         missing = [key for key in BENCHMARK_FIELDS if not isinstance(row, dict) or key not in row]
@@ -382,7 +411,7 @@ def aggregate_table(found: list[Pipeline]) -> str:
 
     tasks, stale = paper_task_scores(found)
     if not tasks:
-        return (
+        return Unfilled(
             "No committed summary holds per-run scores of all three agents on a paper's task yet: they come with the "
             "next run of the default and robothand pipelines.\n"
         )
@@ -430,7 +459,8 @@ def _subject(name: str) -> str:
 
 def tables(root: Path) -> dict[str, str]:
     """Every table a page may hold: the verdicts, claims, headline, walls and performance tables, a headline per
-    pipeline (``headline-NAME``) and the benchmark results of one subject (``benchmarks-SUBJECT``)."""
+    pipeline (``headline-NAME``), a pipeline's wall inside a sentence (``wall-NAME``) and the benchmark results of
+    one subject (``benchmarks-SUBJECT``)."""
     found = pipelines(root)
     subjects = sorted({_subject(name) for name in _read_entries(root / MEASURED, "benchmark results")})
     return {
@@ -441,17 +471,21 @@ def tables(root: Path) -> dict[str, str]:
         "performance": performance_table(root),
         "aggregate": aggregate_table(found),
         **{f"headline-{p.name}": headline_table(found, p.name) for p in found if p.name != "default"},
+        **{f"wall-{p.name}": wall_value(p) for p in found},
         **{f"benchmarks-{subject}": performance_table(root, subject) for subject in subjects},
     }
 
 
 def fill(text: str, made: dict[str, str], where: str) -> str:
-    """``text`` with every marked block replaced by its table; an unknown name is an error."""
+    """``text`` with every marked block replaced by its table; an unknown name, or a table whose record lacks what
+    it shows (:class:`Unfilled`), is an error."""
 
     def replace(match: re.Match) -> str:
         name = match.group(1)
         if name not in made:
             raise ArtifactError(f"{where}: unknown generated table {name!r} (known: {', '.join(made)})")
+        if isinstance(made[name], Unfilled):
+            raise ArtifactError(f"{where}: the {name} table has no record to fill it: {made[name].strip()}")
         return f"{BEGIN.format(name=name)}\n{made[name]}{END.format(name=name)}"
 
     return MARKER.sub(replace, text)

@@ -10,9 +10,9 @@ A pipeline leaves, per run, a run folder (``run.json``, ``train.csv``) and an ev
 - **AUC**: the area under the training success curve (mean over the last 100 episodes, from ``train.csv``) on a
   common grid of env steps up to the budget, normalised to [0, 1]: sample efficiency.
 - **steps to 0.8**: env steps from which the training success, smoothed over 5 updates, stays at or above 0.8 to
-  the end (:func:`steps_to_hold`). Runs that end below it are censored (they get there at the budget or later): tables
-  give how many held it and the median over all, and drop none; "learns faster" is judged on it
-  (:func:`famarl_cli.report.verdicts.faster`).
+  the end (:func:`famarl_cli.core.statistics.steps_to_threshold`). Runs that end below it are censored (they get
+  there at the budget or later): tables give how many held it and the median over all, and drop none; "learns
+  faster" is judged on it (:func:`famarl_cli.report.verdicts.faster`).
 """
 
 from __future__ import annotations
@@ -36,30 +36,10 @@ from famarl_cli.artifacts.runs import (
     read_training_log,
 )
 from famarl_cli.core.errors import ArtifactError
-from famarl_cli.core.statistics import RATE, mean_interval, normalised_auc
+from famarl_cli.core.statistics import RATE, THRESHOLD, mean_interval, normalised_auc, steps_to_threshold
 
-THRESHOLD = 0.8
-"""Training success that counts as learned, for steps-to-threshold."""
-SMOOTHING = 5
-"""Updates over which the training success is averaged before the threshold is looked for."""
 EDGE_FRACTION = 0.1
 """Share of a run's logged updates averaged for the 'start' and the 'end' of its learning curve."""
-
-
-def steps_to_hold(env_steps: np.ndarray, values: np.ndarray, threshold: float, window: int) -> float | None:
-    """The env steps from which the curve, smoothed by a running mean over ``window`` logged values, stays at or
-    above ``threshold`` to the end of training; None when it ends below it (a censored run: report it, never drop
-    it). Held, not first reached: the training success is a mean over the last episodes to end, and early in
-    training the episodes that end soonest (those that reach the goal quickly, under a sparse reward) fill it, so
-    a curve can start high and fall before it learns; only a level kept to the end is learned."""
-    values = np.nan_to_num(np.asarray(values, dtype=float), nan=0.0)
-    window = max(1, min(window, len(values)))
-    smooth = np.convolve(values, np.ones(window) / window, mode="valid")
-    if not len(smooth) or smooth[-1] < threshold:
-        return None
-    below = np.flatnonzero(smooth < threshold)
-    first = int(below[-1]) + 1 if len(below) else 0
-    return float(np.asarray(env_steps)[first + window - 1])
 
 
 @dataclass
@@ -88,7 +68,7 @@ class RunResult:
 
     @property
     def steps_to_threshold(self) -> float | None:
-        return steps_to_hold(self.log["env_steps"], self.log["episode_success"], THRESHOLD, SMOOTHING)
+        return steps_to_threshold(self.log["env_steps"], self.log["episode_success"])
 
     def edges(self, key: str) -> tuple[float, float]:
         """Mean of ``key`` over the first and the last EDGE_FRACTION of the logged updates (at least one each)."""

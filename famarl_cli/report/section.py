@@ -5,13 +5,17 @@ figures and the runs behind them.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
-from famarl_cli.core.statistics import LEVEL
 from famarl_cli.report.results import Group, headline, scores
-from famarl_cli.report.verdicts import Claim, Verdict
+from famarl_cli.report.verdicts import Claim, Verdict, family
 
-GOAL_WORDS = {Verdict.REPRODUCES: "met", Verdict.DOES_NOT: "missed", Verdict.INCONCLUSIVE: "inconclusive"}
+GOAL_WORDS = {
+    Verdict.REPRODUCES: "met",
+    Verdict.DOES_NOT: "missed",
+    Verdict.INCONCLUSIVE: "inconclusive",
+    Verdict.UNDEFINED: "undefined",
+}
 """How a section of goals (not the paper's claims) words the three verdicts."""
 
 
@@ -66,17 +70,36 @@ class Section:
             word = self.word(c.verdict)
             verdict = word if c.verdict == Verdict.REPRODUCES else f"**{word}**"
             lines.append(f"| {c.paper} | {c.measure} | {c.judgement.rule} | {c.per_seed()} | {verdict} |")
-        decisive = self.held + self.count(Verdict.DOES_NOT)
-        lines += [
-            "",
-            f"Each decisive verdict ({decisive} here) is wrong by chance with probability at most {1 - LEVEL:.0%}, the "
-            f"level of its intervals: at most {(1 - LEVEL) * decisive:.2g} wrong verdicts expected among them "
-            '(docs/verdicts.md, "The family").',
-        ]
+        lines += ["", family(self.judged()).text()]
         for table in self.tables:
             lines += ["", table]
         lines += [""] + [f"![{name}]({name})" for name in self.figures]
         return "\n".join(lines).rstrip() + "\n"
+
+    def judged(self) -> list[dict]:
+        """Each claim as summary.json records it: its verdict, rule, the reason where undefined, and every estimate
+        with its n, interval, level and threshold."""
+        return [
+            {
+                "claim": c.paper,
+                "verdict": self.word(c.verdict),
+                "rule": c.judgement.rule,
+                **({"reason": c.judgement.reason} if c.judgement.reason else {}),
+                "estimates": [
+                    {
+                        "name": e.name,
+                        "n": len(e.values),
+                        "estimate": round(e.interval.estimate, 4),
+                        "low": round(e.interval.low, 4),
+                        "high": round(e.interval.high, 4),
+                        "level": e.interval.level,
+                        "reference": e.reference,
+                    }
+                    for e in c.judgement.estimates
+                ],
+            }
+            for c in self.claims
+        ]
 
     def summary(self) -> dict:
         return {
@@ -84,27 +107,13 @@ class Section:
             "claims": len(self.claims),
             "claims_reproduced": self.held,
             "claims_not_reproduced": self.count(Verdict.DOES_NOT),
-            "claims_inconclusive": self.count(Verdict.INCONCLUSIVE),
+            # not decisive either way: inconclusive or undefined (the three counts add up to the claims, as readers
+            # of earlier summaries expect); how many of them are undefined is counted apart
+            "claims_inconclusive": self.count(Verdict.INCONCLUSIVE) + self.count(Verdict.UNDEFINED),
+            "claims_undefined": self.count(Verdict.UNDEFINED),
             "verdicts": {c.paper: self.word(c.verdict) for c in self.claims},
-            "judged": [
-                {
-                    "claim": c.paper,
-                    "verdict": self.word(c.verdict),
-                    "rule": c.judgement.rule,
-                    "estimates": [
-                        {
-                            "name": e.name,
-                            "n": len(e.values),
-                            "estimate": round(e.interval.estimate, 4),
-                            "low": round(e.interval.low, 4),
-                            "high": round(e.interval.high, 4),
-                            "level": e.interval.level,
-                        }
-                        for e in c.judgement.estimates
-                    ],
-                }
-                for c in self.claims
-            ],
+            "judged": self.judged(),
+            "family": asdict(family(self.judged())),
             **({"headline": headline(self.groups), "scores": scores(self.groups)} if self.groups else {}),
             **self.instruments,
         }

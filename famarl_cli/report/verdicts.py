@@ -12,11 +12,13 @@ The rules (docs/verdicts.md shows why point comparisons of a few seeds are not e
   (A is shown not to be better by that much). A minimum-effect test (Murphy & Myors 1999) with its mirror: delta
   is the one threshold on both sides, so an effect shown to be smaller than delta can never reproduce
   (docs/verdicts.md).
-- **A learns faster than B**: how many env steps sooner A's training success reaches 0.8 and holds it than B's, as a
-  share of the budget; a run that has not by the budget is censored (it gets there at the budget or later, if
-  ever). The median of the paired differences with a bootstrap interval bounded both ways by what the censored runs
-  leave possible (:func:`~famarl_cli.core.statistics.censored_difference`); reproduces if its lower end >= delta,
-  does not if its upper end < delta; where most runs of both arms are censored it is inconclusive.
+- **A learns faster than B**: how many env steps sooner A's training success first holds 0.5 for 5% of the budget
+  than B's, as a share of the budget (:func:`~famarl_cli.core.statistics.steps_to_threshold`); a run that never
+  does is censored. The median of the paired differences with a bootstrap interval bounded both ways by what the
+  censored runs leave possible (:func:`~famarl_cli.core.statistics.censored_difference`); reproduces if its lower
+  end >= delta, does not if its upper end < delta. Where half or more of an arm's runs never hold the level, that
+  arm has no time to it within the budget and the speed is **undefined**, a verdict of its own with its reason:
+  whether it learns at all is a question of success, not of speed.
 - **A performs best (learns fastest)** among m agents: "beats" ("learns faster") against every rival at level
   alpha / (m - 1) (Bonferroni); reproduces if every comparison does, does not if any does not.
 - **The groups do not differ** (equivalence): every pairwise Welch interval, Bonferroni-adjusted; reproduces if
@@ -26,6 +28,9 @@ The rules (docs/verdicts.md shows why point comparisons of a few seeds are not e
 - A claim made of several parts (``all_of``) reproduces when every part does and does not when any part does not.
 
 Everything else is inconclusive: the seeds do not settle it either way.
+
+:func:`family` states what the decisive verdicts of several claims are worth together (docs/verdicts.md, "The
+family").
 """
 
 from __future__ import annotations
@@ -34,6 +39,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
 from itertools import combinations
+
+import numpy as np
 
 from famarl_cli.core.statistics import (
     LEVEL,
@@ -50,6 +57,9 @@ class Verdict(StrEnum):
     REPRODUCES = "reproduces"
     DOES_NOT = "does not reproduce"
     INCONCLUSIVE = "inconclusive"
+    UNDEFINED = "undefined"
+    """The measure does not exist for these runs (no time to a level an arm never holds): not a reading of an
+    interval, so neither decisive nor a matter of more replicates of the same runs."""
 
 
 @dataclass(frozen=True)
@@ -68,6 +78,8 @@ class Judgement:
     verdict: Verdict
     rule: str
     estimates: tuple[Estimate, ...] = ()
+    reason: str = ""
+    """Why the measure is undefined, for :attr:`Verdict.UNDEFINED`."""
 
 
 def bonferroni_level(comparisons: int) -> float:
@@ -82,8 +94,12 @@ def three_way(reproduces: bool, does_not: bool) -> Verdict:
 
 
 def combine(verdicts: Sequence[Verdict]) -> Verdict:
-    """A claim of several parts reproduces when every part does and does not when any part does not."""
-    return three_way(bool(verdicts) and all(v == Verdict.REPRODUCES for v in verdicts), Verdict.DOES_NOT in verdicts)
+    """A claim of several parts reproduces when every part does and does not when any part does not; else it is
+    undefined when a part is (no more replicates of the same runs would decide it), inconclusive otherwise."""
+    verdict = three_way(bool(verdicts) and all(v == Verdict.REPRODUCES for v in verdicts), Verdict.DOES_NOT in verdicts)
+    if verdict == Verdict.INCONCLUSIVE and Verdict.UNDEFINED in verdicts:
+        return Verdict.UNDEFINED
+    return verdict
 
 
 def solves(
@@ -143,6 +159,20 @@ def beats(
     )
 
 
+def speed_undefined(arms: dict[str, Sequence[float]]) -> str:
+    """Why a comparison of times to a level is undefined ("" where it is not): an arm of which half or more of the
+    runs never held the level (``inf``) has no median time to it within the budget."""
+    reasons = []
+    for name, times in arms.items():
+        never = int(np.isinf(np.asarray(times, dtype=float)).sum())
+        if 2 * never >= len(times):
+            reasons.append(
+                f"{name}: {never} of {len(times)} runs never hold the level, so its median time to it is not within "
+                "the budget; whether it learns is judged on its success"
+            )
+    return "; ".join(reasons)
+
+
 def faster(
     a_name: str,
     a: Sequence[float],
@@ -152,14 +182,26 @@ def faster(
     level: float = LEVEL,
     paired: bool = False,
 ) -> Judgement:
-    """``a`` reaches the threshold sooner than ``b`` by at least ``delta``: ``a`` and ``b`` are each run's time to it
-    as a share of the budget, ``inf`` for a run that never reached it."""
-    interval = censored_difference(a, b, paired, level)
+    """``a`` reaches the level sooner than ``b`` by at least ``delta``: ``a`` and ``b`` are each run's time to it
+    as a share of the budget, ``inf`` for a run that never held it. Undefined, with its reason, where half or more of
+    an arm's runs never held it: that arm's median time is beyond the budget, if it exists at all, and the interval
+    would be [-inf, inf] or rest on runs that did not learn."""
     how = "median of paired differences" if paired else "difference of medians"
+    rule = (
+        f"{b_name} - {a_name}, steps to the level over the budget ({how}, censored runs bounded; bootstrap, "
+        f"{level:.1%}): lower end >= {delta:g} reproduces, upper end < {delta:g} does not; undefined where half or "
+        "more of an arm's runs never hold the level"
+    )
+    reason = speed_undefined({a_name: a, b_name: b})
+    if reason:
+        return Judgement(Verdict.UNDEFINED, rule, (), reason)
+    interval = censored_difference(a, b, paired, level)
+    if np.isinf(interval.low) and np.isinf(interval.high):
+        reason = "the censored runs leave every difference possible"
+        return Judgement(Verdict.UNDEFINED, rule, (), reason)
     return Judgement(
         three_way(interval.low >= delta, interval.high < delta),
-        f"{b_name} - {a_name}, steps to the threshold over the budget ({how}, censored runs bounded; bootstrap, "
-        f"{level:.1%}): lower end >= {delta:g} reproduces, upper end < {delta:g} does not",
+        rule,
         (Estimate(f"{b_name} - {a_name}", interval, (), delta),),
     )
 
@@ -169,6 +211,7 @@ def all_of(parts: Sequence[Judgement], rule: str) -> Judgement:
         combine([part.verdict for part in parts]),
         rule,
         tuple(estimate for part in parts for estimate in part.estimates),
+        "; ".join(part.reason for part in parts if part.reason),
     )
 
 
@@ -245,14 +288,108 @@ class Claim:
         return self.judgement.verdict
 
     def per_seed(self) -> str:
-        """Each estimate's per-seed values and its interval, as the report's table shows them."""
+        """Each estimate's per-seed values and its interval, as the report's table shows them; an undefined
+        measure's reason in place of an interval."""
         parts = []
         for estimate in self.judgement.estimates:
             values = " ".join(f"{v:.2f}" for v in estimate.values)
             n = f"n={len(estimate.values)}: {values}; " if estimate.values else ""
             parts.append(f"{estimate.name}: {n}{estimate.interval.text()}")
+        if self.judgement.reason:
+            parts.append(f"undefined: {self.judgement.reason}")
         return "<br>".join(parts)
 
 
 def not_run(paper: str, measure: str) -> Claim:
     return Claim(paper, measure, Judgement(Verdict.INCONCLUSIVE, "no runs of this variant"))
+
+
+WRONG_PER_CLAIM = (1 - LEVEL) / 2
+"""The chance that one claim's verdict is wrong, at most, whatever its truth: a claim reproduces wrongly only where
+its truth lies short of the threshold and its interval lies wholly beyond it, so the interval missed the truth on
+that side (at most (1 - LEVEL) / 2 of the time for an equal-tailed interval that covers at its level; a claim of
+Bonferroni parts adds the parts' shares up to the same), and does not reproduce wrongly only by the mirror miss."""
+
+DECISIVE = {"reproduces", "does not reproduce", "met", "missed"}
+"""A verdict's words (a paper's claim or a goal) that decide it."""
+
+
+@dataclass(frozen=True)
+class Family:
+    """What the verdicts of several claims are worth together: the statement docs/verdicts.md ("The family") argues
+    and tests/test_verdicts_family.py checks by simulation with truths at the thresholds."""
+
+    claims: int
+    """Distinct claims with an interval: those that can be wrong (claims that re-judge identical runs by the same
+    rule count once; a claim without runs, or an undefined one, reads no interval and is never wrong)."""
+    duplicates: int
+    """Claims left out of :attr:`claims` as re-judging another's runs by its rule."""
+    decisive: int
+    """Of the distinct claims, those that reproduce or do not (met or missed)."""
+    near: tuple[str, ...]
+    """The decisive claims whose verdict sits near its threshold (:func:`near_threshold`)."""
+
+    @property
+    def expected_wrong(self) -> float:
+        return WRONG_PER_CLAIM * self.claims
+
+    def text(self) -> str:
+        """The statement, with its assumption, in one paragraph."""
+        twice = ""
+        if self.duplicates:
+            twice = f" ({self.duplicates} re-judging the same runs by the same rule counted once)"
+        near = (
+            f" Decisive near their thresholds (the threshold within one half-width of the interval's near end), the "
+            f"verdicts a replication would most likely not repeat: {'; '.join(self.near)}."
+            if self.near
+            else " No decisive verdict lies near its threshold (within one half-width of the interval's near end)."
+        )
+        return (
+            f"If every interval covers at its level with equal tails, each claim is judged wrong by chance with "
+            f"probability at most {WRONG_PER_CLAIM:.1%}, whatever its truth, so among these {self.claims} distinct "
+            f"claims{twice} at most {self.expected_wrong:.2g} wrong verdicts are expected, however the claims depend "
+            f"on one another. That bounds the wrong verdicts, not their share of the {self.decisive} decisive ones: "
+            "where a truth sits at its threshold, about half of the few decisive verdicts there are wrong "
+            '(docs/verdicts.md, "The family").' + near
+        )
+
+
+def near_threshold(estimate: dict) -> bool:
+    """A decisive estimate (``estimate``, ``low``, ``high``, ``reference`` as summary.json records them) is near its
+    threshold when the threshold lies within one half-width beyond the interval's near end (the estimate within two
+    half-widths of it, on the side of the threshold): an interval of the same width around a truth at the threshold
+    would reach the estimate. Intervals that straddle the threshold are not decisive and not flagged."""
+    reference, value = estimate.get("reference"), estimate["estimate"]
+    low, high = estimate["low"], estimate["high"]
+    if reference is None or not (np.isfinite(low) and np.isfinite(high)):
+        return False
+    if low >= reference:
+        return value - reference < 2 * (value - low)
+    if high <= reference:
+        return reference - value < 2 * (high - value)
+    return False
+
+
+def family(judged: Sequence[dict]) -> Family:
+    """:class:`Family` of claims as summary.json's ``judged`` records them (claim, verdict, rule, estimates)."""
+    seen: set = set()
+    claims = duplicates = decisive = 0
+    near = []
+    for claim in judged:
+        estimates = claim.get("estimates", [])
+        if not estimates:
+            continue
+        key = (
+            claim["rule"],
+            tuple((e["name"], e["estimate"], e["low"], e["high"], e.get("level")) for e in estimates),
+        )
+        if key in seen:
+            duplicates += 1
+            continue
+        seen.add(key)
+        claims += 1
+        if claim["verdict"] in DECISIVE:
+            decisive += 1
+            if any(near_threshold(e) for e in estimates):
+                near.append(claim["claim"])
+    return Family(claims, duplicates, decisive, tuple(near))

@@ -3,6 +3,7 @@ experiments."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from famarl_cli.artifacts import atomic_path
@@ -13,6 +14,7 @@ from famarl_cli.report.experiments import experiments
 from famarl_cli.report.plots import plot_intervals
 from famarl_cli.report.results import write_curves
 from famarl_cli.report.section import Section
+from famarl_cli.report.verdicts import Verdict, family
 
 
 def write_report(
@@ -36,7 +38,15 @@ def write_report(
     summary = summary or out / "summary.json"
     for name, section in built.items():
         path = out / f"{name}-intervals.png"
-        plot_intervals(section.claims, path, section.title)
+        # the figure colours the three readings of an interval; an undefined claim's defined parts (a "fastest" with
+        # one rival undefined) are drawn grey, as not decisive
+        drawn = [
+            replace(c, judgement=replace(c.judgement, verdict=Verdict.INCONCLUSIVE))
+            if c.verdict == Verdict.UNDEFINED
+            else c
+            for c in section.claims
+        ]
+        plot_intervals(drawn, path, section.title)
         section.figures.insert(0, path.name)
         if section.groups:
             write_curves(section.groups, summary.with_name(f"{name}-curves.csv"))
@@ -46,6 +56,9 @@ def write_report(
         "the rule beside it (docs/verdicts.md).\n"
     ]
     parts += [section.markdown() for section in built.values()]
+    # the family over the whole report: a claim of one experiment that re-judges another's runs counts once
+    every = family([claim for section in built.values() for claim in section.judged()])
+    parts.append(f"## The family\n\nOver the {len(built)} experiments above: {every.text()}\n")
     missing = [name for name in names if name not in built]
     if missing:
         parts.append(

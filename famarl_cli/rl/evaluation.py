@@ -18,8 +18,8 @@ from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.envs.continuous_world import Layouts
 from famarl_cli.envs.external import make_env
 from famarl_cli.envs.success import as_bool, rate
+from famarl_cli.rl.agent import FrozenActor, TrainedAgent
 from famarl_cli.rl.executor import run_sequences
-from famarl_cli.rl.training import FrozenActor, TrainedAgent
 from famarl_cli.rl.vector import GymBatch, make_batch
 
 

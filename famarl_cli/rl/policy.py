@@ -11,21 +11,16 @@ Acting and learning take different paths through the same parameters, each the f
 - :meth:`ActorCritic.act` runs in numpy. A rollout step's batch is one row per environment, and there every call
   costs more than its arithmetic: a numpy call costs about a fifth of a torch call, and the observations, the
   chosen actions and the environments are numpy already.
-- :meth:`ActorCritic.__call__` and :meth:`ActorCritic.backward` run a minibatch in torch, the two trunks as one
-  batched matmul per layer, with the gradient written out instead of taken by autograd: autograd's engine alone
-  took 1.6 ms of a 5 ms PPO minibatch step.
+- :meth:`ActorCritic.__call__` runs a minibatch in torch, differentiable: PPO's loss
+  (:func:`~famarl_cli.rl.ppo.ppo_loss`) takes its gradient by autograd.
 
 A network holds ``replicates`` copies (K), one per seed of a batch of runs (:class:`~famarl_cli.rl.ppo.PPOTrainer`):
-every parameter has a leading replicate axis and every call of either path runs all K at once, one batched matmul
-per layer, so K seeds pay the per-call cost that dominates at these sizes once (PureJaxRL's idea). Replicate k's
-numbers are its own: nothing mixes rows. With K = 1, :attr:`params` and :attr:`grads` have each parameter's own
-shape, and the batch axis may be left out of the calls.
-
-``tests/test_rl.py`` checks that both paths agree, that the written-out gradient equals autograd's, and that K
-replicates batched compute what each computes alone. Every parameter is a view into one flat tensor (parameter by
-parameter, each holding its K replicates in turn), and every gradient a view into one flat gradient, so clipping the
-gradient norm and the Adam step are a handful of calls whatever the layout; :attr:`ActorCritic.rows` says where each
-replicate's values lie.
+:attr:`ActorCritic.flat` is (K, P), row k replicate k's parameters in the order of :attr:`ActorCritic.layout` (a
+checkpoint stores a row), and every call of either path runs all K at once, one batched matmul per layer, so K seeds
+pay the per-call cost that dominates at these sizes once (PureJaxRL's idea). Replicate k's numbers are its own:
+nothing mixes rows, so the gradient of the sum of the replicates' losses is each replicate's own gradient, in its
+row, and one :class:`~famarl_cli.core.replicate_adam.ReplicateAdam` steps the rows. ``tests/test_rl.py`` checks that
+both paths agree and that K replicates batched compute what each computes alone.
 """
 
 from __future__ import annotations
@@ -37,36 +32,21 @@ import numpy as np
 import torch
 from torch import nn
 
+from famarl_cli.core import flat_parameters
 from famarl_cli.core.errors import ArtifactError
-from famarl_cli.rl.optimizer import Rows
 
 LOG_SQRT_2PI = 0.5 * math.log(2 * math.pi)
-ONE, MINUS_ONE = torch.tensor(1.0), torch.tensor(-1.0)
-
-
-def tanh_layer(bias: torch.Tensor, inputs: torch.Tensor, weight: torch.Tensor) -> torch.Tensor:
-    """tanh(inputs @ weight + bias) for both trunks at once, (2, B, in) -> (2, B, out).
-
-    Written as 2 sigmoid(2 a) - 1 with the doubling folded into the matmul: on CPU torch's sigmoid is about three
-    times as fast as its tanh at a minibatch's size, and the tanh was the largest single cost of a PPO step.
-    """
-    doubled = torch.baddbmm(bias, inputs, weight, beta=2, alpha=2)
-    return torch.add(MINUS_ONE, torch.sigmoid_(doubled), alpha=2, out=doubled)
 
 
 @dataclass
 class Heads:
-    """One forward pass over K replicates' batches of B observations: the heads the loss reads and the activations
-    that :meth:`ActorCritic.backward` needs. Called without the replicate axis (K = 1), its fields have none either."""
+    """The heads on K replicates' batches of B observations; called without the replicate axis (K = 1), its fields
+    have none either."""
 
-    obs: torch.Tensor
-    """(K, B, obs) the (normalised) observations."""
-    hidden1: torch.Tensor
-    """(2K, B, hidden) tanh activations of the first layer: [2k] replicate k's actor, [2k + 1] its critic."""
-    hidden2: torch.Tensor
-    """(2K, B, hidden) tanh activations of the second layer."""
     mean: torch.Tensor
     """(K, B, action) mean of the Gaussian over the continuous output."""
+    log_std: torch.Tensor
+    """(K, 1, action) the state-independent log std."""
     value: torch.Tensor
     """(K, B) the critic's estimate."""
     logits: torch.Tensor | None
@@ -74,14 +54,7 @@ class Heads:
 
     def alone(self) -> Heads:
         """The heads of a single replicate without the replicate axis (mean (B, action), value (B,), ...)."""
-        return Heads(
-            self.obs[0],
-            self.hidden1,
-            self.hidden2,
-            self.mean[0],
-            self.value[0],
-            None if self.logits is None else self.logits[0],
-        )
+        return Heads(self.mean[0], self.log_std[0, 0], self.value[0], None if self.logits is None else self.logits[0])
 
 
 @dataclass
@@ -113,7 +86,7 @@ class ActorCritic:
         branches: np.ndarray | None = None,
         replicates: int = 1,
     ) -> None:
-        self.choices, self.replicates = choices, replicates
+        self.obs_size, self.action_size, self.choices, self.replicates = obs_size, action_size, choices, replicates
         self.branches = None if branches is None else np.asarray(branches, dtype=bool)
         self.branch_mask = None
         if self.branches is not None:
@@ -124,7 +97,7 @@ class ActorCritic:
             patterns, first = np.unique(self.branches.T, axis=0, return_index=True)
             self.noise_groups = [np.all(self.branches.T == patterns[i], axis=1) for i in np.argsort(first)]
         shapes = {
-            "w1": (2, obs_size, hidden),
+            "w1": (2, obs_size, hidden),  # [0] the actor's trunk, [1] the critic's
             "b1": (2, 1, hidden),
             "w2": (2, hidden, hidden),
             "b2": (2, 1, hidden),
@@ -139,73 +112,47 @@ class ActorCritic:
         self.layout = [[name, list(shape)] for name, shape in shapes.items()]
         """[name, shape] of each parameter of one replicate, in the order they lie in its row (stored with it)."""
         k = replicates
-        sizes = [math.prod(shape) for shape in shapes.values()]
-        self.size = sum(sizes)
+        self.shapes = shapes
+        self.size = flat_parameters.size(shapes)
         """Values of one replicate."""
-        self.flat, self.gradient = torch.zeros(k * self.size), torch.zeros(k * self.size)
-        # The shapes the batched paths compute with: both trunks of every replicate along one batch axis, the heads'
-        # biases with a row axis to broadcast over.
-        batched = {
-            "w1": (2 * k, obs_size, hidden),
-            "b1": (2 * k, 1, hidden),
-            "w2": (2 * k, hidden, hidden),
-            "b2": (2 * k, 1, hidden),
-            "w_mean": (k, hidden, action_size),
-            "b_mean": (k, 1, action_size),
-            "w_value": (k, hidden, 1),
-            "b_value": (k, 1, 1),
-            "log_std": (k, 1, action_size),
-        }
-        if choices:
-            batched |= {"w_choice": (k, hidden, choices), "b_choice": (k, 1, choices)}
-        own = {name: (shape if k == 1 else (k, *shape)) for name, shape in shapes.items()}
-        self.batched = self._views(self.flat, batched)
-        self.batched_grads = self._views(self.gradient, batched)
-        self.params = self._views(self.flat, own)
+        self.flat = torch.zeros(k, self.size)
+        """(K, P): row k is replicate k's parameters, what :class:`~famarl_cli.core.replicate_adam.ReplicateAdam`
+        steps."""
+        # Views of the rows: the leaves that autograd differentiates (K, *shape); the same values as plain tensors
+        # to read and edit (their own shape for one replicate); and as numpy arrays for acting.
+        self.leaves = {n: v.requires_grad_() for n, v in flat_parameters.views(self.flat, shapes).items()}
+        views = flat_parameters.views(self.flat, shapes).items()
+        self.params = {n: v[0] if k == 1 else v for n, v in views}
         """Each parameter: its own shape for one replicate, (K, *shape) for several."""
-        self.grads = self._views(self.gradient, own)
-        self.arrays = {name: view.numpy() for name, view in self.batched.items()}
-        offsets = np.cumsum([0, *[k * n for n in sizes[:-1]]])
-        self.rows = Rows(
-            tuple((int(o) + r * n, n) for o, n in zip(offsets, sizes, strict=True) for r in range(k)),
-            tuple(r for _ in sizes for r in range(k)),
-            k,
-        )
-        """Where each replicate's values lie in :attr:`flat` (and in the gradient and Adam's moments)."""
-        self.gradient_pieces = self.rows.views(self.gradient)
+        self.arrays = {n: v.numpy() for n, v in flat_parameters.views(self.flat, shapes).items()}
         for replicate in range(k):
             self.initialise(replicate)
-
-    @staticmethod
-    def _views(buffer: torch.Tensor, shapes: dict[str, tuple[int, ...]]) -> dict[str, torch.Tensor]:
-        views, offset = {}, 0
-        for name, shape in shapes.items():
-            views[name] = buffer[offset : offset + math.prod(shape)].view(shape)
-            offset += math.prod(shape)
-        return views
 
     def initialise(self, replicate: int) -> None:
         """Draw replicate ``replicate``'s initial weights from torch's global generator (orthogonal, CleanRL's gains;
         the biases stay 0), in the order a network of one replicate draws them."""
 
-        def orthogonal(name: str, index: int, gain: float) -> None:
-            weight = self.batched[name][index]
+        def orthogonal(weight: torch.Tensor, gain: float) -> None:
             # Drawn as (out, in) like nn.Linear's weight; ours are stored (in, out).
             weight.copy_(nn.init.orthogonal_(torch.empty(weight.shape[::-1]), gain).T)
 
-        k = replicate
+        p = self.named(self.flat[replicate])
         for trunk in range(2):
-            orthogonal("w1", 2 * k + trunk, math.sqrt(2))
-            orthogonal("w2", 2 * k + trunk, math.sqrt(2))
-        orthogonal("w_value", k, 1.0)
+            orthogonal(p["w1"][trunk], math.sqrt(2))
+            orthogonal(p["w2"][trunk], math.sqrt(2))
+        orthogonal(p["w_value"], 1.0)
         # Small output gains start the policy near its mean of 0 with std 1: for FaMARL, the FAVAE prior.
-        orthogonal("w_mean", k, 0.01)
+        orthogonal(p["w_mean"], 0.01)
         if self.choices:
-            orthogonal("w_choice", k, 0.01)
+            orthogonal(p["w_choice"], 0.01)
+
+    def named(self, row: torch.Tensor) -> dict[str, torch.Tensor]:
+        """A replicate's (P,) values (its parameters, or their gradient) as views, parameter by parameter."""
+        return {name: view[0] for name, view in flat_parameters.views(row[None], self.shapes).items()}
 
     def state_dict(self, replicate: int = 0) -> dict:
         """One replicate's flat parameter vector and its layout (which parameter lies where, with its shape)."""
-        return {"flat": self.rows.row(self.flat, replicate), "layout": self.layout}
+        return {"flat": self.flat[replicate].clone(), "layout": self.layout}
 
     def load_state_dict(self, state: dict, replicate: int = 0) -> None:
         flat, layout = state.get("flat"), state.get("layout")
@@ -215,8 +162,9 @@ class ActorCritic:
         # Checkpoints written before the layout was stored have none; their size was checked above.
         if layout is not None and layout != self.layout:
             raise ArtifactError(f"the stored policy's layout {layout} is not this network's {self.layout}")
-        # In place: the views in params, grads and arrays stay valid.
-        self.rows.set_row(self.flat, replicate, flat)
+        # In place: the views in leaves, params and arrays stay valid.
+        with torch.no_grad():
+            self.flat[replicate] = flat
 
     @property
     def log_std(self) -> torch.Tensor:
@@ -251,19 +199,19 @@ class ActorCritic:
     ) -> list[Action]:
         """:meth:`act` of every replicate at once: ``obs`` (K, B, obs), replicate k drawing from ``rngs[k]`` and
         ``choice_rngs[k]`` relative to ``bases[k]``; the networks run batched, the draws one replicate at a time."""
-        p, k, batch = self.arrays, self.replicates, obs.shape[1]
-        hidden = np.tanh(obs[:, None] @ p["w1"].reshape(k, 2, *p["w1"].shape[1:]) + p["b1"].reshape(k, 2, 1, -1))
-        hidden = np.tanh(hidden @ p["w2"].reshape(k, 2, *p["w2"].shape[1:]) + p["b2"].reshape(k, 2, 1, -1))
-        means = hidden[:, 0] @ p["w_mean"] + p["b_mean"]
-        values = (hidden[:, 1] @ p["w_value"])[..., 0] + p["b_value"][..., 0]
+        p, batch = self.arrays, obs.shape[1]
+        hidden = np.tanh(obs[:, None] @ p["w1"] + p["b1"])  # (K, 2, B, hidden): the actor's trunk, the critic's
+        hidden = np.tanh(hidden @ p["w2"] + p["b2"])
+        means = hidden[:, 0] @ p["w_mean"] + p["b_mean"][:, None]
+        values = (hidden[:, 1] @ p["w_value"])[..., 0] + p["b_value"]
         log_ps = None
         if self.choices:
-            logits = hidden[:, 0] @ p["w_choice"] + p["b_choice"]
+            logits = hidden[:, 0] @ p["w_choice"] + p["b_choice"][:, None]
             shifted = logits - logits.max(2, keepdims=True)
             log_ps = shifted - np.log(np.exp(shifted).sum(2, keepdims=True))
         actions = []
         for r, (rng, choice_rng, base) in enumerate(zip(rngs, choice_rngs, bases, strict=True)):
-            mean, log_std, log_p = means[r], p["log_std"][r, 0], None if log_ps is None else log_ps[r]
+            mean, log_std, log_p = means[r], p["log_std"][r], None if log_ps is None else log_ps[r]
             if base is not None:
                 mean, log_std = mean + base[0], log_std + base[1]
             actions.append(self._draw_action(mean, values[r], log_p, log_std, batch, rng, choice_rng))
@@ -321,54 +269,23 @@ class ActorCritic:
 
     def __call__(self, obs: torch.Tensor) -> Heads:
         """The heads on (K, B, obs) observations, or on (B, obs) for one replicate (heads without the replicate
-        axis)."""
+        axis), as functions of :attr:`leaves`: a loss of them has its gradient in :meth:`gradient` after
+        ``backward()``."""
         if obs.dim() == 2:
-            return self.forward(obs[None]).alone()
-        return self.forward(obs)
+            return self(obs[None]).alone()
+        p, (k, batch, size) = self.leaves, obs.shape
+        hidden = torch.tanh(obs[:, None].expand(k, 2, batch, size) @ p["w1"] + p["b1"])  # the actor's, the critic's
+        hidden = torch.tanh(hidden @ p["w2"] + p["b2"])
+        actor, critic = hidden.unbind(1)
+        mean = torch.baddbmm(p["b_mean"][:, None], actor, p["w_mean"])
+        value = torch.baddbmm(p["b_value"][:, None], critic, p["w_value"]).squeeze(2)
+        logits = torch.baddbmm(p["b_choice"][:, None], actor, p["w_choice"]) if self.choices else None
+        return Heads(mean, p["log_std"][:, None], value, logits)
 
-    def forward(self, obs: torch.Tensor) -> Heads:
-        p, k, batch = self.batched, self.replicates, obs.shape[1]
-        trunks = obs[:, None].expand(k, 2, batch, obs.shape[2]).reshape(2 * k, batch, obs.shape[2])
-        hidden1 = tanh_layer(p["b1"], trunks, p["w1"])
-        hidden2 = tanh_layer(p["b2"], hidden1, p["w2"])
-        actor, critic = hidden2[0::2], hidden2[1::2]
-        mean = torch.baddbmm(p["b_mean"], actor, p["w_mean"])
-        value = torch.baddbmm(p["b_value"], critic, p["w_value"]).squeeze(2)
-        logits = torch.baddbmm(p["b_choice"], actor, p["w_choice"]) if self.choices else None
-        return Heads(obs, hidden1, hidden2, mean, value, logits)
-
-    def backward(
-        self,
-        heads: Heads,
-        d_mean: torch.Tensor,
-        d_log_std: torch.Tensor,
-        d_value: torch.Tensor,
-        d_logits: torch.Tensor | None = None,
-    ) -> None:
-        """Writes into ``gradient`` the gradient of a loss whose gradients with respect to the heads are given, for
-        K replicates at once: ``d_mean`` (K, B, action), ``d_log_std`` (K, action), ``d_value`` (K, B),
-        ``d_logits`` (K, B, choices); ``heads`` from :meth:`forward`."""
-        p, g = self.batched, self.batched_grads
-        actor, critic = heads.hidden2[0::2], heads.hidden2[1::2]
-        torch.bmm(actor.transpose(1, 2), d_mean, out=g["w_mean"])
-        torch.sum(d_mean, 1, keepdim=True, out=g["b_mean"])
-        torch.bmm(critic.transpose(1, 2), d_value[..., None], out=g["w_value"])
-        torch.sum(d_value[..., None], 1, keepdim=True, out=g["b_value"])
-        g["log_std"].copy_(d_log_std[:, None])
-        d_actor = torch.bmm(d_mean, p["w_mean"].transpose(1, 2))
-        if d_logits is not None:
-            torch.bmm(actor.transpose(1, 2), d_logits, out=g["w_choice"])
-            torch.sum(d_logits, 1, keepdim=True, out=g["b_choice"])
-            d_actor.baddbmm_(d_logits, p["w_choice"].transpose(1, 2))
-        d_critic = d_value[..., None] * p["w_value"].transpose(1, 2)
-        d_hidden2 = torch.stack((d_actor, d_critic), 1).view_as(heads.hidden2)
-        d_pre2 = d_hidden2.mul_(torch.addcmul(ONE, heads.hidden2, heads.hidden2, value=-1))  # tanh' = 1 - tanh^2
-        torch.bmm(heads.hidden1.transpose(1, 2), d_pre2, out=g["w2"])
-        torch.sum(d_pre2, 1, keepdim=True, out=g["b2"])
-        d_pre1 = torch.bmm(d_pre2, p["w2"].transpose(1, 2)).mul_(
-            torch.addcmul(ONE, heads.hidden1, heads.hidden1, value=-1)
-        )
-        k, batch = heads.obs.shape[:2]
-        w1 = g["w1"].view(k, 2, *g["w1"].shape[1:])
-        torch.matmul(heads.obs.transpose(1, 2)[:, None], d_pre1.view(k, 2, batch, -1), out=w1)
-        torch.sum(d_pre1, 1, keepdim=True, out=g["b1"])
+    def gradient(self) -> torch.Tensor:
+        """(K, P) the gradient that ``backward()`` left in :attr:`leaves`, each row in its replicate's layout; the
+        leaves are cleared for the next one."""
+        found = flat_parameters.gather([leaf.grad for leaf in self.leaves.values()], torch.empty_like(self.flat))
+        for leaf in self.leaves.values():
+            leaf.grad = None
+        return found

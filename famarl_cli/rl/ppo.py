@@ -29,14 +29,15 @@ from dataclasses import asdict, dataclass, field, fields
 import numpy as np
 import torch
 
-from famarl_cli.core.declare import plain
+from famarl_cli.core.declare import default_of, plain
+from famarl_cli.core.replicate_adam import ReplicateAdam
 from famarl_cli.core.seeding import Stream, generator, seed_of
 from famarl_cli.envs.batched import ContinuousWorldBatch
-from famarl_cli.rl import MacroDiscount
+from famarl_cli.rl import DECISIONS_PER_ROLLOUT, Agent, MacroDiscount
 from famarl_cli.rl.action_modes import ActionMode
 from famarl_cli.rl.executor import SequenceResult, run_sequences
 from famarl_cli.rl.normalization import ObservationNormalizer, RewardScaler
-from famarl_cli.rl.optimizer import FlatAdam, clip_norms
+from famarl_cli.rl.options import DEFAULT_STEPS, PPOOptions
 from famarl_cli.rl.policy import LOG_SQRT_2PI, ActorCritic
 from famarl_cli.rl.prior_guide import PriorGuide
 from famarl_cli.rl.semi_mdp import decision_reward
@@ -48,33 +49,36 @@ RECENT_EPISODES = 100
 
 @dataclass(frozen=True)
 class PPOConfig:
-    total_steps: int = 2_000_000
+    """PPO's settings; those ``famarl train`` offers take its defaults (:mod:`famarl_cli.rl.options`), so
+    ``PPOConfig()`` is ``famarl train --agent ppo``'s."""
+
+    total_steps: int = DEFAULT_STEPS
     """Budget in environment steps (not decisions)."""
-    n_envs: int = 16
-    n_steps: int = 64
+    n_envs: int = default_of(PPOOptions, "n_envs")
+    n_steps: int = DECISIONS_PER_ROLLOUT[Agent.PPO]
     """Decisions per environment per rollout."""
-    epochs: int = 10
-    minibatches: int = 8
-    learning_rate: float = 3e-4
+    epochs: int = default_of(PPOOptions, "epochs")
+    minibatches: int = default_of(PPOOptions, "minibatches")
+    learning_rate: float = default_of(PPOOptions, "lr")
     anneal_lr: bool = True
-    gamma: float = 0.99
-    gae_lambda: float = 0.95
-    clip: float = 0.2
-    clip_value: bool = True
-    ent_coef: float = 0.0
+    gamma: float = default_of(PPOOptions, "gamma")
+    gae_lambda: float = default_of(PPOOptions, "gae_lambda")
+    clip: float = default_of(PPOOptions, "clip")
+    clip_value: bool = default_of(PPOOptions, "clip_value")
+    ent_coef: float = default_of(PPOOptions, "ent_coef")
     vf_coef: float = 0.5
     max_grad_norm: float = 0.5
     macro_discount: MacroDiscount = MacroDiscount.DECISION
     """Given as the enum or its value (``"steps"``); held as the enum."""
     type_entropy_floor: float = 0.0
     """Nats below which the categorical head's entropy is pushed back up (the hybrid's type head); 0: never."""
-    type_entropy_until: float = 0.25
+    type_entropy_until: float = default_of(PPOOptions, "type_entropy_until")
     """Share of the budget during which the floor holds."""
     type_entropy_coef: float = 1.0
     """Weight of the floor's hinge, max(0, floor - H(choice)), in the loss."""
     hidden: int = 64
-    normalize_obs: bool = True
-    scale_rewards: bool = True
+    normalize_obs: bool = default_of(PPOOptions, "normalize")
+    scale_rewards: bool = default_of(PPOOptions, "normalize")
 
     def __post_init__(self) -> None:
         if self.macro_discount not in tuple(MacroDiscount):
@@ -146,23 +150,21 @@ class Minibatch:
         return Minibatch(**{f.name: None if (v := getattr(self, f.name)) is None else v[None] for f in fields(self)})
 
 
-def clipped_objective_gradient(
+def ppo_loss(
     policy: ActorCritic,
     batch: Minibatch,
     cfg: PPOConfig,
     entropy_floor: float | torch.Tensor = 0.0,
     prior_weight: float | torch.Tensor = 0.0,
     prior_mask: torch.Tensor | None = None,
-) -> torch.Tensor:
-    """Writes into ``policy.gradient`` the gradient of PPO's loss on one minibatch of each replicate; returns the
-    :data:`STATS` (and the prior's KL where the batch has a prior), (K, stats), or (stats,) for a minibatch without
-    the replicate axis.
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """PPO's loss on one minibatch of each replicate, (K,), a function of ``policy.leaves``, and the :data:`STATS`
+    (and the prior's KL where the batch has a prior), (K, stats); without the replicate axis in the minibatch, a
+    scalar and (stats,). Replicates share nothing, so the gradient of the losses' sum is each one's own.
 
     loss = clipped policy loss - ent_coef * entropy + vf_coef * (clipped) value loss, each a mean over the
     minibatch, plus ``type_entropy_coef * max(0, entropy_floor - H(choice))`` where the policy has a categorical
-    head (``entropy_floor``: a number, or one per replicate). The derivative of each term with respect to the
-    network's heads is written beside it; where a ``max`` picks the clipped term, the clip is active and passes no
-    gradient. Replicates share nothing but the calls.
+    head (``entropy_floor``: a number, or one per replicate).
 
     With branches (the hybrid), only the chosen branch's outputs enter a row's log-density, and the entropy is
     H(choice) + sum_k p(k) H(branch k).
@@ -174,105 +176,65 @@ def clipped_objective_gradient(
     alone = batch.obs.dim() == 2
     if alone:
         batch = batch.with_replicate_axis()
-    size, log_std = batch.obs.shape[1], policy.batched["log_std"]  # (K, 1, action)
-    outputs = log_std.shape[2]
-    heads = policy.forward(batch.obs)
+    heads = policy(batch.obs)
+    mean, log_std = heads.mean, heads.log_std  # (K, B, action), (K, 1, action)
     guided = batch.base_mean is not None
-    # Every torch call costs ~5 us here, more than its arithmetic: in-place where possible, nothing computed twice.
     if guided:
-        row_log_std = batch.base_log_std + log_std  # (K, B, action): each row's own
-        inv_std = row_log_std.neg().exp()
-        z = (batch.u - batch.base_mean - heads.mean).mul_(inv_std)
+        mean, log_std = mean + batch.base_mean, log_std + batch.base_log_std  # each row its own std
+    z = (batch.u - mean) * torch.exp(-log_std)
+    log_density = -0.5 * z.square() - log_std - LOG_SQRT_2PI  # per output
+    output_entropy = log_std + (0.5 + LOG_SQRT_2PI)
+    if policy.branch_mask is None:
+        logp, entropy = log_density.sum(2), output_entropy.sum(2)
     else:
-        inv_std = log_std.neg().exp()
-        z = (batch.u - heads.mean).mul_(inv_std)
-    rows = None if policy.branch_mask is None else policy.branch_mask[batch.index]
-    if rows is not None:
-        z.mul_(rows)
-    z2 = z.square()
-    if rows is None:
-        # sum(log_std) + const, also the entropy (a row's own, averaged, with a prior): (K, B) or (K, 1)
-        gaussian_constant = (row_log_std if guided else log_std).sum(2) + LOG_SQRT_2PI * outputs
-        log_ratio = z2.sum(2).mul_(-0.5).sub_(gaussian_constant).sub_(batch.logp)
-    else:
-        # each output's share of -log density and (+ 1/2) of the entropy; (K, B, action) with a prior
-        per_output = (row_log_std if guided else log_std) + LOG_SQRT_2PI
-        log_ratio = z2.sum(2).mul_(-0.5).sub_((rows * per_output).sum(2)).sub_(batch.logp)
+        logp = (log_density * policy.branch_mask[batch.index]).sum(2)
+    hinge = 0.0
     if heads.logits is not None:
         log_p = heads.logits.log_softmax(2)
-        log_ratio += log_p.gather(2, batch.index[..., None]).squeeze(2)
-    ratio = log_ratio.exp()
-    clipped_ratio = ratio.clamp(1 - cfg.clip, 1 + cfg.clip)
-    gain, clipped_gain = batch.advantages * ratio, batch.advantages * clipped_ratio
-    policy_loss = -torch.minimum(gain, clipped_gain).mean(1)
-    # d policy_loss / d logp = -advantage * ratio / size where the unclipped term is the min, else 0
-    d_logp = gain.mul_(gain <= clipped_gain).mul_(-1.0 / size)
-
-    error = heads.value - batch.returns
-    squared_error = error.square()
-    if cfg.clip_value:
-        # error + (clamped change - change): equal to error, to the bit, wherever the clip is inactive
-        change = heads.value - batch.values
-        clipped_error = change.clamp(-cfg.clip, cfg.clip).sub_(change).add_(error)
-        clipped_squared_error = clipped_error.square()
-        value_loss = torch.maximum(squared_error, clipped_squared_error).mean(1).mul_(0.5)
-        d_value = error.mul_(clipped_squared_error <= squared_error)
-    else:
-        value_loss, d_value = squared_error.mean(1).mul_(0.5), error
-    d_value = d_value.mul_(cfg.vf_coef / size)
-
-    # d logp / d mean = z / std and d logp / d log_std = z^2 - 1 (on the chosen branch's outputs, 0 elsewhere)
-    d_log_std = torch.bmm(d_logp[:, None], z2.sub_(1 if rows is None else rows)).squeeze(1)  # (K, action)
-    d_mean = z.mul_(d_logp[..., None]).mul_(inv_std)
-    d_logits = None
-    if heads.logits is None:
-        entropy = (gaussian_constant + 0.5 * outputs).mean(1)
-        d_log_std.sub_(cfg.ent_coef)
-    else:
+        logp = logp + log_p.gather(2, batch.index[..., None]).squeeze(2)
         p = log_p.exp()
         choice_entropy = -(p * log_p).sum(2)
-        # d log p[index] / d logits = onehot(index) - p;  d H(choice) / d logits = -p (log p + H(choice))
-        d_logits = -p * d_logp[..., None]
-        d_logits.scatter_add_(2, batch.index[..., None], d_logp[..., None])
-        d_choice_entropy = cfg.ent_coef / size
+        if policy.branch_mask is None:
+            entropy = entropy + choice_entropy
+        else:
+            entropy = choice_entropy + (p * (output_entropy @ policy.branch_mask.T)).sum(2)
         floors = torch.as_tensor(entropy_floor, dtype=torch.float32).reshape(-1, 1)  # one, or one per replicate
         if bool((floors > 0).any()):
-            below = (choice_entropy < floors).float()
-            d_choice_entropy = d_choice_entropy + below[..., None] * (cfg.type_entropy_coef / size)
-        d_logits += d_choice_entropy * p * (log_p + choice_entropy[..., None])
-        if rows is None:
-            entropy = (gaussian_constant + 0.5 * outputs).mean(1) + choice_entropy.mean(1)
-            d_log_std.sub_(cfg.ent_coef)
-        else:
-            # sum_k p(k) H(branch k): d / d log_std = E_rows[p @ mask]; d / d logits = p (H(branch) - that sum)
-            branch_entropy = (per_output + 0.5) @ policy.branch_mask.T  # (K, B or 1, choices)
-            expected = (p * branch_entropy).sum(2)
-            weights = p @ policy.branch_mask
-            entropy = (choice_entropy + expected).mean(1)
-            d_log_std.sub_(weights.mean(1), alpha=cfg.ent_coef)
-            d_logits -= (cfg.ent_coef / size) * p * (branch_entropy - expected[..., None])
+            hinge = cfg.type_entropy_coef * (floors - choice_entropy).clamp(min=0).mean(1)
+
+    log_ratio = logp - batch.logp
+    ratio = log_ratio.exp()
+    clipped_ratio = ratio.clamp(1 - cfg.clip, 1 + cfg.clip)
+    policy_loss = torch.maximum(-batch.advantages * ratio, -batch.advantages * clipped_ratio).mean(1)
+
+    squared_error = (heads.value - batch.returns).square()
+    if cfg.clip_value:
+        clipped_value = batch.values + (heads.value - batch.values).clamp(-cfg.clip, cfg.clip)
+        squared_error = torch.maximum(squared_error, (clipped_value - batch.returns).square())
+    value_loss = 0.5 * squared_error.mean(1)
+
+    entropy = entropy.mean(1)
+    loss = policy_loss - cfg.ent_coef * entropy + cfg.vf_coef * value_loss + hinge
     stats = [policy_loss, value_loss, entropy]
     if guided:
-        # KL(pi || prior) per guided output j: -l_j + e^(2 l_j) / 2 + m_j^2 e^(-2 base log std_j) / 2 - 1/2
-        mean = heads.mean * prior_mask
-        inv_prior_var = batch.base_log_std.mul(-2).exp_()
-        scaled = mean * inv_prior_var
-        guided_log_std = log_std * prior_mask  # (K, 1, action)
-        variance_less_one = guided_log_std.mul(2).exp_().sub_(1).mul_(prior_mask)  # e^(2 l) - 1, also d KL / d l
-        kl = variance_less_one.mul(0.5).sub_(guided_log_std).mul_(prior_mask).sum((1, 2)) + 0.5 * (scaled * mean).sum(
-            2
-        ).mean(1)
-        weight = torch.as_tensor(prior_weight, dtype=torch.float32).expand(len(kl))
-        if bool((weight > 0).any()):
-            d_mean.addcmul_(scaled, weight[:, None, None], value=1.0 / size)
-            d_log_std.addcmul_(variance_less_one.squeeze(1), weight[:, None])
+        # KL(pi || prior) per guided output: -log std + (e^(2 log std) + mean^2 e^(-2 base log std)) / 2 - 1/2
+        own_log_std = heads.log_std * prior_mask
+        spread = ((0.5 * torch.exp(2 * own_log_std) - own_log_std - 0.5) * prior_mask).sum((1, 2))
+        shift = 0.5 * ((heads.mean * prior_mask).square() * torch.exp(-2 * batch.base_log_std)).sum(2).mean(1)
+        kl = spread + shift
+        loss = loss + torch.as_tensor(prior_weight, dtype=torch.float32) * kl
         stats.append(kl)
-    policy.backward(heads, d_mean, d_log_std, d_value, d_logits)
-    approx_kl = (ratio - log_ratio).mean(1) - 1
-    clip_fraction = (ratio != clipped_ratio).mean(1, dtype=torch.float32)
-    stats[3:3] = [approx_kl, clip_fraction]
-    found = torch.stack(stats, 1)
-    return found[0] if alone else found
+    with torch.no_grad():
+        approx_kl = (ratio - log_ratio).mean(1) - 1
+        clip_fraction = (ratio != clipped_ratio).mean(1, dtype=torch.float32)
+        found = torch.stack([*stats[:3], approx_kl, clip_fraction, *stats[3:]], 1)
+    return (loss[0], found[0]) if alone else (loss, found)
+
+
+def clip_rows(gradient: torch.Tensor, max_norm: float) -> torch.Tensor:
+    """Each row of a (K, P) gradient scaled in place by ``torch.nn.utils.clip_grad_norm_``'s rule, as if each
+    replicate were clipped alone: by max_norm / (norm + 1e-6) where that is below 1."""
+    return gradient.mul_((max_norm / (gradient.norm(dim=1, keepdim=True) + 1e-6)).clamp(max=1.0))
 
 
 @dataclass
@@ -372,11 +334,10 @@ class PPOTrainer:
     """Owns everything that changes while training; :meth:`state_dict` captures all of it for exact resumes.
 
     One trainer may train several runs of one agent at once, one per seed (:meth:`together`): their networks are
-    the replicates of one :class:`ActorCritic` and one :class:`FlatAdam`, so that every call of acting and learning
-    serves all of them, and all else (environments, random generators, statistics, logs) is each run's own. A run's
-    numbers are those it computes alone, up to the rounding of batched kernels. Runs that reach their budget leave
-    the batch; the others go on. Built for one seed, the trainer's members are reachable as its attributes
-    (``trainer.env``, ``trainer.episodes``, ...).
+    the replicates of one :class:`ActorCritic` and one :class:`ReplicateAdam`, so that every call of acting and
+    learning serves all of them, and all else (environments, random generators, statistics, logs) is each run's
+    own. A run's numbers are those it computes alone, up to the rounding of batched kernels. Runs that reach their
+    budget leave the batch; the others go on.
     """
 
     def __init__(
@@ -393,7 +354,7 @@ class PPOTrainer:
             self.policy.params["w_mean"][:, guide.columns] = 0.0
         shuffles = torch.Generator()
         shuffles.set_state(torch.get_rng_state())
-        self.optimizer = FlatAdam(self.policy.flat, lr=config.learning_rate, eps=1e-5)
+        self.optimizer = ReplicateAdam(self.policy.flat, lr=config.learning_rate, eps=1e-5)
         member = Member(
             env,
             mode,
@@ -444,32 +405,18 @@ class PPOTrainer:
         """A network and optimiser with one replicate per ``(trainer, replicate)`` of ``sources``, copied."""
         first = sources[0][0].policy
         self.policy = ActorCritic(
-            first.arrays["w1"].shape[1],
-            first.arrays["w_mean"].shape[2],
+            first.obs_size,
+            first.action_size,
             first.choices,
             self.config.hidden,
             first.branches,
             replicates=len(sources),
         )
         policy = self.policy
-        self.optimizer = FlatAdam(policy.flat, self.config.learning_rate, eps=1e-5, rows=policy.rows)
+        self.optimizer = ReplicateAdam(policy.flat, self.config.learning_rate, eps=1e-5)
         for k, (trainer, replicate) in enumerate(sources):
             policy.load_state_dict(trainer.policy.state_dict(replicate), k)
             self.optimizer.load_state_dict(trainer.optimizer.state_dict(replicate), k)
-
-    def __getattr__(self, name: str):
-        # A trainer of one seed shows its member's state as its own (trainer.env, trainer.episodes, ...).
-        members = self.__dict__.get("members")
-        if members is not None and len(members) == 1 and name in Member.__dataclass_fields__:
-            return getattr(members[0], name)
-        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
-
-    def __setattr__(self, name: str, value) -> None:
-        members = self.__dict__.get("members")
-        if members is not None and len(members) == 1 and name in Member.__dataclass_fields__:
-            setattr(members[0], name, value)
-        else:
-            super().__setattr__(name, value)
 
     def member_done(self, index: int) -> bool:
         return self.members[index].env_steps >= self.config.total_steps
@@ -578,8 +525,6 @@ class PPOTrainer:
         [rollout] = self.collect_rollouts()
         return rollout
 
-    # inference_mode: no autograd bookkeeping on any tensor (the gradient is written out), a third off every call.
-    @torch.inference_mode()
     def update(self, rollouts: list[Rollout] | Rollout) -> list[dict[str, float]] | dict[str, float]:
         """PPO's epochs on every active member's rollout (one rollout for a trainer of one seed); the stats of each."""
         alone = isinstance(rollouts, Rollout)
@@ -602,7 +547,7 @@ class PPOTrainer:
         used = minibatch * cfg.minibatches
         stat_names = STATS if not guided else (*STATS, "prior_kl")
         totals = torch.zeros(len(members), len(stat_names))
-        gradient, policy = self.policy.gradient, self.policy
+        policy = self.policy
         mask = None if not guided else torch.from_numpy(guides[0].mask.astype(np.float32))
         floor = torch.tensor(
             [
@@ -624,15 +569,15 @@ class PPOTrainer:
             for i in range(cfg.minibatches):
                 batch = Minibatch(**{name: parts[i] for name, parts in minibatches.items()})
                 if not guided:
-                    totals += clipped_objective_gradient(policy, batch, cfg, floor)
+                    losses, stats = ppo_loss(policy, batch, cfg, floor)
                 else:
                     weights = torch.tensor([guide.weight for guide in guides], dtype=torch.float32)
-                    step = clipped_objective_gradient(policy, batch, cfg, floor, weights, mask)
-                    totals += step
-                    for guide, kl in zip(guides, step[:, -1].tolist(), strict=True):
+                    losses, stats = ppo_loss(policy, batch, cfg, floor, weights, mask)
+                    for guide, kl in zip(guides, stats[:, -1].tolist(), strict=True):
                         guide.tune(kl)
-                clip_norms(policy.gradient_pieces, policy.rows, cfg.max_grad_norm)
-                self.optimizer.step(gradient)
+                totals += stats
+                losses.sum().backward()
+                self.optimizer.step(clip_rows(policy.gradient(), cfg.max_grad_norm))
         found = []
         for k, rollout in enumerate(rollouts):
             stats = dict(zip(stat_names, (totals[k] / (cfg.epochs * cfg.minibatches)).tolist(), strict=True))
@@ -670,7 +615,7 @@ class PPOTrainer:
             rates = [
                 cfg.learning_rate * (1.0 - m.env_steps / cfg.total_steps if cfg.anneal_lr else 1.0) for m in members
             ]
-            self.optimizer.lr[:] = rates
+            self.optimizer.set_lr(rates)
             rollouts = self.collect_rollouts()
             found = self.update(rollouts)
             share = (time.perf_counter() - started) / len(members)

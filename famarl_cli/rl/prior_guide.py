@@ -8,8 +8,7 @@ closely as the fit gets). The loss then pays
 
     weight * KL(pi(z | s) || p(z | s)) = weight * sum_j [ -l_j + e^(2 l_j) / 2 + m_j^2 / (2 sigma_p,j^2) - 1/2 ],
 
-whose derivatives, m_j / sigma_p,j^2 for the mean and e^(2 l_j) - 1 for the log std, are written out in
-:func:`~famarl_cli.rl.ppo.clipped_objective_gradient` beside PPO's own. The weight is fixed, or tuned each
+a term of :func:`~famarl_cli.rl.ppo.ppo_loss` beside PPO's own. The weight is fixed, or tuned each
 minibatch towards a target divergence (SPiRL's automatic tuning): log weight += rate * (KL - target).
 
 The prior reads the raw state (the demos' units), not the policy's normalised one. For the hybrid, it guides the

@@ -7,19 +7,15 @@ the same seed, a run stopped and resumed ends with the same weights and log as o
 
 from __future__ import annotations
 
-import functools
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-
-import gymnasium as gym
-import numpy as np
 
 from famarl_cli.artifacts import provenance
 from famarl_cli.artifacts.base import sha256
 from famarl_cli.artifacts.runs import CHECKPOINT_FILE, read_run_checkpoint, read_timing, write_run, write_timing
-from famarl_cli.core.declare import plain
+from famarl_cli.core.declare import default_of, plain
 from famarl_cli.core.errors import ArtifactError, UsageError
 from famarl_cli.core.seeding import Stream, seed_of
 from famarl_cli.method.favae.checkpoint import load_favae
@@ -34,44 +30,37 @@ from famarl_cli.rl.action_modes import (
     PrimitiveActions,
     RepeatedActions,
 )
-from famarl_cli.rl.normalization import ObservationNormalizer
-from famarl_cli.rl.policy import ActorCritic
-from famarl_cli.rl.ppo import PPOConfig, PPOTrainer
+from famarl_cli.rl.options import RunOptions
+from famarl_cli.rl.ppo import Member, PPOConfig, PPOTrainer
 from famarl_cli.rl.prior_guide import PriorGuide
 from famarl_cli.rl.vector import BatchedEnv, make_batch
 
 
 @dataclass(frozen=True)
 class RunSpec:
+    """A run's settings, as run.json records them; those ``famarl train`` offers take its defaults
+    (:class:`~famarl_cli.rl.options.RunOptions`, whose help says what each means)."""
+
     env_id: str
     agent: Agent
     seed: int
     ppo: PPOConfig
-    latent_bound: float = 3.0
-    """FaMARL and hybrid: latents are clipped to [-bound, bound] before decoding."""
+    latent_bound: float = default_of(RunOptions, "latent_bound")
     macro_horizon: int = 0
     """FaMARL and hybrid: macro actions are cut after this many steps (0: where the decoder stops them)."""
     residual: float = 0.0
     """Hybrid: a macro decision adds this times the primitive output to each of its actions (0: off)."""
-    max_repeat: int = 32
-    """FiGAR: the largest repeat count J."""
+    max_repeat: int = default_of(RunOptions, "max_repeat")
     favae: str | None = None
     """FaMARL and hybrid: the FAVAE checkpoint it was started from (its weights are copied into the run)."""
-    prior: str | None = None
-    """FaMARL and hybrid: the prior file it was started from (famarl prior fit; copied into the run like the FAVAE)."""
-    prior_guide: bool = True
-    """With a prior: the latent policy starts at p(z | s) and pays its KL (:mod:`famarl_cli.rl.prior_guide`)."""
-    prior_weight: float = 0.1
-    """The KL's weight (its start, when tuned)."""
-    prior_target_kl: float = 0.0
-    """Nats the tuned weight keeps the KL near; 0: the weight stays fixed."""
-    prior_obs_prefix: bool = False
-    """The prior's networks read the first values of the env's observation (demos from an env whose observation
-    begins this one's); otherwise the sizes must be equal."""
-    loop: MacroDecoder = MacroDecoder.OPEN
-    """Open or closed loop (``famarl train --loop``): the FAVAE's decoder turns a latent into actions fixed when the
-    macro starts, or the prior file's closed-loop decoder chooses each from the state reached. Runs written before
-    recorded it as ``decoder`` (:meth:`from_dict` reads both)."""
+    prior: str | None = default_of(RunOptions, "prior")
+    """The prior file it was started from (copied into the run like the FAVAE)."""
+    prior_guide: bool = default_of(RunOptions, "prior_guide")
+    prior_weight: float = default_of(RunOptions, "prior_weight")
+    prior_target_kl: float = default_of(RunOptions, "prior_target_kl")
+    prior_obs_prefix: bool = default_of(RunOptions, "prior_obs_prefix")
+    loop: MacroDecoder = default_of(RunOptions, "loop")
+    """Runs written before recorded it as ``decoder`` (:meth:`from_dict` reads both)."""
     label: str = ""
     """How plots and reports name this kind of run; seeds of one experiment share it."""
     env_kwargs: dict = field(default_factory=dict)
@@ -99,7 +88,7 @@ class RunSpec:
         horizon = values.get("macro_horizon") or 0
         ppo = PPOConfig.from_dict(values["ppo"])
         values = {("loop" if name == "decoder" else name): value for name, value in values.items()}
-        return RunSpec(**{"loop": MacroDecoder.OPEN, **values, "ppo": ppo, "macro_horizon": horizon})
+        return RunSpec(**{**values, "ppo": ppo, "macro_horizon": horizon})
 
     @property
     def guided(self) -> bool:
@@ -164,20 +153,20 @@ def check_skills(spec: RunSpec, skills: Skills, favae: Favae, env: BatchedEnv, f
         )
 
 
-def _favae_state(favae: Favae | None, skills: Skills | None = None) -> dict:
+def favae_state(favae: Favae | None, skills: Skills | None = None) -> dict:
     state = {} if favae is None else {"favae_config": favae.config.to_dict(), "favae_state_dict": favae.state_dict()}
     return state if skills is None else {**state, "skills": skills.state()}
 
 
-def _favae_from_state(state: dict) -> Favae | None:
+def favae_from_state(state: dict) -> Favae | None:
     if "favae_config" not in state:
         return None
     favae = Favae(FavaeConfig.from_dict(state["favae_config"]))
     favae.load_state_dict(state["favae_state_dict"])
-    return favae.eval()
+    return favae
 
 
-def _skills_from_state(state: dict) -> Skills | None:
+def skills_from_state(state: dict) -> Skills | None:
     return None if "skills" not in state else Skills.from_state(state["skills"])
 
 
@@ -224,26 +213,35 @@ class Run:
         if total_steps is not None:
             spec = replace(spec, ppo=replace(spec.ppo, total_steps=total_steps))
         mode = payload["mode"]
-        run = Run(spec, _favae_from_state(mode), payload["provenance"], payload["trainer"], _skills_from_state(mode))
+        run = Run(spec, favae_from_state(mode), payload["provenance"], payload["trainer"], skills_from_state(mode))
         run.wall_s = read_timing(run_dir) or 0.0
         return run
 
+    @property
+    def own(self) -> Member:
+        """This run's own state in :attr:`trainer`: its environments, counters, episodes and log."""
+        return self.trainer.members[self.member]
+
+    @property
+    def complete(self) -> bool:
+        return self.trainer.member_done(self.member)
+
     def save(self, run_dir: str | os.PathLike) -> None:
-        trainer, member = self.trainer, self.trainer.members[self.member]
+        own = self.own
         status = {
-            "complete": trainer.member_done(self.member),
-            "env_steps": member.env_steps,
-            "decisions": member.decisions,
-            "updates": member.updates,
+            "complete": self.complete,
+            "env_steps": own.env_steps,
+            "decisions": own.decisions,
+            "updates": own.updates,
         }
-        mode = _favae_state(self.favae, self.skills)
-        write_run(run_dir, self.spec.to_dict(), trainer.state_dict(self.member), mode, self.provenance, status)
+        mode = favae_state(self.favae, self.skills)
+        write_run(run_dir, self.spec.to_dict(), self.trainer.state_dict(self.member), mode, self.provenance, status)
         write_timing(run_dir, self.wall_s)
 
     @property
     def summary(self) -> dict[str, float]:
         """Means over the run's most recent episodes (:class:`~famarl_cli.rl.ppo.EpisodeTracker`)."""
-        return self.trainer.members[self.member].episodes.summary()
+        return self.own.episodes.summary()
 
     def train(
         self,
@@ -295,181 +293,6 @@ def train_together(
             on_update(k, row)
 
     trainer.train(on_member_update=after_update, on_finish=save)
-
-
-@dataclass
-class TrainedAgent:
-    """A trained run (:func:`load_agent`): the policy, its frozen observation statistics and its action mode.
-
-    It acts on the observations of its env (the env's own, unnormalised; a Dict observation as the env gives it)
-    in two ways: :meth:`predict`, as Stable-Baselines3's models do, one action per env step, and :meth:`act`, one
-    decision at a time, a macro action's whole sequence at once. Both draw the actions as in training, the policy
-    whose success the verdicts judge, unless asked for its mode with ``deterministic=True``."""
-
-    spec: RunSpec
-    policy: ActorCritic
-    obs_norm_state: dict
-    favae: Favae | None
-    env_steps: int
-    skills: Skills | None = None
-    rng: np.random.Generator = field(default_factory=np.random.default_rng, repr=False, compare=False)
-    """Where :meth:`act` and :meth:`predict` draw from when not given a generator (seed one for repeatable draws)."""
-    _pending: list[np.ndarray] = field(default_factory=list, init=False, repr=False, compare=False)
-    """:meth:`predict`: per env of the batch, the actions of its decision in progress still to run."""
-
-    @functools.cached_property
-    def _env(self) -> BatchedEnv:
-        return make_batch(self.spec.env_id, 1, self.spec.seed, self.spec.env_kwargs)
-
-    @functools.cached_property
-    def _actor(self) -> FrozenActor:
-        return FrozenActor(self, self._env)
-
-    def act(
-        self, observation: np.ndarray | dict, deterministic: bool = False, rng: np.random.Generator | None = None
-    ) -> Decision:
-        """The decision the policy takes at one ``observation``: the primitive actions to run, open loop, and for a
-        macro action the FAVAE latent it chose. Drawn as in training, from ``rng`` (default: :attr:`rng`), or with
-        ``deterministic`` the policy's mode. A run whose macros are closed-loop (``--loop closed``) chooses each
-        action from the state reached: step it in :class:`~famarl_cli.wrappers.MacroActionWrapper` instead."""
-        obs, one = self._observations(observation)
-        if not one:
-            raise UsageError(
-                f"act takes one observation of shape {self._shape}, not a batch of {len(obs)}: predict takes batches"
-            )
-        actor = self._decide(deterministic, rng)
-        actions, length = actor(obs)
-        macro = bool(actor.macro[0])
-        latent = actor.last_u[0, : self.favae.config.latent_size].copy() if macro and self.favae else None
-        return Decision(actions[0, : int(length[0])].copy(), latent, macro)
-
-    def predict(
-        self,
-        observation: np.ndarray | dict,
-        state: tuple[np.ndarray, ...] | None = None,
-        episode_start: np.ndarray | None = None,
-        deterministic: bool = False,
-    ) -> tuple[np.ndarray, tuple[np.ndarray, ...] | None]:
-        """The action to take at ``observation``, as Stable-Baselines3's ``model.predict``: ``(action, state)``.
-
-        ``observation`` is one observation of the env, or a batch of them (one row per env, as a VecEnv gives);
-        the action is one action, or a batch of as many. ``state`` passes through unused (the policy has no
-        recurrent state). Drawn as in training (from :attr:`rng`), or with ``deterministic`` the policy's mode.
-
-        A decision may last several steps (a FaMARL or hybrid macro action, FiGAR's repeated action): the agent
-        decides at the first step and runs the decision's actions, open loop, over the next calls, one per call;
-        each env of a batch (its row) runs its own. ``episode_start`` (one bool, or one per row: the dones of the
-        last step, as SB3's recurrent policies take them) drops the decision in progress where an episode began,
-        so that a macro action never runs on into the next episode; pass it whenever the env was reset. A batch of
-        another size than the last one's is taken as other envs: every row decides afresh.
-        """
-        obs, one = self._observations(observation)
-        if len(self._pending) != len(obs):
-            self._pending = [np.empty((0,)) for _ in obs]
-        if episode_start is not None:
-            starts = np.asarray(episode_start, dtype=bool)
-            if starts.size != len(obs):
-                raise UsageError(f"episode_start has {starts.size} values for {len(obs)} observations")
-            for row in np.flatnonzero(starts.reshape(-1)):
-                self._pending[row] = np.empty((0,))
-        deciding = [row for row, pending in enumerate(self._pending) if not len(pending)]
-        if deciding:
-            actions, lengths = self._decide(deterministic, None)(obs[deciding])
-            for k, row in enumerate(deciding):
-                self._pending[row] = actions[k, : int(lengths[k])]
-        action = np.stack([pending[0] for pending in self._pending])
-        self._pending = [pending[1:] for pending in self._pending]
-        return (action[0] if one else action), state
-
-    def _decide(self, deterministic: bool, rng: np.random.Generator | None) -> FrozenActor:
-        if self.spec.loop == MacroDecoder.CLOSED:
-            raise UsageError("a closed-loop run decides each action from the state reached; use MacroActionWrapper")
-        actor = self._actor
-        actor.rng = None if deterministic else (rng if rng is not None else self.rng)
-        return actor
-
-    @property
-    def _shape(self) -> tuple[int]:
-        return (self._env.observation_size,)
-
-    def _observations(self, observation: np.ndarray | dict) -> tuple[np.ndarray, bool]:
-        """``observation`` as rows of flat observations (N, size), and whether it was one observation."""
-        size, space = self._env.observation_size, getattr(self._env, "observation_space", None)
-        expected = f"{self.spec.env_id} observations have shape {self._shape}, or (N, {size}) for a batch"
-        if isinstance(observation, Mapping):
-            observation = _flatten_dict(observation, space, expected)
-        try:
-            obs = np.asarray(observation, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise UsageError(f"{expected}; got {type(observation).__name__} that is no array of numbers") from exc
-        if obs.shape == (size,):
-            return obs[None], True
-        if obs.ndim == 2 and obs.shape[1] == size and len(obs):
-            return obs, False
-        raise UsageError(f"{expected}, not {obs.shape}")
-
-
-def _flatten_dict(observation: Mapping, space: object, expected: str) -> np.ndarray:
-    """A Dict observation, or a batch of them (each entry with a leading row axis), flattened as training
-    flattened it (:class:`~famarl_cli.rl.vector.GymBatch`)."""
-    if not isinstance(space, gym.spaces.Dict):
-        raise UsageError(f"{expected}; got a dict")
-    shapes = {key: sub.shape for key, sub in space.spaces.items()}
-    try:
-        entries = {key: np.asarray(observation[key]) for key in space.spaces}
-        if all(entries[key].shape == shape for key, shape in shapes.items()):
-            return gym.spaces.flatten(space, entries)
-        rows = len(next(iter(entries.values())))
-        if all(entries[key].shape == (rows, *shape) for key, shape in shapes.items()):
-            return np.stack([gym.spaces.flatten(space, {k: v[i] for k, v in entries.items()}) for i in range(rows)])
-    except (KeyError, TypeError, ValueError):
-        pass  # refused below, with the shapes it takes
-    given = {key: np.shape(value) for key, value in observation.items()}
-    raise UsageError(f"{expected}; a dict observation holds {shapes} (a batch: one row more each), not {given}")
-
-
-@dataclass(frozen=True)
-class Decision:
-    """One decision of a trained agent (:meth:`TrainedAgent.act`)."""
-
-    actions: np.ndarray
-    """(n, D): the primitive actions it runs, in order (one for PPO, a repeated one for FiGAR, a macro's)."""
-    latent: np.ndarray | None
-    """The FAVAE latent z of a macro action (FaMARL, the hybrid's macro decisions), else None."""
-    macro: bool
-    """Whether it is a macro action (FaMARL always; the hybrid where its type head chose one)."""
-
-
-class FrozenActor:
-    """The trained policy on observations normalised with the statistics frozen at the end of training: acting
-    with its mode, or sampling as it did in training when given a generator. Returns each decision's open-loop
-    actions (N, L, D) and lengths (N,); ``macro`` is which of the last decisions were macro actions."""
-
-    def __init__(self, agent: TrainedAgent, env: BatchedEnv, rng: np.random.Generator | None = None) -> None:
-        self.agent, self.rng = agent, rng
-        self.mode = build_mode(agent.spec, env, agent.favae, agent.skills)
-        self.guide = build_guide(agent.spec, self.mode, agent.skills)
-        self.normalize = ObservationNormalizer((env.observation_size,), agent.spec.ppo.normalize_obs)
-        self.normalize.load_state_dict(agent.obs_norm_state)
-
-    def __call__(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        base = None if self.guide is None else self.guide.base(obs)
-        action = self.agent.policy.act(self.normalize(obs.astype(np.float32), update=False), self.rng, base=base)
-        self.macro = self.mode.macro(action.index)
-        self.last_u = action.u
-        return self.mode.to_sequences(action.u.astype(np.float64), action.index)
-
-
-def load_agent(run_dir: str | os.PathLike) -> TrainedAgent:
-    payload = read_run_checkpoint(run_dir)
-    spec = RunSpec.from_dict(payload["config"])
-    favae, skills = _favae_from_state(payload["mode"]), _skills_from_state(payload["mode"])
-    trainer = payload["trainer"]
-    env = make_batch(spec.env_id, 1, spec.seed, spec.env_kwargs, spec.success_return)
-    mode = build_mode(spec, env, favae, skills)
-    policy = ActorCritic(env.observation_size, mode.policy_action_size, mode.choices, spec.ppo.hidden, mode.branches)
-    policy.load_state_dict(trainer["policy"])
-    return TrainedAgent(spec, policy, trainer["obs_norm"], favae, int(trainer["counters"]["env_steps"]), skills)
 
 
 def run_jobs(configs: list[dict], contexts: list) -> list:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import contextlib
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import gymnasium as gym
@@ -15,13 +15,14 @@ import numpy as np
 from famarl_cli.artifacts import Demos, Episode, provenance
 from famarl_cli.artifacts.demos import content_fault
 from famarl_cli.artifacts.made import Replaceable
-from famarl_cli.core.declare import from_json, option, same_as
+from famarl_cli.core.declare import from_json, option, same_as, to_json
 from famarl_cli.core.errors import FamarlError, UsageError, foreign
 from famarl_cli.envs.external import MakeOptions, make_env
 from famarl_cli.envs.success import SuccessOptions, SuccessRule, as_bool, success_rule
 from famarl_cli.experts import Script, demonstration, make_expert
 from famarl_cli.experts.external import ExternalExpert
 from famarl_cli.experts.scripts import Environment
+from famarl_cli.sweep.registry import JobRecipe
 
 
 @dataclass(frozen=True)
@@ -329,7 +330,7 @@ DEMOS_FILE = "demos.h5"
 def run_job(config: dict, folder: Path, context) -> dict:
     """Demos as a sweep job (:mod:`famarl_cli.sweep`): ``folder/demos.h5`` and, with ``plot``, ``demos.png``."""
     from famarl_cli.artifacts.demos import write_demos
-    from famarl_cli.report.plots import plot_demos
+    from famarl_cli.artifacts.pictures import plot_demos
 
     episodes = config["episodes"]
     done = []
@@ -344,3 +345,25 @@ def run_job(config: dict, folder: Path, context) -> dict:
     if options.plot:
         plot_demos(recorded, (folder / DEMOS_FILE).with_suffix(".png"))
     return {"success": recorded.success_rate, "episodes": len(recorded.episodes)}
+
+
+def write_made_demos(options: DemosOptions, recorded: Demos) -> list[Path]:
+    """``famarl demos``'s files: ``recorded``, with what made it, at ``options.destination`` and, with ``plot``, its
+    picture beside it; returns the paths written."""
+    from famarl_cli.artifacts import prepare_output, write_demos
+    from famarl_cli.artifacts.made import making
+    from famarl_cli.artifacts.pictures import plot_demos
+
+    recorded = replace(recorded, provenance={**recorded.provenance, "made_from": making("famarl demos", options)})
+    out = prepare_output(options.destination)
+    write_demos(out, recorded)
+    if not options.plot:
+        return [out]
+    plot_demos(recorded, out.with_suffix(".png"))
+    return [out, out.with_suffix(".png")]
+
+
+def demos_job(options: DemosOptions) -> JobRecipe:
+    """``famarl sweep demos``: each job records what ``famarl demos`` with the same options would, into
+    ``<job folder>/demos.h5`` (and ``.png``)."""
+    return JobRecipe(run_job, {key: value for key, value in to_json(options).items() if key != "overwrite"})

@@ -1,7 +1,10 @@
-"""``famarl evaluate``'s options, declared once, and the evaluation of one run (what each worker runs)."""
+"""``famarl evaluate``'s options, declared once, the evaluation of one run (what each worker runs), and of many:
+where each goes, spread over workers, their learning curves and summary."""
 
 from __future__ import annotations
 
+import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -9,8 +12,8 @@ from famarl_cli.artifacts import provenance, write_json
 from famarl_cli.artifacts.made import Replaceable, made_result, making, option_names
 from famarl_cli.artifacts.tracked import refuse_tracked
 from famarl_cli.core.declare import option, same_as
-from famarl_cli.core.errors import ArtifactError
-from famarl_cli.envs.success import SuccessOptions
+from famarl_cli.core.errors import ArtifactError, UsageError
+from famarl_cli.envs.success import SuccessOptions, shown
 from famarl_cli.stages import defaults
 from famarl_cli.stages.train import TrainOptions
 
@@ -115,16 +118,16 @@ def evaluate_run(
         ROLLOUTS_FILE,
         STILLS_FILE,
     )
-    from famarl_cli.report.plots import plot_rollouts, save_film
+    from famarl_cli.rl.agent import TrainedAgent
     from famarl_cli.rl.evaluation import evaluate, film_episode, layout_seed
-    from famarl_cli.rl.training import load_agent
+    from famarl_cli.rl.plots import plot_rollouts, save_film
 
     run_folder, into_folder = Path(run), Path(into)
     options = EvaluateOptions(episodes=episodes, seed=seed, success_return=success_return)
     state, found = evaluation_state(run_folder, into_folder, options, overwrite)
     if found is not None:
         return {**found, "state": state}
-    agent = load_agent(run_folder)
+    agent = TrainedAgent.load(run_folder)
     mode = evaluate(agent, episodes, seed, rollouts, success_return=success_return)
     sampled = evaluate(agent, episodes, seed, 0, sample=True, success_return=success_return)
     evaluation = {
@@ -167,3 +170,106 @@ def evaluate_run(
     if filmed is not None:
         save_film(filmed, into_folder / FILM_FILE, into_folder / STILLS_FILE)
     return {**evaluation, "state": state}
+
+
+@dataclass(frozen=True)
+class Evaluated:
+    """What ``famarl evaluate`` made of its runs (:func:`evaluate_runs`), each list in the runs' order."""
+
+    runs: list[Path]
+    evaluations: list[dict]
+    """Each run's eval.json, less provenance (:func:`evaluate_run`)."""
+    states: list[str]
+    """Each run's evaluation: ``"reuse"``, ``"make"`` or ``"remake"`` (:func:`evaluation_state`)."""
+    summary: dict[str, dict]
+    """Per label, each metric's mean, min and max over its runs (:func:`~famarl_cli.rl.evaluation.summarise`)."""
+    walls: dict[str, list[float]]
+    """Per label, the training wall seconds of its runs that recorded one."""
+    out: Path | None
+    """Where the evaluations went (OUT/<run>), or None: into each run's folder."""
+    curves: Path
+
+
+def evaluate_runs(
+    options: EvaluateOptions, on_note: Callable[[str], None], on_done: Callable[[int, int], None] | None = None
+) -> Evaluated:
+    """``famarl evaluate``: every run evaluated (:func:`evaluate_run`) into its folder or OUT/<name>
+    (:func:`evaluation_names`), spread over ``options.jobs`` workers; the learning curves of all runs by label into
+    ``curves`` and its ``.json`` (the summary per label). ``on_note`` hears where the results go when the runs lie
+    in a DVC stage's output; ``on_done(done, total)`` follows the runs."""
+    from famarl_cli.artifacts.base import prepare_output
+    from famarl_cli.artifacts.runs import expand_run_folders, read_run_file, read_timing, read_training_log
+    from famarl_cli.report.plots import plot_learning_curves
+    from famarl_cli.rl.evaluation import summarise
+    from famarl_cli.sweep.executors import run_each
+
+    o = options
+    runs = expand_run_folders(o.runs)
+    for folder in runs:
+        read_run_file(folder)
+    out = o.out or beside_tracked(runs, on_note)
+    into = {folder: (out / name if out else folder) for folder, name in zip(runs, evaluation_names(runs), strict=True)}
+    first = into[runs[0]]
+    curves = o.curves or (first / "curves.png" if len(runs) == 1 else first.parent / "curves.png")
+    refuse_tracked(curves, "give --curves elsewhere")
+    curves = prepare_output(curves)
+    # Every run's evaluation is claimed before any is made: one refused run must not cost the others' work.
+    settings = EvaluateOptions(episodes=o.episodes, seed=o.seed, success_return=o.success_return)
+    for folder in runs:
+        evaluation_state(folder, into[folder], settings, o.overwrite)
+    args = (o.episodes, o.seed, o.rollouts, o.film, o.success_return, o.overwrite)
+    calls = {folder: (str(folder), str(into[folder]), *args) for folder in runs}
+    evaluations = run_each(evaluate_run, calls, o.jobs, "evaluation", on_done)
+    states = [evaluation.pop("state") for evaluation in evaluations]
+    summary = summarise(evaluations)
+    # The curves show every run's training: made again unless every run's evaluation was there already.
+    if states.count("reuse") < len(runs) or not (curves.exists() and curves.with_suffix(".json").exists()):
+        logs: dict[str, list] = {}
+        for folder, evaluation in zip(runs, evaluations, strict=True):
+            logs.setdefault(evaluation["label"], []).append(read_training_log(folder))
+        plot_learning_curves(logs, curves)
+        write_json(curves.with_suffix(".json"), {"episodes": o.episodes, "seed": o.seed, "labels": summary})
+    walls: dict[str, list[float]] = {label: [] for label in summary}
+    for folder, evaluation in zip(runs, evaluations, strict=True):
+        if (wall := read_timing(folder)) is not None:
+            walls[evaluation["label"]].append(wall)
+    return Evaluated(runs, evaluations, states, summary, walls, out, curves)
+
+
+def beside_tracked(runs: list[Path], on_note: Callable[[str], None]) -> Path | None:
+    """Where a bare ``famarl evaluate`` (no ``--out``) writes: into each run's own folder, but where the runs lie in
+    a DVC stage's output (the main job's ``data/maze/runs``), which only ``dvc repro`` writes: then beside it, in
+    ``data/evaluations/<that output's path>``, and a note says so."""
+    from famarl_cli.artifacts.tracked import tracked_output
+
+    found = tracked_output(runs[0])
+    if found is None:
+        return None
+    owned = os.path.relpath(found.path)
+    out = Path("data/evaluations") / owned.removeprefix(f"data{os.sep}").replace(os.sep, "-")
+    on_note(
+        f"{owned} is the output of the DVC stage {found.stage} ({found.definition}), which only `dvc repro` "
+        f"writes; evaluating into {out} (--out to choose)"
+    )
+    return out
+
+
+def evaluation_names(runs: list[Path]) -> list[str]:
+    """Each run's folder name under ``--out``: its own name, or, where runs of several sweeps share names (seed0 of
+    each variant), ``<sweep folder>-<run>`` for all; runs that still share a name are a usage error."""
+    names = [folder.name for folder in runs]
+    if len(set(names)) < len(names):
+        names = [f"{folder.parent.name}-{folder.name}" for folder in runs]
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        raise UsageError(f"two runs would be evaluated into the same folder under --out: {', '.join(repeated)}")
+    return names
+
+
+def judged_success(evaluation: dict) -> str:
+    """An evaluation's success as the verdicts judge it (the policy sampling as in training), its mode's beside."""
+    mode = evaluation["deterministic"]["success_rate"]
+    return (
+        f"success {shown(evaluation['success_rate'])} sampling as in training (judged), {shown(mode)} acting with "
+        f"its mode, over {evaluation['episodes']} episodes"
+    )

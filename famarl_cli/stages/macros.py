@@ -27,13 +27,15 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from famarl_cli.artifacts.made import Replaceable
 from famarl_cli.artifacts.segments import REPLICATE_FILE as SEGMENTS
-from famarl_cli.core.declare import from_json, option, pick, same_as, with_paths
+from famarl_cli.core.declare import from_json, option, pick, same_as, to_json, with_paths
 from famarl_cli.core.errors import UsageError
 from famarl_cli.method.favae import FavaeOptions, FitChoices
 from famarl_cli.method.segment_params import SegmenterOptions, SegmentParams
 from famarl_cli.stages import method as stages
 from famarl_cli.stages.defaults import REPLICATE_FAVAE
+from famarl_cli.sweep.registry import JobRecipe
 
 FAVAE, TRAVERSAL = REPLICATE_FAVAE, "traverse.h5"
 
@@ -72,6 +74,50 @@ class MacrosConfig(stages.TraversalPlace, FitChoices, FavaeOptions, SegmentParam
     @property
     def inputs(self) -> list[Path]:
         return [p for p in (self.demos, self.segments, self.calibration) if p is not None]
+
+
+@dataclass(frozen=True)
+class MacrosOptions(MacrosConfig):
+    """``famarl macros``: a replicate's options and the folder it goes into."""
+
+    out: Path | None = option(
+        None, "Folder.  [default: data/macros/<demos or segments name>/seed<S>]", path="dir", affects=False
+    )
+    overwrite: bool = same_as(
+        Replaceable,
+        "overwrite",
+        help="Start afresh where --out holds what other inputs or options made (or files by hand); without it, a "
+        "folder made from the same inputs and options continues, or is left as it is where it is complete.",
+    )
+
+    @property
+    def destination(self) -> Path:
+        source = self.demos or self.segments
+        return self.out or Path("data/macros") / source.stem / f"seed{self.seed}"
+
+
+def make_macros(options: MacrosOptions, on_progress: Callable[[str, int, int], None] | None = None) -> bool:
+    """``famarl macros``: the replicate made (or finished) in ``options.destination``, with its job.json, by the
+    sweep's rule for a folder (:func:`~famarl_cli.sweep.driver.make_in_folder`); False where the folder held it
+    complete and nothing ran. ``on_progress`` as :func:`learn_macros`'s."""
+    from famarl_cli.artifacts.lock import claim_folder
+    from famarl_cli.sweep.driver import make_in_folder
+    from famarl_cli.sweep.plan import Job
+    from famarl_cli.sweep.worker import name_of
+
+    out, recipe = options.destination, macros_job(options)
+    job = Job("macros", name_of(recipe.runner), recipe.config, recipe.inputs, recipe.resumable)
+    with claim_folder(out):
+        return make_in_folder(
+            out, job, options.overwrite, lambda: learn_macros(pick(MacrosConfig, options), out, on_progress)
+        )
+
+
+def macros_job(options: MacrosOptions) -> JobRecipe:
+    """``famarl sweep macros``: each replicate is what ``famarl macros`` with the same options would make; the
+    replicates of one setting are fitted in batches (famarl sweep --batch)."""
+    config = pick(MacrosConfig, options)
+    return JobRecipe(run_jobs, to_json(config), tuple(map(str, config.inputs)), resumable=True, batched=True)
 
 
 def segments_path(folder: Path, config: MacrosConfig) -> Path:

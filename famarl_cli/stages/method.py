@@ -25,7 +25,7 @@ from famarl_cli.envs import DEFAULT_WORLD, World
 from famarl_cli.envs.external import MakeOptions
 from famarl_cli.method.favae import Device, FavaeOptions, FitChoices
 from famarl_cli.method.segment_params import SegmenterOptions, SegmentParams
-from famarl_cli.method.traversal import DRAWS, parse_dims, parse_values
+from famarl_cli.method.traversal import DRAWS, EMPTY_LADDER_NATS, empty_ladders, parse_dims, parse_values
 from famarl_cli.stages import defaults
 
 
@@ -217,6 +217,7 @@ def segment_many(
     (:func:`~famarl_cli.method.segmentation.train_autoencoders`; they must read the same demos and episodes with
     the same segmenter options, their seeds apart), and each replicate writes what :func:`segment` writes.
     ``on_epoch(k, epoch, mse)`` follows replicate k's segmenter."""
+    from famarl_cli.method.plots import plot_segmentation
     from famarl_cli.method.segmentation import (
         AutoencoderConfig,
         TrainingConfig,
@@ -225,7 +226,6 @@ def segment_many(
         segment_demos,
         train_autoencoders,
     )
-    from famarl_cli.report.plots import plot_segmentation
 
     untrained = [k for k, o in enumerate(options) if o.encoder is None]
     device = shared_device([options[k] for k in untrained]) if untrained else "cpu"  # before anything is written
@@ -464,9 +464,9 @@ def traverse(options: TraverseOptions):
     what each traversed variable carries."""
     from famarl_cli.artifacts.traversal import write_traversal
     from famarl_cli.method.favae.checkpoint import load_favae
+    from famarl_cli.method.plots import plot_traversal, plot_traversal_frames
     from famarl_cli.method.traversal import traverse as run_traversal
     from famarl_cli.method.traversal import variables_of
-    from famarl_cli.report.plots import plot_traversal, plot_traversal_frames
 
     if options.env is None and options.env_kwargs:
         raise UsageError("--env-kwargs goes with --env")
@@ -539,6 +539,14 @@ class Carried:
         if self.information is not None:
             return "information", self.information
         return None if self.kl is None else ("KL", self.kl)
+
+    EMPTY_BELOW = EMPTY_LADDER_NATS
+    """What a ladder's traversed variables carry at most, together, to be empty (nats)."""
+
+    def empty(self, variables: list[tuple[int, int]]) -> dict[int, float]:
+        """The ladders among ``variables`` that carry under :attr:`EMPTY_BELOW` by :attr:`best`, with the nats they
+        carry; none where nothing is recorded (:func:`~famarl_cli.method.traversal.empty_ladders`)."""
+        return {} if self.best is None else empty_ladders(variables, self.best[1])
 
 
 def format_values(values: list[float]) -> str:

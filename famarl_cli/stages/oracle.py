@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -55,10 +56,11 @@ def searched_space(run: str, plans: int, seed: int) -> tuple[RunSpec, SearchBatc
     of its envs (made from ``seed``, the fastest kind, as training's) that do not reset themselves, the mode that
     decodes its decisions, and the env's time limit (None where it has none). Only the run's action space is
     used, not its policy."""
-    from famarl_cli.rl.training import build_mode, load_agent
+    from famarl_cli.rl.agent import TrainedAgent
+    from famarl_cli.rl.training import build_mode
     from famarl_cli.rl.vector import make_batch
 
-    agent = load_agent(run)
+    agent = TrainedAgent.load(run)
     spec = agent.spec
     batch = make_batch(spec.env_id, plans, seed, spec.env_kwargs, spec.success_return)
     batch.autoreset = False
@@ -119,3 +121,27 @@ def oracle_run(
     )
     write_json(Path(into) / ORACLE_FILE, {**result, "provenance": prov})
     return result
+
+
+def oracle_runs(
+    options: OracleStageOptions, on_done: Callable[[int, int], None] | None = None
+) -> tuple[list[Path], list[dict]]:
+    """``famarl oracle``: each run's action space searched (:func:`oracle_run`) into OUT/<name>
+    (:func:`~famarl_cli.stages.evaluate.evaluation_names`), spread over ``options.jobs`` workers; the run folders
+    and what each search found, in order (``reused`` where it was there already)."""
+    from famarl_cli.artifacts.runs import expand_run_folders, read_run_file
+    from famarl_cli.artifacts.tracked import refuse_tracked
+    from famarl_cli.stages.evaluate import evaluation_names
+    from famarl_cli.sweep.executors import run_each
+
+    o = options
+    if not o.run:
+        raise UsageError("give --run: a run folder, or a folder of run folders (famarl train, famarl sweep train)")
+    runs = expand_run_folders(o.run)
+    for folder in runs:
+        read_run_file(folder)
+    into = {folder: o.out / name for folder, name in zip(runs, evaluation_names(runs), strict=True)}
+    refuse_tracked(o.out)  # before the search: its writes would be refused at the end
+    args = (o.layouts, o.seed, o.candidates, o.iterations, o.decisions, o.overwrite)
+    calls = {folder: (str(folder), str(into[folder]), *args) for folder in runs}
+    return runs, run_each(oracle_run, calls, o.jobs, "oracle", on_done)

@@ -19,6 +19,7 @@ from famarl_cli.core.declare import option, same_as, to_json, with_paths
 from famarl_cli.method.prior.choices import PriorFitChoices
 from famarl_cli.stages import defaults
 from famarl_cli.stages.method import SEGMENTS_HELP, SegmentOptions, SegmentsInput
+from famarl_cli.sweep.registry import JobRecipe
 
 
 @dataclass(frozen=True)
@@ -85,9 +86,9 @@ def fit_prior(options: PriorFitOptions, on_epoch: Callable[[int, dict], None] | 
     pairs = skill_pairs(demos, segments, favae, str(options.demos), str(options.segments))
     prior, decoder, scores, log = fit(pairs, options, favae.config.length, favae, on_epoch)
     if options.plot:
+        from famarl_cli.method.plots import plot_proposals
         from famarl_cli.method.prior.data import held_out_episodes
         from famarl_cli.method.prior.proposals import propose
-        from famarl_cli.report.plots import plot_proposals
 
         held = np.unique(pairs.episode[held_out_episodes(pairs.episode, options.holdout, options.seed)])
         episodes = [int(e) for e in (held if len(held) else np.unique(pairs.episode))[:3]]
@@ -114,3 +115,11 @@ def run_job(config: dict, folder: Path, context) -> dict:
     options = from_json(PriorFitOptions, {**config, "out": str(folder / PRIOR_FILE)})
     scores = fit_prior(options, lambda epoch, _: context.progress(epoch + 1, options.epochs))
     return {key: scores[key] for key in ("held_out_prior_nll", "held_out_standard_nll", "held_out_closed_mse")}
+
+
+def prior_job(options: PriorFitOptions) -> JobRecipe:
+    """``famarl sweep prior``: each point is what ``famarl prior fit`` with the same options would write, into the
+    point's folder (prior.pt)."""
+    config = {key: value for key, value in to_json(options).items() if key not in ("out", "overwrite")}
+    given = (options.demos, options.segments, options.favae)  # a default one is found when the point runs
+    return JobRecipe(run_job, config, tuple(str(path) for path in given if path is not None))

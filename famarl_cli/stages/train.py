@@ -1,15 +1,18 @@
 """``famarl train``'s options, declared once (:mod:`famarl_cli.core.declare`), and the run they describe.
 
-The command, ``famarl sweep train``'s jobs and the run's ``run.json`` all come from :class:`TrainOptions`;
+The command, ``famarl sweep train``'s jobs and the run's ``run.json`` all come from :class:`TrainOptions`, built on
+the settings of PPO and of a run (:mod:`famarl_cli.rl.options`) whose defaults PPOConfig and RunSpec share;
 :func:`run_spec` fills in what depends on the agent (:func:`famarl_cli.rl.agent_defaults`)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import contextlib
+from collections.abc import Iterator
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from famarl_cli.artifacts.made import Replaceable
-from famarl_cli.core.declare import option, same_as
+from famarl_cli.core.declare import option, pick, same_as
 from famarl_cli.core.errors import UsageError
 from famarl_cli.envs.external import MakeOptions
 from famarl_cli.envs.success import SuccessOptions
@@ -23,14 +26,15 @@ from famarl_cli.rl import (
     MacroDiscount,
     agent_defaults,
 )
+from famarl_cli.rl.options import DEFAULT_STEPS, PPOOptions, RunOptions
 from famarl_cli.stages import defaults as inputs
+from famarl_cli.sweep.registry import JobRecipe
 
 DEFAULT_ENV = "famarl/ContinuousWorld-Maze-v0"
-DEFAULT_STEPS = 1_000_000
 
 
 @dataclass(frozen=True)
-class TrainOptions:
+class TrainOptions(RunOptions, PPOOptions):
     """``famarl train``: PPO over FAVAE latents (FaMARL), primitive actions, FiGAR's repeated actions, or the hybrid
     of macro and primitive actions."""
 
@@ -46,33 +50,6 @@ class TrainOptions:
         "favae",
         help="FAVAE checkpoint whose decoder makes the macro actions (famarl and hybrid).  [default: "
         f"{inputs.FAVAE}, else the main job's {inputs.replicate(0).parent}/seed<S>/{inputs.REPLICATE_FAVAE}]",
-    )
-    prior: Path | None = option(
-        None,
-        "famarl, hybrid: a prior file of famarl prior fit on this FAVAE's latents: the latent policy starts at its "
-        "p(z | s) and pays its KL (see --prior-weight), and --loop closed uses its closed-loop decoder.",
-    )
-    prior_guide: bool = option(
-        True, "With --prior: start the latent policy at p(z | s) and regularise it towards it (off: decoder only)."
-    )
-    prior_weight: float = option(
-        0.1, "With --prior: the KL's weight; with --prior-target-kl, its starting value.", min=0.0
-    )
-    prior_target_kl: float = option(
-        0.0, "With --prior: tune the KL's weight so that the KL stays near this many nats (0: keep it fixed).", min=0.0
-    )
-    prior_obs_prefix: bool = option(
-        False,
-        "With --prior: its networks read the first values of the env's observation, as many as the demos' had (the "
-        "demos were recorded in another env whose observation begins this one's: ContinuousWorld Base's 8 values "
-        "begin the Maze's 12).",
-    )
-    loop: MacroDecoder = option(
-        MacroDecoder.OPEN,
-        "famarl, hybrid: open: the FAVAE's decoder, fixed when the macro starts (the paper's); closed: the "
-        "closed-loop decoder of --prior, which chooses each action from the state reached.",
-        renamed=("--decoder",),
-        former=("decoder",),
     )
     steps: int | None = option(
         None, f"Budget in environment steps.  [default: {DEFAULT_STEPS:,}; on --resume, the run's own]", min=1
@@ -90,7 +67,6 @@ class TrainOptions:
         help="Start afresh where --out holds a run (made from other inputs or options, or by hand); without it, a "
         "run made from the same inputs and options continues, or is left as it is where it is complete.",
     )
-    n_envs: int = option(16, "Environments stepped together.", min=1)
     n_steps: int | None = option(
         None,
         "Decisions per environment per rollout.  [default: "
@@ -98,25 +74,11 @@ class TrainOptions:
         + "]",
         min=1,
     )
-    epochs: int = option(
-        10,
-        "PPO epochs per rollout (passes over its minibatches).",
-        min=1,
-        flags=("--update-epochs",),
-        renamed=("--epochs",),
-    )
-    minibatches: int = option(8, "Minibatches per epoch.", min=1)
-    lr: float = option(3e-4, "Adam learning rate (annealed linearly to 0 over the budget).", min=0.0)
-    gamma: float = option(0.99, "Discount per decision (or per step with --macro-discount steps).", min=0.0, max=1.0)
-    gae_lambda: float = option(0.95, "GAE lambda.", min=0.0, max=1.0)
-    clip: float = option(0.2, "PPO clip range (policy ratio and value).", min=0.0)
-    ent_coef: float = option(0.0, "Entropy bonus weight.", min=0.0)
     macro_discount: MacroDiscount | None = option(
         None,
         "decision: gamma per decision, rewards summed (the paper); steps: gamma ** length, rewards scaled and "
         "discounted per step (semi-MDP).  [default: steps for hybrid, decision otherwise]",
     )
-    latent_bound: float = option(3.0, "famarl, hybrid: clip latents to [-bound, bound] before decoding.", min=0.0)
     macro_horizon: int | None = option(
         None,
         "famarl, hybrid: cut macro actions after this many steps and decide again (0: run them whole).  "
@@ -135,12 +97,6 @@ class TrainOptions:
         f"[default: {HYBRID_ENTROPY_FLOOR}]",
         min=0.0,
     )
-    type_entropy_until: float = option(
-        0.25, "hybrid: share of the budget during which the floor holds.", min=0.0, max=1.0
-    )
-    max_repeat: int = option(32, "figar: the largest repeat count J.", min=1)
-    normalize: bool = option(True, "Normalise observations and scale rewards by the return's std.")
-    clip_value: bool = option(True, "Clip the value loss like the policy ratio (CleanRL's default).")
     checkpoint_every: int = option(20, "Save the run every this many updates (and at the end).", min=1)
     label: str | None = option(None, "Name of this kind of run in plots.  [default: agent (favae name)]")
     tensorboard: Path | None = option(
@@ -176,60 +132,106 @@ class TrainOptions:
             )
 
 
+RENAMED = {
+    "env_id": "env",
+    "ppo.total_steps": "steps",
+    "ppo.learning_rate": "lr",
+    "ppo.normalize_obs": "normalize",
+    "ppo.scale_rewards": "normalize",
+}
+"""A run's settings (RunSpec's, PPOConfig's under ``ppo.``) set by an option of another name; every other setting
+an option of :class:`TrainOptions` has is set by the option of its own name."""
+
+
 def run_spec(options: TrainOptions):
-    """The RunSpec that ``famarl train``'s options describe (shared with ``famarl sweep train``): the options the
-    user left out take the agent's defaults."""
+    """The RunSpec that ``famarl train``'s options describe (shared with ``famarl sweep train``): each setting is
+    its option's (:data:`RENAMED`), and those the user left out that depend on the agent are the agent's."""
     from famarl_cli.rl.ppo import PPOConfig
     from famarl_cli.rl.training import RunSpec, default_label
 
-    o, defaults = options, agent_defaults(options.agent)
-
-    def given(value, name: str):
-        return defaults[name] if value is None else value
-
-    favae = o.favae_file if o.agent.decodes_macros else None
-
+    left_out = {name: value for name, value in agent_defaults(options.agent).items() if getattr(options, name) is None}
+    o = replace(options, steps=options.steps or DEFAULT_STEPS, **left_out)
+    renamed = {setting: getattr(o, name) for setting, name in RENAMED.items()}
     try:
-        ppo = PPOConfig(
-            total_steps=o.steps or DEFAULT_STEPS,
-            n_envs=o.n_envs,
-            n_steps=o.n_steps or defaults["n_steps"],
-            epochs=o.epochs,
-            minibatches=o.minibatches,
-            learning_rate=o.lr,
-            gamma=o.gamma,
-            gae_lambda=o.gae_lambda,
-            clip=o.clip,
-            clip_value=o.clip_value,
-            ent_coef=o.ent_coef,
-            macro_discount=str(given(o.macro_discount, "macro_discount")),
-            type_entropy_floor=given(o.type_entropy_floor, "type_entropy_floor"),
-            type_entropy_until=o.type_entropy_until,
-            normalize_obs=o.normalize,
-            scale_rewards=o.normalize,
-        )
+        ppo = pick(PPOConfig, o, **{k.removeprefix("ppo."): v for k, v in renamed.items() if k.startswith("ppo.")})
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
-    return RunSpec(
-        env_id=o.env,
-        env_kwargs=o.env_kwargs,
-        agent=o.agent,
-        seed=o.seed,
-        ppo=ppo,
-        latent_bound=o.latent_bound,
-        macro_horizon=given(o.macro_horizon, "macro_horizon"),
-        residual=given(o.residual, "residual"),
-        max_repeat=o.max_repeat,
-        favae=None if favae is None else str(favae),
-        prior=None if o.prior is None else str(o.prior),
-        prior_guide=o.prior_guide,
-        prior_weight=o.prior_weight,
-        prior_target_kl=o.prior_target_kl,
-        prior_obs_prefix=o.prior_obs_prefix,
-        loop=o.loop,
-        label=o.label
-        or default_label(
-            o.agent, o.favae_file if o.agent.decodes_macros else None, o.prior is not None and o.prior_guide, o.loop
-        ),
-        success_return=o.success_return,
+    favae = o.favae_file if o.agent.decodes_macros else None
+    label = o.label or default_label(o.agent, favae, o.prior is not None and o.prior_guide, o.loop)
+    return pick(RunSpec, o, ppo=ppo, favae=favae, label=label, env_id=renamed["env_id"])
+
+
+def new_run(options: TrainOptions):
+    """The run ``famarl train`` would start from ``options``, built (its options and input files checked) before
+    anything is written; None where ``--resume`` continues the one in the run folder instead."""
+    from famarl_cli.rl.training import Run
+
+    return None if options.resume else Run.start(run_spec(options))
+
+
+@contextlib.contextmanager
+def claimed_run(options: TrainOptions, fresh) -> Iterator:
+    """The run to train in ``options.destination``, its folder held against a second ``famarl train`` meanwhile:
+    ``fresh`` (from :func:`new_run`) where it starts afresh, else the one there continued, under the rule of every
+    command for an output made from other options (:mod:`famarl_cli.artifacts.made`). A fresh run replaces the old
+    run's files only once it has started, so a bad option never costs the user the old run."""
+    from famarl_cli.artifacts.lock import claim_folder
+    from famarl_cli.artifacts.made import claim_output
+    from famarl_cli.artifacts.runs import CHECKPOINT_FILE, EVAL_FILE, LOG_FILE, ROLLOUTS_FILE, RUN_FILE
+    from famarl_cli.rl.training import Run
+
+    out = options.destination
+    with claim_folder(out):
+        if fresh is None:
+            run = Run.resume(out, options.steps)
+        else:
+            made, instead = fresh.provenance["made_from"], "--resume to continue it as it was made"
+            afresh = claim_output([out / RUN_FILE], made, options.overwrite, instead=instead, names=setting_options())
+            run = fresh if afresh else Run.resume(out)
+        if run is fresh:
+            for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE):
+                (out / name).unlink(missing_ok=True)
+        yield run
+
+
+def board(path: Path | None):
+    """The TensorBoard log ``--tensorboard`` asks for (each update's row), or None."""
+    if path is None:
+        return None
+    from famarl_cli.rl.tensorboard import TensorBoardLog
+
+    return TensorBoardLog(path)
+
+
+def train_job(options: TrainOptions) -> JobRecipe:
+    """``famarl sweep train``: each run of the sweep is what ``famarl train`` with the same options would do; the
+    seeds of one setting train together in batches (famarl sweep --batch), each run in its own folder."""
+    from famarl_cli.rl.training import run_jobs
+
+    spec = run_spec(options)
+    return JobRecipe(
+        run_jobs,
+        {"spec": spec.to_dict(), "checkpoint_every": options.checkpoint_every},
+        inputs=tuple(path for path in (spec.favae, spec.prior) if path),
+        resumable=True,
+        batched=True,
     )
+
+
+def setting_options() -> dict[str, str]:
+    """Each setting of a run (run.json's spec, dotted: ``ppo.epochs``) by the ``famarl train`` option that sets it
+    (``--update-epochs``): how a refusal names a change in the options the user types. Settings no option sets
+    (``ppo.vf_coef``) keep their own names."""
+    from dataclasses import fields
+
+    from famarl_cli.artifacts.made import option_names
+    from famarl_cli.core.declare import declared
+    from famarl_cli.rl.ppo import PPOConfig
+    from famarl_cli.rl.training import RunSpec
+
+    flags = option_names(TrainOptions)
+    # a run recorded before a setting was renamed names it by its former name (``decoder``, now ``loop``)
+    former = {old: declaration.flag for declaration in declared(TrainOptions) for old in declaration.former}
+    settings = [f.name for f in fields(RunSpec) if f.name != "ppo"] + [f"ppo.{f.name}" for f in fields(PPOConfig)]
+    named = {setting: RENAMED.get(setting, setting.removeprefix("ppo.")) for setting in settings}
+    return {**former, **{setting: flags[option] for setting, option in named.items() if option in flags}}

@@ -20,10 +20,12 @@ import multiprocessing
 import os
 import queue
 import threading
+from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
 
-from famarl_cli.core.errors import UsageError
+from famarl_cli.core.errors import FamarlError, UsageError
 
 JOBS_VARIABLE = "FAMARL_JOBS"
 RAY_ADDRESS_VARIABLE = "RAY_ADDRESS"
@@ -205,3 +207,30 @@ def make_executor(jobs: int | None = None, ray_address: str | None = None) -> Ex
         return RayExecutor(address)
     jobs = jobs or default_jobs()
     return SerialExecutor() if jobs == 1 else LocalExecutor(jobs)
+
+
+def run_each(
+    function: Callable,
+    calls: dict[Path, tuple],
+    jobs: int | None,
+    what: str,
+    on_done: Callable[[int, int], None] | None = None,
+) -> list:
+    """``function(*args)`` for each folder's ``args`` in ``calls``, on at most ``jobs`` workers (default
+    :func:`default_jobs`), the results in order; ``on_done(done, total)`` after each. A worker that died is one
+    error naming the folder and ``what`` failed, not the pool's internals."""
+    from famarl_cli.sweep.worker import name_of
+
+    results = []
+    with make_executor(min(jobs or default_jobs(), len(calls))) as executor:
+        futures = {folder: executor.submit(name_of(function), *args) for folder, args in calls.items()}
+        for folder, future in futures.items():
+            try:
+                results.append(future.result())
+            except FamarlError:
+                raise
+            except Exception as exc:
+                raise FamarlError(f"{folder}: {what} failed ({type(exc).__name__}: {exc})") from exc
+            if on_done is not None:
+                on_done(len(results), len(calls))
+    return results

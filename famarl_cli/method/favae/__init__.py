@@ -1,9 +1,9 @@
 """FAVAE, the ladder VAE whose latents become the macro-action space.
 
-- :mod:`~famarl_cli.method.favae.model`: the network and its config;
+- :mod:`~famarl_cli.method.favae.model`: the network and its config, K replicates as one batched model (a single
+  FAVAE: K = 1);
 - :mod:`~famarl_cli.method.favae.loss`: reconstruction, the capacity-controlled KL term and the information per latent;
 - :mod:`~famarl_cli.method.favae.training`: the C_last pre-run, the fit (progressive, if asked) and its scores;
-- :mod:`~famarl_cli.method.favae.ensemble`: K replicates as one batched model, which every fit trains (K = 1 alone);
 - :mod:`~famarl_cli.method.favae.checkpoint`: checkpoints and calibration files.
 """
 

@@ -28,19 +28,19 @@ CALIBRATION_SCHEMA_VERSION = 3
 def save_favae(path: str | os.PathLike, model: Favae, training: dict, provenance: dict) -> None:
     """``training`` holds beta, C_last and the optimiser settings; the checkpoint loads without guessing."""
     save_checkpoint(
-        path, SCHEMA, SCHEMA_VERSION, model.checkpoint_config(), model.state_dict(), provenance, {"training": training}
+        path, SCHEMA, SCHEMA_VERSION, model.config.to_dict(), model.state_dict(), provenance, {"training": training}
     )
 
 
 def load_favae(path: str | os.PathLike) -> tuple[Favae, dict]:
-    """The model (in eval mode) and the checkpoint's other contents (training, provenance)."""
+    """The model and the checkpoint's other contents (training, provenance)."""
     payload = load_checkpoint(path, SCHEMA, SCHEMA_VERSION)
     try:
         model = Favae(FavaeConfig.from_dict(payload["config"]))
         model.load_state_dict(payload["state_dict"])
     except (TypeError, ValueError, RuntimeError) as exc:
         raise ArtifactError(f"{path}: weights do not fit the FAVAE config ({str(exc).splitlines()[0]})") from exc
-    return model.eval(), payload
+    return model, payload
 
 
 def write_calibration(

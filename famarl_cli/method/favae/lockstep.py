@@ -24,10 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from famarl_cli.core import counter_random
+from famarl_cli.core import counter_random, flat_parameters
 from famarl_cli.core.replay import Replayed
 from famarl_cli.core.replicate_adam import ReplicateAdam
-from famarl_cli.method.favae.ensemble import FavaeEnsemble
 from famarl_cli.method.favae.loss import replicate_loss
 from famarl_cli.method.favae.model import Favae, FavaeConfig
 
@@ -93,8 +92,7 @@ def plan_epoch(sizes: list[int], batch_size: int, device: torch.device | str = "
 
 
 class Lockstep:
-    """K fresh FAVAEs fitted as one batched model (:class:`~famarl_cli.method.favae.ensemble.FavaeEnsemble`) on
-    ``device``.
+    """K fresh FAVAEs fitted as one batched model (:class:`~famarl_cli.method.favae.model.Favae`) on ``device``.
 
     Replicate k starts from the weights ``torch.manual_seed(seeds[k]); Favae(configs[k])`` makes (drawn on the CPU,
     so every device starts from the same weights), with its own segments (``segments[k]``, (S, L, D + 2)), beta and
@@ -116,23 +114,19 @@ class Lockstep:
         device: torch.device | str = "cpu",
         graph: bool = True,
     ) -> None:
-        models = []
-        for seed, config in zip(seeds, configs, strict=True):
-            torch.manual_seed(seed)
-            models.append(Favae(config))
-        self.ensemble = ensemble = FavaeEnsemble(models, device)
-        self.device = device = ensemble.flat.device
+        self.model = model = Favae(configs, device, seeds)
+        self.device = device = model.flat.device
         replicates = len(segments)
         self.sizes = [len(s) for s in segments]
         # every replicate's segments, padded to the longest L, then after the most segments an all-zero padding row
-        data = torch.zeros(replicates, max(self.sizes) + 1, ensemble.config.length, ensemble.config.action_dim + 2)
+        data = torch.zeros(replicates, max(self.sizes) + 1, model.config.length, model.config.action_dim + 2)
         for k, padded in enumerate(segments):
             data[k, : len(padded), : padded.shape[1]] = torch.as_tensor(padded)
         self.data = data.to(device)
         self.plan = plan_epoch(self.sizes, batch_size, device)
         self.measure = measure
-        self.optimiser = ReplicateAdam(ensemble.flat, lr=learning_rate)
-        self.gradient = torch.empty_like(ensemble.flat)
+        self.optimiser = ReplicateAdam(model.flat, lr=learning_rate)
+        self.gradient = torch.empty_like(model.flat)
         self.betas = torch.tensor(betas, device=device)
         self.population = torch.tensor(self.sizes, dtype=torch.float32, device=device)
         self.schedule_weights, self.schedule_capacities = weights, capacities
@@ -145,7 +139,7 @@ class Lockstep:
         self.segment_counts = torch.tensor(self.sizes, device=device)
         self.everyone = torch.arange(replicates, device=device)[:, None]
         self.epoch = torch.zeros((), dtype=torch.int64, device=device)
-        self.sums = torch.zeros(self.epochs, replicates, len(self.columns(ensemble.config.ladders)), device=device)
+        self.sums = torch.zeros(self.epochs, replicates, len(self.columns(model.config.ladders)), device=device)
         self.replay = Replayed(self._epoch, device, graph)
 
     @staticmethod
@@ -162,7 +156,7 @@ class Lockstep:
 
     def _epoch(self) -> None:
         """One epoch of every replicate, then the epoch counter advanced (device work only)."""
-        ensemble, replicates = self.ensemble, len(self.sizes)
+        model, replicates = self.model, len(self.sizes)
         at = self.epoch.view(1)
         counters = self.epoch.expand(replicates)
         order = counter_random.orders(self.order_keys, counters, self.segment_counts, self.data.shape[1] - 1)
@@ -173,9 +167,9 @@ class Lockstep:
             index = torch.where(step.real, order.gather(1, step.positions), padding)
             batch = self.data[self.everyone, index]
             noise = counter_random.normal(
-                self.noise_keys, counters * self.own_steps + s, (index.shape[1], ensemble.config.latent_size)
+                self.noise_keys, counters * self.own_steps + s, (index.shape[1], model.config.latent_size)
             )
-            reconstruction, mus, logvars, samples = ensemble.forward(batch, noise, weights)
+            reconstruction, mus, logvars, samples = model.batched(batch, noise, weights)
             terms = replicate_loss(
                 reconstruction,
                 batch,
@@ -187,11 +181,10 @@ class Lockstep:
                 self.population,
                 self.measure,
                 step.scored,
-                ensemble.step_mask,
+                model.step_mask,
             )
-            gradients = torch.autograd.grad((terms.total * step.weighed).sum(), ensemble.parameters)
-            torch.cat([g.reshape(replicates, -1) for g in gradients], dim=1, out=self.gradient)
-            self.optimiser.step(self.gradient, step.active)
+            gradients = torch.autograd.grad((terms.total * step.weighed).sum(), model.parameters())
+            self.optimiser.step(flat_parameters.gather(gradients, self.gradient), step.active)
             values = torch.stack(
                 [terms.total, terms.reconstruction, terms.action_error, terms.on_off, *terms.kl, *terms.information],
                 dim=1,
@@ -208,4 +201,4 @@ class Lockstep:
         return self.sums[first:last].cpu() / torch.tensor(self.sizes, dtype=self.sums.dtype)[None, :, None]
 
     def models(self) -> list[Favae]:
-        return self.ensemble.models()
+        return self.model.models()

@@ -2,7 +2,7 @@
 latents drawn from p(z | s) and from N(0, I), each run in the demos' env from that very state (the env reset with the
 episode's own seed), beside the path the expert took.
 
-For the picture ``famarl prior fit`` draws beside the prior file (:func:`famarl_cli.report.plots.plot_proposals`).
+For the picture ``famarl prior fit`` draws beside the prior file (:func:`famarl_cli.method.plots.plot_proposals`).
 """
 
 from __future__ import annotations

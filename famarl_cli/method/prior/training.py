@@ -29,7 +29,10 @@ from collections.abc import Callable
 
 import numpy as np
 import torch
+from torch import nn
 
+from famarl_cli.core.flat_parameters import stacked
+from famarl_cli.core.replicate_adam import ReplicateAdam
 from famarl_cli.method.prior.choices import PriorFitChoices
 from famarl_cli.method.prior.data import SkillPairs, held_out_episodes
 from famarl_cli.method.prior.model import ClosedLoopDecoder, GaussianPrior, PriorConfig
@@ -96,8 +99,8 @@ def fit_prior(
     # the set-aside steps are decoded from their posterior means, as the score decodes its held-out ones
     check_open_loop = open_loop_actions(favae, t["z_mean"], pairs, length)[step_check]
     q_std = (0.5 * t["z_logvar"]).exp()
-    prior_optimizer = torch.optim.Adam(prior.parameters(), lr=choices.lr)
-    decoder_optimizer = torch.optim.Adam(decoder.parameters(), lr=choices.lr)
+    # both networks step every epoch with the same settings, so one Adam over their parameters together is each's own
+    parameters, optimizer = _one_row(nn.ModuleDict({"prior": prior, "decoder": decoder}), choices.lr)
 
     @torch.no_grad()
     def aside_cross_entropy() -> float:
@@ -111,19 +114,15 @@ def fit_prior(
     for epoch in range(choices.epochs):
         mean, log_std = prior(t["start_obs"][rows])
         prior_loss = cross_entropy(t["z_mean"][rows], t["z_logvar"][rows], mean, log_std).mean()
-        prior_optimizer.zero_grad()
-        prior_loss.backward()
-        prior_optimizer.step()
-
         z = t["z_mean"] + q_std * torch.randn_like(q_std)
         open_loop = open_loop_actions(favae, z, pairs, length)[step_rows]
         predicted = decoder(
             steps["step_obs"][step_rows], z[segment[step_rows]], steps["step_progress"][step_rows], open_loop
         )
         decoder_loss = (predicted - steps["step_actions"][step_rows]).square().mean()
-        decoder_optimizer.zero_grad()
-        decoder_loss.backward()
-        decoder_optimizer.step()
+        # the networks share no parameter: the gradient of the sum is each loss's own
+        gradients = torch.autograd.grad(prior_loss + decoder_loss, parameters)
+        optimizer.step(torch.cat([g.flatten() for g in gradients])[None])
         row = {"epoch": epoch, "prior_cross_entropy": prior_loss.item(), "decoder_mse": decoder_loss.item()}
         if aside.any():
             row["prior_cross_entropy_aside"] = aside_cross_entropy()
@@ -149,6 +148,15 @@ def fit_prior(
     scores = score(prior, decoder, pairs, held, favae)
     scores.update(stopped, aside_segments=int(aside.sum()))
     return prior, decoder, scores, log
+
+
+def _one_row(module: nn.Module, lr: float) -> tuple[list[nn.Parameter], ReplicateAdam]:
+    """``module``'s parameters made views of one (1, P) row, and the Adam that steps the row (and so them)."""
+    flat, named = stacked([module])
+    for name, view in named.items():
+        owner, _, leaf = name.rpartition(".")
+        setattr(module.get_submodule(owner), leaf, nn.Parameter(view[0]))
+    return list(module.parameters()), ReplicateAdam(flat, lr=lr)
 
 
 @torch.no_grad()

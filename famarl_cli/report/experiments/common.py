@@ -14,13 +14,17 @@ import numpy as np
 
 from famarl_cli.core.errors import ArtifactError
 from famarl_cli.core.statistics import (
+    HOLD,
     LEVEL,
     RATE,
+    SMOOTHING,
+    THRESHOLD,
     Interval,
     censored_ratio,
     mean_interval,
     paired_difference_interval,
     ratio_interval,
+    steps_to_threshold,
 )
 from famarl_cli.report.results import Group, RunResult, gather, group, macros_folders, read_json
 from famarl_cli.report.verdicts import (
@@ -33,6 +37,7 @@ from famarl_cli.report.verdicts import (
     fastest,
     not_run,
     solves,
+    speed_undefined,
     three_way,
 )
 
@@ -47,9 +52,10 @@ AUC_DELTA = 0.05
 """Smallest difference in normalised area under the success curve that counts as a better curve overall (shown
 and judged only where a goal is about the whole curve; learning faster is judged on :data:`SPEED_DELTA`)."""
 SPEED_DELTA = 0.05
-"""Smallest difference in env steps to 0.8 training success, as a share of the budget (25k of 500k), that counts as
-learning faster. Fixed, as AUC_DELTA's share, before the runs it judges: the area credits success at the start
-(FaMARL sampling the FAVAE prior reaches the goal before it has learned anything), the steps to 0.8 do not."""
+"""Smallest difference in env steps to the speed level (training success first held at 0.5 for 5% of the budget,
+:func:`~famarl_cli.core.statistics.steps_to_threshold`), as a share of the budget (25k of 500k), that counts as
+learning faster. Fixed, as AUC_DELTA's share, before the runs it judges; the level and the window were fixed with
+docs/verdicts.md ("Learning speed") before any claim was judged again on them."""
 EQUIVALENCE_MARGIN = 0.1
 """Largest difference in success rate that still counts as "does not impact"."""
 
@@ -61,9 +67,8 @@ def success_measure(g: Group | None) -> str:
 
 AUC_MEASURE = "area under the training success curve, normalised to [0, 1] over the budget"
 SPEED_MEASURE = (
-    "env steps from which the training success (last 100 episodes, smoothed over 5 updates) stays at or above 0.8 to "
-    "the end, as a "
-    "share of the budget; a run that never does is censored"
+    f"env steps from which the training success (last 100 episodes, smoothed over {SMOOTHING:.0%} of the budget) first "
+    f"holds {THRESHOLD:g} for {HOLD:.0%} of the budget, as a share of the budget; a run that never does is censored"
 )
 
 
@@ -98,9 +103,11 @@ def success_of(run: RunResult) -> float:
 
 
 def speed(run: RunResult) -> float:
-    """Env steps to 0.8 training success over the budget; ``inf`` for a run that never got there (censored)."""
-    steps = run.steps_to_threshold
-    return np.inf if steps is None else steps / run.budget
+    """Env steps to the speed level (:func:`~famarl_cli.core.statistics.steps_to_threshold` over the run's own
+    budget) as a share of the budget, at most 1 (a run's last update may overshoot its budget); ``inf`` for a run
+    that never held it (censored)."""
+    steps = steps_to_threshold(run.log["env_steps"], run.log["episode_success"], budget=run.budget)
+    return np.inf if steps is None else min(steps, run.budget) / run.budget
 
 
 def best_claim(paper: str, candidate: Group | None, rivals: list[Group]) -> Claim:
@@ -114,7 +121,8 @@ def best_claim(paper: str, candidate: Group | None, rivals: list[Group]) -> Clai
 
 
 def fastest_claim(paper: str, candidate: Group | None, rivals: list[Group]) -> Claim:
-    """``candidate`` reaches 0.8 training success sooner than every rival by SPEED_DELTA of the budget."""
+    """``candidate`` holds the speed level sooner than every rival by SPEED_DELTA of the budget (undefined where a
+    rival, or the candidate, mostly never holds it)."""
     if candidate is None or not rivals:
         return not_run(paper, SPEED_MEASURE)
     mine = by_seed(candidate, speed)
@@ -305,9 +313,13 @@ def speed_ratio_goal(
     bound: float,
     level: float = LEVEL,
 ) -> Claim:
-    """A goal on the typical time to 0.8 training success of one arm over another's (:func:`speed` values by
+    """A goal on the typical time to the speed level of one arm over another's (:func:`speed` values by
     seed): median over median, paired by replicate where they share them, at most ``bound``."""
     a, b, paired = aligned(mine, theirs)
+    reason = speed_undefined({"the first arm": a, "the second arm": b})
+    if reason:
+        rule = f"median over median at most {bound:g}; undefined where half or more of an arm's runs never hold it"
+        return Claim(goal, measure, Judgement(Verdict.UNDEFINED, rule, (), reason))
     interval = censored_ratio(a, b, paired, level)
     how = "paired" if paired else "unpaired"
     rule = (
