@@ -113,7 +113,7 @@ def test_the_committed_docs_are_what_the_committed_metrics_give():
 def test_tables_carry_each_claim_with_its_interval_n_rule_and_where_it_was_made(project):
     assert docs.write_docs(project) == ["README.md", "docs/pipelines.md", "docs/performance.md"]
     readme = (project / "README.md").read_text()
-    row = "| `dvc.yaml` | maze | 1 | 1 | 0 | 0 | 0.05 | 2026-12-04, `abc1234`, CPU, AVX2, 2 cores | current |"
+    row = "| `dvc.yaml` | maze | 1 | 1 | 0 | 0 | 0.025 | 2026-12-04, `abc1234`, CPU, AVX2, 2 cores | current |"
     assert row in readme
     assert "| FaMARL completes the Maze | famarl: n=3: 0.90 [0.85, 0.95] | mean >= 0.8 | reproduces |" in readme
     assert readme.startswith("# x\n") and readme.endswith("\ntext after\n") and "old" not in readme

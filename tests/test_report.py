@@ -86,6 +86,13 @@ def make_maze(data: Path, famarl: float, ppo: float, figar: float, spread: float
             make_run(data, "maze", f"{agent}-seed{seed}", agent, agent, value, learned_at=learned_at)
 
 
+def with_env_kwargs(data: Path, experiment: str, name: str, kwargs: dict) -> None:
+    """Record, in a made run's run.json, that its env was made with ``kwargs`` (as famarl train records them)."""
+    run = data / experiment / "runs" / name / "run.json"
+    values = json.loads(run.read_text())
+    run.write_text(json.dumps({**values, "spec": {**values["spec"], "env_kwargs": kwargs}}))
+
+
 def verdicts(section) -> dict[str, Verdict]:
     return {claim.paper: claim.verdict for claim in section.claims}
 
@@ -441,9 +448,7 @@ def test_robothand_calibration_judges_ppo_per_setting_in_the_protocols_order_and
         for seed, jitter in zip(SEEDS, JITTER, strict=True):
             name = f"seed{seed}"
             make_run(data, f"robothand-calibration/{folder}", name, "ppo", "ppo", success + jitter, BALL_PLACING)
-            run = data / f"robothand-calibration/{folder}/runs/{name}/run.json"
-            values = json.loads(run.read_text())
-            run.write_text(json.dumps({**values, "spec": {**values["spec"], "env_kwargs": kwargs}}))
+            with_env_kwargs(data, f"robothand-calibration/{folder}", name, kwargs)
     section = write_report(["robothand-calibration"], data, tmp_path / "report", "test")["robothand-calibration"]
     judged = verdicts(section)
     today, first, second = (
@@ -456,9 +461,7 @@ def test_robothand_calibration_judges_ppo_per_setting_in_the_protocols_order_and
     ]
     assert list(judged.values()) == [Verdict.DOES_NOT, Verdict.REPRODUCES, Verdict.REPRODUCES]
     assert f"Chosen: `{first}`" in "\n".join(section.tables)
-    stray = data / "robothand-calibration/c-fails/runs/seed0/run.json"
-    values = json.loads(stray.read_text())
-    stray.write_text(json.dumps({**values, "spec": {**values["spec"], "env_kwargs": {"cup_width": 0.7}}}))
+    with_env_kwargs(data, "robothand-calibration/c-fails", "seed0", {"cup_width": 0.7})
     with pytest.raises(ArtifactError, match="no setting of the calibration grid"):
         write_report(["robothand-calibration"], data, tmp_path / "again", "test")
 
@@ -478,9 +481,7 @@ def test_robothand_sensitivity_judges_each_claim_under_each_setting_read_from_it
         ):
             name = f"{setting}-famarl-seed{seed}"
             make_run(data, f"robothand-sensitivity/{setting}", name, "famarl", "famarl", famarl + jitter, task)
-            run = data / f"robothand-sensitivity/{setting}/runs/{name}/run.json"
-            values = json.loads(run.read_text())
-            run.write_text(json.dumps({**values, "spec": {**values["spec"], "env_kwargs": kwargs}}))
+            with_env_kwargs(data, f"robothand-sensitivity/{setting}", name, kwargs)
     section = write_report(["robothand-sensitivity"], data, tmp_path / "report", "test")["robothand-sensitivity"]
     judged = verdicts(section)
     assert judged["FaMARL completes Reaching [Reaching-v1, as pipelines/robothand]"] == Verdict.DOES_NOT
