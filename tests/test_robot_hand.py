@@ -325,3 +325,42 @@ def test_ball_placing_hand_near_starts_the_grip_over_the_ball_and_leaves_the_lay
             make("ball-placing", hand_near=bad)
     with pytest.raises(ValueError, match="BallPlacing's"):
         make("reaching", hand_near=1.0)
+
+
+def _pegging_episode(expert, env, seed):
+    obs, _ = env.reset(seed=seed)
+    expert.reset(obs)
+    success, done = False, False
+    while not done:
+        obs, _, terminated, truncated, info = env.step(expert.act(obs))
+        done, success = terminated or truncated, success or bool(info.get("success"))
+    names = [phase.name for phase in expert.plan]
+    return success, names, expert.phase_factors
+
+
+def test_pegging_demos_whose_phases_vary_still_peg_and_vary_each_phase_within_its_range():
+    """The varied expert (docs/robothand.md's calibration protocol): every episode still carries the rod (the
+    protocol narrows a range under which it succeeds on fewer than 0.95 of its demos); an episode's plan is a function
+    of its first observation; the descent, lift and alignment leg spread over their ranges, where today's expert
+    descends the same 0.8 m every time."""
+    from famarl_cli.experts.pegging import VARIED_RANGES
+
+    env = gym.make(ROBOT_HAND_IDS["base"])
+    varied, fixed = PeggingExpert(varied=True), PeggingExpert()
+    descents, aligns = [], []
+    for seed in range(30):
+        success, names, factors = _pegging_episode(varied, env, seed)
+        assert success, f"seed {seed}: the varied expert did not peg the rod"
+        descents.append(-factors[names.index("descend")][1])
+        aligns.append(abs(factors[names.index("align")][0]))
+        again, names_again, _ = _pegging_episode(varied, env, seed)
+        assert names_again == names and again
+    low, high = VARIED_RANGES["hover_clearance"]
+    assert (
+        low - 0.05 <= min(descents)
+        and max(descents) <= high + 0.05
+        and max(descents) - min(descents) > 0.5 * (high - low)
+    )
+    assert VARIED_RANGES["align"][0] - 0.05 <= min(aligns) and max(aligns) <= VARIED_RANGES["align"][1] + 0.05
+    _, names, factors = _pegging_episode(fixed, env, 0)
+    assert "align" not in names and -factors[names.index("descend")][1] == pytest.approx(0.8, abs=0.02)

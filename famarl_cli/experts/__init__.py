@@ -27,6 +27,7 @@ class Demonstration:
 ROBOT_HAND_TASKS = {
     Script.PEGGING: "base",
     Script.PEGGING_VARIED: "base-varied",
+    Script.PEGGING_PHASES: "base",
     Script.REACHING: "reaching-far",
     Script.BALL_PLACING: "ball-placing",
 }
@@ -46,6 +47,7 @@ def make_expert(script: Script) -> ContinuousWorldExpert | PhasedHand:
     controllers = {
         Script.PEGGING: PeggingExpert,
         Script.PEGGING_VARIED: PeggingExpert,
+        Script.PEGGING_PHASES: lambda: PeggingExpert(varied=True),
         Script.REACHING: ReachingControl,
         Script.BALL_PLACING: BallPlacingControl,
     }

@@ -62,6 +62,40 @@ GRASP_ABOVE_CENTRE = 0.3
 GRASP_HEIGHT = BASKET_WALL + ROD_SIZE[1] / 2 + GRASP_ABOVE_CENTRE
 """Height of the grip point when it grasps a rod standing on a basket's floor (m)."""
 
+VARIED_RANGES = {
+    "hover_clearance": (0.4, 1.2),
+    "grasp_above_centre": (0.1, 0.4),
+    "carry_height": (1.7, 2.6),
+    "align": (0.1, 0.3),
+}
+"""The pegging demos whose phases vary (docs/robothand.md's calibration protocol): per episode, the hover clearance,
+the grasp height above the rod's centre, the carry height and the length of a level alignment leg before the
+descent (either way), each drawn uniformly from its range; the same pegging task, so that a FAVAE sees "descend by
+h" vary rather than one constant move."""
+
+
+@dataclass(frozen=True)
+class Shape:
+    """The lengths that make one pegging plan: today's expert always draws the defaults."""
+
+    hover_clearance: float = HOVER_CLEARANCE
+    grasp_above_centre: float = GRASP_ABOVE_CENTRE
+    carry_height: float = CARRY_HEIGHT
+    align: float = 0.0
+    """The approach ends this far beside the rod (m, signed) and a level move brings the hand over it."""
+
+    @property
+    def grasp_height(self) -> float:
+        """Height of the grip point when it grasps a rod standing on a basket's floor (m); GRASP_HEIGHT by default."""
+        return GRASP_HEIGHT - GRASP_ABOVE_CENTRE + self.grasp_above_centre
+
+    @staticmethod
+    def drawn(rng: np.random.Generator) -> Shape:
+        """One episode's shape from :data:`VARIED_RANGES`."""
+        low, high = zip(*VARIED_RANGES.values(), strict=True)
+        hover, grasp, carry, align = rng.uniform(low, high)
+        return Shape(float(hover), float(grasp), float(carry), float(align * rng.choice((-1.0, 1.0))))
+
 
 @dataclass(frozen=True)
 class Phase:
@@ -73,20 +107,25 @@ class Phase:
     """How long a phase with no target lasts."""
 
 
-def phases(grip: np.ndarray, rod_x: float, source: np.ndarray, target: np.ndarray) -> list[Phase]:
+def phases(
+    grip: np.ndarray, rod_x: float, source: np.ndarray, target: np.ndarray, shape: Shape = Shape()
+) -> list[Phase]:
     """The plan from the grip point's start, the rod's x and the blue (``source``) and red (``target``) baskets'
-    (x, floor height)."""
+    (x, floor height), with the lengths of ``shape``."""
     rod_floor, basket_x, basket_floor = float(source[1]), float(target[0]), float(target[1])
-    hover = (rod_x, rod_floor + GRASP_HEIGHT + HOVER_CLEARANCE)
+    hover_y = rod_floor + shape.grasp_height + shape.hover_clearance
+    hover = (rod_x + shape.align, hover_y)
     way = route(grip, hover, column_tops(source, target))
     names = ("rise", "across", "approach")[-len(way) :]
+    align = [Phase("align", (rod_x, hover_y), -1.0)] if shape.align else []
     return [
         *(Phase(name, point, -1.0) for name, point in zip(names, way, strict=True)),
-        Phase("descend", (rod_x, rod_floor + GRASP_HEIGHT), -1.0),
+        *align,
+        Phase("descend", (rod_x, rod_floor + shape.grasp_height), -1.0),
         Phase("grasp", None, 1.0, GRASP_STEPS),
-        Phase("lift", (rod_x, rod_floor + CARRY_HEIGHT), 1.0),
-        Phase("carry", (basket_x, basket_floor + CARRY_HEIGHT), 1.0),
-        Phase("place", (basket_x, basket_floor + GRASP_HEIGHT + PLACE_CLEARANCE), 1.0),
+        Phase("lift", (rod_x, rod_floor + shape.carry_height), 1.0),
+        Phase("carry", (basket_x, basket_floor + shape.carry_height), 1.0),
+        Phase("place", (basket_x, basket_floor + shape.grasp_height + PLACE_CLEARANCE), 1.0),
         Phase("release", None, -1.0, RELEASE_STEPS),
     ]
 
@@ -170,8 +209,16 @@ class PhasedHand:
 
 class PeggingExpert(PhasedHand):
     """Acts in RobotHand Base and BaseVaried: the phases above, from the grip's start, the rod's place and the
-    baskets'."""
+    baskets'. With ``varied``, each episode's plan has its own :class:`Shape` (:data:`VARIED_RANGES`), drawn from a
+    generator seeded by the episode's first observation, so that the same episode gets the same plan."""
+
+    def __init__(self, varied: bool = False) -> None:
+        super().__init__()
+        self.varied = varied
 
     def plan_for(self, observation: np.ndarray) -> list[Phase]:
         obs = observation.astype(np.float64)
-        return phases(obs[0:2], rod_x=float(obs[8]), source=obs[16:18], target=obs[14:16])
+        shape = Shape()
+        if self.varied:
+            shape = Shape.drawn(np.random.default_rng(np.frombuffer(obs.tobytes(), dtype=np.uint32)))
+        return phases(obs[0:2], rod_x=float(obs[8]), source=obs[16:18], target=obs[14:16], shape=shape)

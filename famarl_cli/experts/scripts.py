@@ -11,9 +11,9 @@ class Environment(StrEnum):
 
 
 class Script(StrEnum):
-    """The paper's four ContinuousWorld scripts (its Figure 3), RobotHand's pegging script (and ours with the
-    baskets raised to varied heights, BaseVaried), and the scripted controllers of RobotHand's two target tasks
-    (positive controls, :mod:`famarl_cli.experts.robot_hand_tasks`)."""
+    """The paper's four ContinuousWorld scripts (its Figure 3), RobotHand's pegging script (ours too: with the
+    baskets raised to varied heights, BaseVaried; with phases of varied lengths, pegging-phases), and the scripted
+    controllers of RobotHand's two target tasks (positive controls, :mod:`famarl_cli.experts.robot_hand_tasks`)."""
 
     DOWN_ONLY = "down-only"
     DOWN_AND_UP = "down-and-up"
@@ -21,13 +21,14 @@ class Script(StrEnum):
     PUSHED_DOWN_AND_UP = "pushed-down-and-up"
     PEGGING = "pegging"
     PEGGING_VARIED = "pegging-varied"
+    PEGGING_PHASES = "pegging-phases"
     REACHING = "reaching"
     BALL_PLACING = "ball-placing"
 
     @property
     def environment(self) -> Environment:
-        robot_hand = (Script.PEGGING, Script.PEGGING_VARIED, Script.REACHING, Script.BALL_PLACING)
-        return Environment.ROBOT_HAND if self in robot_hand else Environment.CONTINUOUS_WORLD
+        continuous_world = (Script.DOWN_ONLY, Script.DOWN_AND_UP, Script.PUSHED_DOWN_ONLY, Script.PUSHED_DOWN_AND_UP)
+        return Environment.CONTINUOUS_WORLD if self in continuous_world else Environment.ROBOT_HAND
 
     @property
     def goal_rows(self) -> tuple[str, ...]:
