@@ -28,6 +28,7 @@ import torch
 from common import RESULTS, ROOT, command_line, record, write_result
 from favae_replicates import segments_of, wait
 
+from famarl_cli.core.errors import UsageError
 from famarl_cli.core.flat_parameters import gather
 from famarl_cli.method.favae.loss import replicate_loss
 from famarl_cli.method.favae.model import Favae, FavaeConfig
@@ -145,6 +146,12 @@ def main() -> None:
     parser.add_argument("--against", default=BEFORE, help="The git revision of the replaced models.")
     parser.add_argument("--out", type=Path, default=None, help="[default: results/favae_models[_cuda].json]")
     args = parser.parse_args()
+    try:
+        replicates = [int(k) for k in parse_values(args.replicates)]
+    except (UsageError, ValueError) as exc:
+        raise SystemExit(f"error: --replicates {args.replicates!r}: {exc}") from None
+    if min(replicates) < 1 or args.steps < 1 or args.repeats < 1:
+        raise SystemExit("error: --replicates, --steps and --repeats must be at least 1")
     suffix = "" if args.device == "cpu" else f"_{args.device}"
     if args.device == "cuda" and not torch.cuda.is_available():
         raise SystemExit("error: --device cuda: torch sees no CUDA GPU here")
@@ -153,7 +160,7 @@ def main() -> None:
     segments = segments_of(args.macros, 0)
     config = FavaeConfig(action_dim=segments.shape[2] - 2, length=segments.shape[1])
     rows = []
-    for k in map(int, parse_values(args.replicates)):
+    for k in replicates:
         batch = inputs(segments, k, args.device, config.latent_size)
         steps = {"batched": batched_step([config] * k, args.device)[0]}
         steps["ensemble"], first = ensemble_step(old, ensemble, config, k, args.device)

@@ -47,6 +47,23 @@ def batch_rate(agent: Agent, seeds: list[int], steps: int, favae: str) -> dict:
     return {"agent": str(agent), "seconds": seconds, "env_steps": env_steps, "env_steps_per_s": env_steps / seconds}
 
 
+def read_baseline(path: Path) -> dict:
+    """This script's JSON from the revision compared against, with a row of every agent; else one ``error:`` line."""
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise SystemExit(f"error: --baseline {path}: {exc.strerror or exc}") from None
+    try:
+        baseline = json.loads(text)
+        found = {row["agent"] for row in baseline["rows"] if row["seconds"] > 0}
+    except (ValueError, KeyError, TypeError) as exc:
+        raise SystemExit(f"error: --baseline {path}: not this script's JSON ({type(exc).__name__}: {exc})") from None
+    missing = [agent for agent in AGENTS if agent not in found]
+    if missing:
+        raise SystemExit(f"error: --baseline {path}: no timed row of {', '.join(missing)}")
+    return baseline
+
+
 def records(rows: list[dict], baseline: dict, steps: int, seeds: list[int], command: str) -> dict[str, dict]:
     """measured.json's entry: each agent's rate with the written-out gradient and with autograd, and the gate."""
     theirs = {row["agent"]: row for row in baseline["rows"]}
@@ -76,11 +93,13 @@ def main() -> None:
     parser.add_argument("--revision", default="", help="the revision this run measures (stored in its JSON)")
     parser.add_argument("--out", type=Path, default=RESULTS / "ppo_gradient.json")
     args = parser.parse_args()
+    if args.steps < 1:
+        raise SystemExit("error: --steps must be at least 1")
     torch.set_num_threads(1)
     seeds = seed_list(args.seeds)
     if not Path(args.favae.format(seed=seeds[0])).exists():
         raise SystemExit(f"error: no FAVAE at {args.favae.format(seed=seeds[0])} (run `dvc repro macros` first)")
-    baseline = None if args.baseline is None else json.loads(args.baseline.read_text())
+    baseline = None if args.baseline is None else read_baseline(args.baseline)
     rows = []
     for name in AGENTS:
         rows.append(batch_rate(Agent(name), seeds, args.steps, args.favae))

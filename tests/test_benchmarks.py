@@ -240,3 +240,27 @@ def test_pipeline_walls_refuses_stages_it_cannot_time_and_writes_nothing():
     )
     one_error_line(run("pipeline_walls.py", "robothand", "--stages", "nope"), "robothand has no stage")
     assert walls.read_text() == before
+
+
+def test_the_gates_benchmarks_refuse_bad_options_and_baselines_before_any_work(tmp_path):
+    out, measured = tmp_path / "result.json", tmp_path / "measured.json"
+
+    def run_with(script: str, *args) -> subprocess.CompletedProcess:
+        return run_recording(script, measured, *args, "--out", out)
+
+    one_error_line(run_with("ppo_gradient.py", "--steps", 0), "--steps must be at least 1")
+    one_error_line(run_with("ppo_gradient.py", "--seeds", "abc"), "--seeds 'abc'")
+    one_error_line(run_with("ppo_gradient.py", "--favae", tmp_path / "seed{seed}.pt"), "no FAVAE at")
+    favae = tmp_path / "seed0.pt"
+    favae.write_bytes(b"")  # present: the baseline is read before any training
+    given = ("--favae", tmp_path / "seed{seed}.pt", "--baseline")
+    one_error_line(run_with("ppo_gradient.py", *given, tmp_path / "none.json"), "No such file")
+    baseline = tmp_path / "baseline.json"
+    baseline.write_text("[1")
+    one_error_line(run_with("ppo_gradient.py", *given, baseline), "not this script's JSON")
+    baseline.write_text('{"rows": [{"agent": "ppo", "seconds": 1.0}, {"agent": "figar", "seconds": 0}]}')
+    one_error_line(run_with("ppo_gradient.py", *given, baseline), "no timed row of figar, famarl")
+    one_error_line(run_with("favae_models.py", "--replicates", "abc"), "--replicates 'abc'")
+    one_error_line(run_with("favae_models.py", "--replicates", "0,5"), "must be at least 1")
+    one_error_line(run_with("favae_models.py", "--steps", 0), "must be at least 1")
+    assert not out.exists() and not measured.exists()

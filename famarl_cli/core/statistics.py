@@ -130,8 +130,8 @@ def success_interval(values: Sequence[float], episodes: int, level: float = LEVE
     binomial, whatever the replicates' distribution) at level 1 - alpha/2, and a t interval of each kind's mean at
     1 - alpha/4 (floored, and cut to its side of ``split``; a kind with fewer than two replicates only to its side),
     Bonferroni over the three: the interval's ends are the mean's least and greatest over the three intervals. It
-    is wide where little is known (ten replicates at zero: 0 [0, 0.37]), and tested for coverage at n = 5 and 10
-    with 0 to 50% learners (docs/verdicts.md, "Coverage")."""
+    is wide where little is known (ten replicates at zero over 100 episodes: 0 [0, 0.36]), and tested for coverage at
+    n = 5 and 10 with 0 to 50% learners (docs/verdicts.md, "Coverage")."""
     values = np.asarray(values, dtype=float)
     n, learners = len(values), values > split
     k = int(learners.sum())
