@@ -82,7 +82,7 @@ TINY = {
     "pipelines/hybrid/params.yaml": {
         "seeds": "0-1",
         "maze": TINY_TRAIN,
-        "robothand": TINY_TRAIN,
+        "robothand": {"seeds": "0-1", **TINY_TRAIN},
         "evaluate": TINY_EVALUATE,
     },
     "pipelines/bipedal/params.yaml": {
@@ -102,7 +102,7 @@ TINY = {
             "large_demos": {"episodes": 4},
             "large_macros": {"segment_epochs": 3, "epochs": 3},
         },
-        "robothand": TINY_TRAIN,
+        "robothand": {"seeds": "0-1", **TINY_TRAIN},
         "bipedal": {"seeds": "0-1", "steps": 1500},
         "evaluate": {"episodes": {"maze": 3, "pointmaze": 3, "reaching": 3, "bipedal": 3}},
     },

@@ -180,6 +180,36 @@ def test_macro_length_claims_read_the_start_and_end_of_each_seeds_training(tmp_p
     assert [round(e.interval.estimate, 2) for c in section.claims for e in c.judgement.estimates] == [0.67, 1.0]
 
 
+def test_macro_length_judges_the_per_decision_reading_against_robothands_runs_of_that_discount(tmp_path):
+    """Each discount's runs without the penalty against pipelines/robothand's of the same discount with it: the
+    per-decision variant's claims beside the protocol's, marked, and never mixed with them."""
+    from famarl_cli.report.experiments.robothand import PER_DECISION, PER_DECISION_WHAT
+
+    data = tmp_path / "data"
+    shortening, kept = (30.0,) * 10 + (20.0,) * 10, (30.0,) * 20
+    for seed in SEEDS:
+        make_run(data, "robothand", f"r{seed}", "famarl", "famarl", 0.2, REACHING, macro_lengths=kept)
+        make_run(data, "macro-length", f"n{seed}", "famarl", "famarl", 0.1, REACHING_NO_PENALTY, macro_lengths=kept)
+        make_run(data, "robothand/per-decision", f"pr{seed}", PER_DECISION, "famarl", 0.2, REACHING,
+                 macro_lengths=shortening)  # fmt: skip
+        make_run(data, "macro-length", f"pn{seed}", PER_DECISION, "famarl", 0.1, REACHING_NO_PENALTY,
+                 macro_lengths=kept)  # fmt: skip
+    section = write_report(["macro-length"], data, tmp_path / "report", "test")["macro-length"]
+    shorten, keep = "with the time penalty, macro actions gradually shorten", "without the time penalty, they do not"
+    assert verdicts(section) == {
+        shorten: Verdict.DOES_NOT,
+        keep: Verdict.REPRODUCES,
+        f"{shorten} ({PER_DECISION_WHAT})": Verdict.REPRODUCES,
+        f"{keep} ({PER_DECISION_WHAT})": Verdict.REPRODUCES,
+    }
+    assert [g.label for g in section.groups] == [
+        "famarl, time penalty",
+        "famarl, no time penalty",
+        "famarl, time penalty, per-decision",
+        "famarl, no time penalty, per-decision",
+    ]
+
+
 def test_beta_claims_use_each_seeds_favae(tmp_path):
     data = tmp_path / "data"
     for beta, success, mig in ((0.1, 0.1, 0.05), (1, 0.9, 0.2)):
@@ -329,6 +359,25 @@ def test_traversal_claims_are_over_favae_seeds(tmp_path):
     assert "| (1,1) |" in (tmp_path / "report/report.md").read_text()
 
 
+def test_other_variables_are_judged_by_the_largest_effect_but_the_strongest(tmp_path):
+    """The other variables (than the seed's strongest) show no change only if none of them moves the path: a second
+    variable that moves it breaks the claim, however still the smallest one is."""
+    for seed in SEEDS:
+        folder = tmp_path / "data/traversal/macros" / f"seed{seed}"
+        folder.mkdir(parents=True)
+        (folder / "favae.metrics.json").write_text("{}")
+        effects = {f"({lad},{i})": 0.01 for lad in (1, 2, 3) for i in (1, 2)}
+        effects |= {"(3,1)": 1.5 + 0.1 * seed, "(2,1)": 0.6 + 0.01 * seed}
+        (folder / "traverse.json").write_text(json.dumps({"effects_m": effects}))
+    section = write_report(["traversal"], tmp_path / "data", tmp_path / "report", "test")["traversal"]
+    assert verdicts(section)["other variables show no change"] == Verdict.DOES_NOT
+    judged = json.loads((tmp_path / "report/summary.json").read_text())["traversal"]["judged"]
+    claim = next(c for c in judged if c["claim"] == "other variables show no change")
+    assert claim["measure"].endswith("the largest among the variables other than its strongest")
+    others = claim["estimates"][0]
+    assert others["estimate"] == pytest.approx(0.645) and others["low"] > 0.1
+
+
 def test_the_papers_favae_is_judged_beside_ours_on_the_same_claims(tmp_path):
     """pipelines/traversal's macros-paper stage: its seeds get the same three claims, and the two procedures'
     scores and ladder-3 traversal effects stand side by side."""
@@ -347,6 +396,35 @@ def test_the_papers_favae_is_judged_beside_ours_on_the_same_claims(tmp_path):
     assert [verdict for _, verdict in judged][2::3] == [Verdict.REPRODUCES, Verdict.DOES_NOT]
     text = (tmp_path / "report/report.md").read_text()
     assert "The FAVAEs side by side" in text and "| larger effect in ladder 3 (m) |" in text
+
+
+def test_do_not_complete_is_judged_against_the_completion_bar(tmp_path):
+    """A script's macro actions "do not complete the task" where the interval lies below SOLVED (0.8), even above
+    FAILED (0.5); they do where it lies at 0.8 or above; an interval across 0.8 is inconclusive."""
+    make_maze(tmp_path / "data", famarl=0.95, ppo=0.1, figar=0.1)
+    scripts = (("down-only", 0.65, 1.0), ("down-and-up", 0.78, 8.0), ("pushed-down-and-up", 0.95, 1.0))
+    for script, success, spread in scripts:
+        for seed, jitter in zip(SEEDS, JITTER, strict=True):
+            label = f"famarl ({script})"
+            make_run(tmp_path / "data", "scripts", f"{script}-seed{seed}", label, "famarl", success + spread * jitter)
+    found = verdicts(write_report(["scripts"], tmp_path / "data", tmp_path / "report", "test")["scripts"])
+    assert found["down-only macro actions do not complete the task"] == Verdict.REPRODUCES
+    assert found["down-and-up macro actions do not complete the task"] == Verdict.INCONCLUSIVE
+    assert found["pushed-down-and-up macro actions do not complete the task"] == Verdict.DOES_NOT
+
+
+@pytest.mark.parametrize(("figar", "expected"), [(0.7, Verdict.DOES_NOT), (0.25, Verdict.REPRODUCES)])
+def test_pointmaze_credits_the_macros_only_where_famarl_beats_figar_too(tmp_path, figar, expected):
+    """FaMARL ends higher than PPO in both cases; the macros make it so only where FiGAR, PPO extended in time
+    without demos, does not end as high."""
+    for env in ("PointMaze_Medium-v3", "PointMaze_Large-v3"):
+        for seed, jitter in zip(SEEDS, JITTER, strict=True):
+            for agent, success in (("famarl", 0.5), ("ppo", 0.2), ("figar", figar)):
+                name = f"{agent}-{env}-seed{seed}"
+                make_run(tmp_path / "data", "pointmaze", name, agent, agent, success + jitter, env)
+    section = write_report(["pointmaze"], tmp_path / "data", tmp_path / "report", "test")["pointmaze"]
+    for maze in ("Medium", "Large"):
+        assert verdicts(section)[f"{maze}: UMaze macros make FaMARL end higher than PPO"] == expected
 
 
 def test_an_experiment_plugs_in_without_editing_a_list(tmp_path, monkeypatch):
@@ -393,6 +471,9 @@ def test_hybrid_goals_are_met_missed_or_inconclusive_from_intervals_over_seeds(t
                 wall=wall,
             )
         make_run(data, "hybrid", f"reaching-{seed}", "hybrid", "hybrid", 0.5 + jitter, REACHING)
+        # pipelines/hybrid evaluates its RobotHand runs apart, at pipelines/robothand's evaluation seed
+        (data / "hybrid/robothand-eval").mkdir(exist_ok=True)
+        (data / f"hybrid/eval/reaching-{seed}").rename(data / f"hybrid/robothand-eval/reaching-{seed}")
     section = write_report(["hybrid"], data, tmp_path / "report", "test")["hybrid"]
     met = {claim.paper.split(":")[0]: section.word(claim.verdict) for claim in section.claims}
     assert met == {
@@ -502,10 +583,18 @@ def test_robothand_sensitivity_judges_each_claim_under_each_setting_read_from_it
             ("cup", {"cup_x": [1.5, 6.5]}, 0.1, BALL_PLACING),
             ("no-escape", {}, 0.05, "famarl/RobotHand-BallPlacingNoEscape-v0"),
         ):
-            name = f"{setting}-famarl-seed{seed}"
-            make_run(data, f"robothand-sensitivity/{setting}", name, "famarl", "famarl", famarl + jitter, task)
-            with_env_kwargs(data, f"robothand-sensitivity/{setting}", name, kwargs)
+            for agent, success in (("famarl", famarl), ("figar", 0.0)) if setting == "cup" else (("famarl", famarl),):
+                name = f"{setting}-{agent}-seed{seed}"
+                folder = f"robothand-sensitivity/{setting}"
+                make_run(data, folder, name, agent, agent, max(0.0, success + jitter), task)
+                with_env_kwargs(data, folder, name, kwargs)
     section = write_report(["robothand-sensitivity"], data, tmp_path / "report", "test")["robothand-sensitivity"]
+    # FiGAR's failure is judged with its contrast against the setting's other agents, as in pipelines/robothand
+    figar = next(c for c in section.claims if c.paper.startswith("FiGAR fails") and "cup_x" in c.paper)
+    assert [e.name for e in figar.judgement.estimates] == [
+        "figar, cup_x [1.5, 6.5]",
+        "famarl, cup_x [1.5, 6.5] - figar, cup_x [1.5, 6.5]",
+    ]
     judged = verdicts(section)
     assert judged["FaMARL completes Reaching [Reaching-v1, as pipelines/robothand]"] == Verdict.DOES_NOT
     assert judged["FaMARL completes Reaching [Reaching-v1, max_episode_steps 400]"] == Verdict.REPRODUCES

@@ -37,8 +37,8 @@ NO_ARGS_IS_HELP = getattr(click.exceptions, "NoArgsIsHelpError", ())
 
 
 WORKFLOW = (
-    "demos", "segment", "favae", "macros", "traverse", "prior", "train", "evaluate", "oracle", "report", "sweep",
-    "sequences", "export-minari", "inspect", "status", "docs",
+    "demos", "segment", "favae", "macros", "traverse", "prior", "train", "evaluate", "oracle", "report", "power",
+    "sweep", "sequences", "export-minari", "inspect", "status", "docs",
 )  # fmt: skip
 """The commands in the order a user meets them (``famarl --help``); one not named here comes last."""
 
@@ -222,6 +222,7 @@ from famarl_cli.cli import (  # noqa: E402, F401
     macros,
     minari,
     oracle,
+    power,
     prior,
     report,
     segment,

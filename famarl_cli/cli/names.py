@@ -26,6 +26,7 @@ OWN = {
     "--hidden": "the width of the hidden layers of the networks the command trains",
     "--lr": "the Adam learning rate of the networks the command trains",
     "--root": "the project's root, where its dvc.yaml is",
+    "--summary": "a summary.json of verdicts and intervals (famarl report's): the one the command writes or reads",
 }
 """Names that every command may use for its own thing, with the one meaning they have everywhere."""
 

@@ -20,6 +20,7 @@ import numpy as np
 
 from famarl_cli.core.errors import ArtifactError
 from famarl_cli.core.statistics import LEVEL, Interval
+from famarl_cli.report.kinds import DUPLICATE, OURS, PAPER, Kind, kinds
 from famarl_cli.report.results import read_json
 from famarl_cli.report.verdicts import family
 
@@ -250,6 +251,70 @@ def claims_table(found: list[Pipeline]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def classified(found: list[Pipeline]) -> list[tuple[Pipeline, str, dict, Kind]]:
+    """Every judged claim of the committed summaries, in the report's order, with its pipeline, its experiment and
+    its kind (:mod:`famarl_cli.report.kinds`)."""
+    sections = [(p, name, section.get("judged", [])) for p in found for name, section in _experiments(p)]
+    found_kinds = kinds([(name, judged) for _, name, judged in sections])
+    return [
+        (pipeline, name, claim, kind)
+        for (pipeline, name, judged), mine in zip(sections, found_kinds, strict=True)
+        for claim, kind in zip(judged, mine, strict=True)
+    ]
+
+
+def every_claim_table(found: list[Pipeline]) -> str:
+    """One row per judged claim of every experiment: its words, the measure (where the summary records it) with the
+    estimates read, the rule, the verdict and its kind (paper, ours, duplicate)."""
+    rows = classified(found)
+    if not rows:
+        return Unfilled("No pipeline has committed judged claims yet: `dvc repro` writes them.\n")
+    lines = [
+        "| experiment | the paper's sentence (or our variant or goal) | measure: estimate [95% CI unless marked] "
+        "| rule | verdict | kind |",
+        "|---|---|---|---|---|---|",
+    ]
+    for pipeline, name, claim, kind in rows:
+        parts = [_estimates(claim)] if claim.get("estimates") else []
+        parts += [f"undefined: {claim['reason']}"] if claim.get("reason") else []
+        read = "<br>".join(parts) or "(no runs)"
+        measure = f"{claim['measure']}:<br>{read}" if claim.get("measure") else read
+        verdict = claim["verdict"] + (" (stale)" if pipeline.stale else "")
+        lines.append(f"| {name} | {claim['claim']} | {measure} | {claim['rule']} | {verdict} | {kind.text()} |")
+    counts = {which: sum(kind.name == which for *_, kind in rows) for which in (PAPER, OURS, DUPLICATE)}
+    lines += [
+        "",
+        f"{len(rows)} claims: of the paper {counts[PAPER]}, ours {counts[OURS]}, duplicates {counts[DUPLICATE]}.",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+TALLY = {
+    "reproduces": "reproduce",
+    "does not reproduce": "do not",
+    "inconclusive": "inconclusive",
+    "undefined": "undefined",
+}
+"""How the paper's tally words each verdict of a claim of the paper."""
+
+
+def paper_tally(found: list[Pipeline]) -> str:
+    """Over the claims of the paper alone (not ours, not duplicates), how many reproduce, do not, are inconclusive
+    or undefined, and how many of them come from stale pipelines."""
+    paper = [(pipeline, claim) for pipeline, _, claim, kind in classified(found) if kind.name == PAPER]
+    if not paper:
+        return Unfilled("No committed summary holds a claim of the paper yet: `dvc repro` writes them.\n")
+    counts = {word: sum(TALLY.get(claim["verdict"]) == word for _, claim in paper) for word in TALLY.values()}
+    stale = sum(bool(pipeline.stale) for pipeline, _ in paper)
+    shown = ", ".join(f"**{count} {word}**" for word, count in counts.items())
+    old = f"; {stale} of them from stale pipelines (code changed since their runs)" if stale else ""
+    return (
+        f"**The paper's tally.** Of the paper's {len(paper)} claims in the committed summaries: {shown}{old}. Our "
+        "variants and goals beyond the paper, and claims re-judged on the same runs, are left out; every claim, with "
+        'its measure, rule, verdict and kind, is in `docs/verdicts.md` ("Every claim").\n'
+    )
+
+
 def headline_table(found: list[Pipeline], name: str = "default") -> str:
     """Pipeline ``name``'s agents (n, success, AUC, return; from the first experiment of its summary), its claims
     and its instruments where it has them (positive controls, the action-space oracle): the README's headline for
@@ -466,6 +531,8 @@ def tables(root: Path) -> dict[str, str]:
     return {
         "verdicts": verdicts_table(found),
         "claims": claims_table(found),
+        "every-claim": every_claim_table(found),
+        "paper-tally": paper_tally(found),
         "headline": headline_table(found),
         "walls": walls_table(root, found),
         "performance": performance_table(root),

@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 
 from famarl_cli.report.results import Group, headline, scores
-from famarl_cli.report.verdicts import Claim, Verdict, family
+from famarl_cli.report.verdicts import Claim, Estimate, Verdict, family
 
 GOAL_WORDS = {
     Verdict.REPRODUCES: "met",
@@ -78,25 +78,14 @@ class Section:
 
     def judged(self) -> list[dict]:
         """Each claim as summary.json records it: its verdict, rule, the reason where undefined, and every estimate
-        with its n, interval, level and threshold."""
+        (:func:`estimate_record`)."""
         return [
             {
                 "claim": c.paper,
                 "verdict": self.word(c.verdict),
                 "rule": c.judgement.rule,
                 **({"reason": c.judgement.reason} if c.judgement.reason else {}),
-                "estimates": [
-                    {
-                        "name": e.name,
-                        "n": len(e.values),
-                        "estimate": round(e.interval.estimate, 4),
-                        "low": round(e.interval.low, 4),
-                        "high": round(e.interval.high, 4),
-                        "level": e.interval.level,
-                        "reference": e.reference,
-                    }
-                    for e in c.judgement.estimates
-                ],
+                "estimates": [estimate_record(e) for e in c.judgement.estimates],
             }
             for c in self.claims
         ]
@@ -117,3 +106,38 @@ class Section:
             **({"headline": headline(self.groups), "scores": scores(self.groups)} if self.groups else {}),
             **self.instruments,
         }
+
+
+VALUE_DIGITS = 6
+"""Per-replicate values are kept to this many decimals in summary.json (the interval to 4, as shown)."""
+
+
+def _values(values: tuple[float, ...]) -> list[float]:
+    return [round(v, VALUE_DIGITS) for v in values]
+
+
+def estimate_record(e: Estimate) -> dict:
+    """An estimate as summary.json records it: its n (replicates per arm; the fewer, where a difference's arms
+    differ; 0 where unknown), interval, level and threshold; the per-replicate values of a mean (``values``) or of
+    each arm of a difference (``arms``: name, n, values; the interval's first minus its second) with whether they
+    pair by replicate (``paired``); and, for success rates, the evaluation episodes behind each value
+    (``episodes``). A censored time (never reached) is ``Infinity``. Summaries written before the values were kept
+    hold only name, n (0 for a difference), interval and level: readers take what is there."""
+    record = {
+        "name": e.name,
+        "n": e.n,
+        "estimate": round(e.interval.estimate, 4),
+        "low": round(e.interval.low, 4),
+        "high": round(e.interval.high, 4),
+        "level": e.interval.level,
+        "reference": e.reference,
+    }
+    if e.values:
+        record["values"] = _values(e.values)
+    if e.arms:
+        record["arms"] = [{"name": a.name, "n": len(a.values), "values": _values(a.values)} for a in e.arms]
+    if e.paired is not None:
+        record["paired"] = e.paired
+    if e.episodes:
+        record["episodes"] = e.episodes
+    return record

@@ -63,14 +63,58 @@ class Verdict(StrEnum):
 
 
 @dataclass(frozen=True)
+class Arm:
+    """One side of a difference: its name and its per-replicate values."""
+
+    name: str
+    values: tuple[float, ...]
+
+
+@dataclass(frozen=True)
 class Estimate:
-    """One interval a verdict read, with the per-seed values behind it, for tables and interval plots."""
+    """One interval a verdict read, with the per-seed values behind it, for tables, interval plots and summary.json
+    (where they let the claim be analysed again: ``famarl power``)."""
 
     name: str
     interval: Interval
     values: tuple[float, ...] = ()
+    """One arm's per-replicate values (a mean's); empty for a difference, whose values are its :attr:`arms`'."""
     reference: float | None = None
     """The threshold the interval is compared with (tau, delta, 1/2), drawn as a line."""
+    arms: tuple[Arm, ...] = ()
+    """A difference's two arms, the interval's first minus its second, each with its per-replicate values."""
+    paired: bool | None = None
+    """For a difference: whether its arms pair by replicate (index by index)."""
+    episodes: int | None = None
+    """Where the values are success rates: the evaluation episodes behind each (the rule floors their variance at
+    the binomial noise of that many)."""
+    replicates: int | None = None
+    """n where no values are kept: the fewest runs of a task, for an aggregate over tasks."""
+
+    @property
+    def n(self) -> int:
+        """Replicates per arm (the fewer, where a difference's arms differ); 0 where unknown."""
+        if self.arms:
+            return min(len(arm.values) for arm in self.arms)
+        return len(self.values) if self.values else self.replicates or 0
+
+
+def _floats(values: Sequence[float]) -> tuple[float, ...]:
+    return tuple(float(v) for v in values)
+
+
+def difference(
+    name: str,
+    interval: Interval,
+    a: tuple[str, Sequence[float]],
+    b: tuple[str, Sequence[float]],
+    reference: float,
+    paired: bool,
+    episodes: int | None = None,
+) -> Estimate:
+    """The estimate of a difference ``a - b`` with both arms' per-replicate values."""
+    arms = (Arm(a[0], _floats(a[1])), Arm(b[0], _floats(b[1])))
+    return Estimate(name, interval, (), reference, arms, paired, episodes)
 
 
 @dataclass(frozen=True)
@@ -109,7 +153,7 @@ def solves(
     return Judgement(
         three_way(interval.low >= tau, interval.high < tau),
         f"mean >= {tau:g}: lower end >= {tau:g} reproduces, upper end < {tau:g} does not",
-        (Estimate(name, interval, tuple(values), tau),),
+        (Estimate(name, interval, _floats(values), tau, episodes=episodes),),
     )
 
 
@@ -133,7 +177,7 @@ def fails(
     return Judgement(
         three_way(interval.high <= tau, interval.low > tau),
         f"mean <= {tau:g}: upper end <= {tau:g} reproduces, lower end > {tau:g} does not",
-        (Estimate(name, interval, tuple(values), tau),),
+        (Estimate(name, interval, _floats(values), tau, episodes=episodes),),
     )
 
 
@@ -155,7 +199,7 @@ def beats(
     return Judgement(
         three_way(interval.low >= delta, interval.high < delta),
         f"{a_name} - {b_name} ({how}, {level:.1%}): lower end >= {delta:g} reproduces, upper end < {delta:g} does not",
-        (Estimate(f"{a_name} - {b_name}", interval, (), delta),),
+        (difference(f"{a_name} - {b_name}", interval, (a_name, a), (b_name, b), delta, paired, episodes),),
     )
 
 
@@ -202,7 +246,7 @@ def faster(
     return Judgement(
         three_way(interval.low >= delta, interval.high < delta),
         rule,
-        (Estimate(f"{b_name} - {a_name}", interval, (), delta),),
+        (difference(f"{b_name} - {a_name}", interval, (b_name, b), (a_name, a), delta, paired),),
     )
 
 
@@ -244,7 +288,7 @@ def equivalent(groups: dict[str, Sequence[float]], margin: float, episodes: int 
         inside = -margin < interval.low and interval.high < margin
         outside = interval.low > margin or interval.high < -margin
         verdicts.append(three_way(inside, outside))
-        estimates.append(Estimate(f"{a} - {b}", interval, (), margin))
+        estimates.append(difference(f"{a} - {b}", interval, (a, groups[a]), (b, groups[b]), margin, False, episodes))
     verdict = combine(verdicts)
     rule = (
         f"every pairwise difference (Welch, {level:.1%}, Bonferroni over {len(pairs)}) inside "
@@ -264,7 +308,8 @@ def improves(
     for rival, theirs in rivals.items():
         interval = probability_of_improvement(per_task, theirs, level)
         verdicts.append(three_way(interval.low > 0.5, interval.high < 0.5))
-        estimates.append(Estimate(f"P({name} > {rival})", interval, (), 0.5))
+        runs = min(len(task) for task in (*per_task, *theirs))
+        estimates.append(Estimate(f"P({name} > {rival})", interval, (), 0.5, replicates=runs))
     verdict = combine(verdicts)
     rule = (
         f"probability of improvement over each rival (stratified bootstrap, {level:.1%}, Bonferroni): lower end "

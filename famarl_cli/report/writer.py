@@ -70,9 +70,17 @@ def write_report(
     # the same kind give the same summary, byte for byte (when and at which revision the runs were made is in
     # benchmarks/pipeline_walls.json, which famarl docs shows beside the verdicts).
     made = {"machine": machine(), "famarl": version}
-    write_json(summary, {name: {**s.summary(), "made": made} for name, s in built.items()})
+    write_json(summary, {name: {**_summary(s), "made": made} for name, s in built.items()})
     write_json(summary.with_name(METRICS_FILE), compared(list(built.values())))
     return built
+
+
+def _summary(section: Section) -> dict:
+    """The section's summary with each judged claim's measure (what one seed contributes) beside its rule, for the
+    table of every claim (``famarl docs``)."""
+    summary = section.summary()
+    judged = zip(summary.get("judged", []), section.claims, strict=True)
+    return {**summary, "judged": [{**entry, "measure": claim.measure} for entry, claim in judged]}
 
 
 METRICS_FILE = "metrics.json"

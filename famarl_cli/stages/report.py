@@ -1,5 +1,6 @@
 """The commands over the pipelines' results: ``famarl report`` (every experiment's verdicts), ``famarl docs`` (the
-generated tables of README.md and docs/) and ``famarl status`` (what each pipeline has committed and made here)."""
+generated tables of README.md and docs/), ``famarl status`` (what each pipeline has committed and made here) and
+``famarl power`` (the replicates each inconclusive claim needs)."""
 
 from __future__ import annotations
 
@@ -46,6 +47,28 @@ def pipelines(root: Path) -> list[tuple]:
 
     _project(root, "status")
     return [(p, sum(section[COUNTS[0]] for section in p.summary.values()) if p.summary else None) for p in found(root)]
+
+
+def power(summaries: list[Path] | None, root: Path) -> list:
+    """``famarl power``: the inconclusive claims of ``summaries`` (without them, the committed summaries of the
+    project at ``root``), each with the replicates its rule needs to decide at 80% power
+    (:mod:`famarl_cli.report.power`)."""
+    from famarl_cli.report.docs import read_summary
+    from famarl_cli.report.power import plan, summary_files
+
+    if not summaries:
+        _project(root, "power")
+        summaries = summary_files(root)
+        if not summaries:
+            raise ArtifactError(f"{root}: no summary.json at the root or under pipelines/; pass --summary FILE")
+    return plan([(str(path), read_summary(path)) for path in summaries])
+
+
+def power_record(found: list) -> dict:
+    """What ``famarl power --json`` prints of :func:`power`'s claims."""
+    from famarl_cli.report.power import record
+
+    return record(found)
 
 
 def _project(root: Path, command: str) -> None:

@@ -23,14 +23,25 @@ class Experiment:
     order: int
     """Its place in the report (the paper's order)."""
     build: Callable[[Path, Path], object]
+    goals: bool = False
+    """Its claims are goals of ours beyond the paper (met, missed) rather than the paper's claims."""
+    rejudges: tuple[tuple[str, str, str], ...] = ()
+    """Its claims that re-judge another experiment's runs: (its claim, the other experiment, the other's claim), for
+    claims whose words differ from the other's (:mod:`famarl_cli.report.kinds`)."""
 
 
 _REGISTRY: dict[str, Experiment] = {}
 
 
-def experiment(name: str, pipeline: str, order: int):
+def experiment(
+    name: str, pipeline: str, order: int, *, goals: bool = False, rejudges: dict[str, tuple[str, str]] | None = None
+):
+    """Register an experiment; ``goals``: its claims are goals beyond the paper; ``rejudges``: per claim of its own
+    that re-judges another experiment's runs, (that experiment, its claim)."""
+
     def register(build: Callable[[Path, Path], object]) -> Callable[[Path, Path], object]:
-        _REGISTRY[name] = Experiment(name, pipeline, order, build)
+        pairs = tuple((claim, other, theirs) for claim, (other, theirs) in (rejudges or {}).items())
+        _REGISTRY[name] = Experiment(name, pipeline, order, build, goals, pairs)
         return build
 
     return register

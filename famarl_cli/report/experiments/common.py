@@ -79,9 +79,24 @@ def solves_claim(paper: str, g: Group | None, level: float = LEVEL) -> Claim:
 
 
 def fails_claim(paper: str, g: Group | None, level: float = LEVEL) -> Claim:
+    """``g`` fails ("fails to converge"): its success at most FAILED."""
     if g is None:
         return not_run(paper, success_measure(g))
     return Claim(paper, success_measure(g), fails(g.label, g.values("success"), FAILED, g.episodes, level))
+
+
+def incomplete_claim(paper: str, g: Group | None, level: float = LEVEL) -> Claim:
+    """``g`` does not complete the task: judged against the completion bar, SOLVED, as :func:`solves_claim`'s
+    mirror on the same interval: reproduces where its upper end is below SOLVED, does not where its lower end is at
+    SOLVED or above (the task is shown completed), inconclusive otherwise. Not :data:`FAILED`: an agent between
+    FAILED and SOLVED fails to converge by no one's reading, yet does not complete the task either."""
+    if g is None:
+        return not_run(paper, success_measure(g))
+    completes = solves(g.label, g.values("success"), SOLVED, g.episodes, level)
+    mirror = {Verdict.REPRODUCES: Verdict.DOES_NOT, Verdict.DOES_NOT: Verdict.REPRODUCES}
+    verdict = mirror.get(completes.verdict, completes.verdict)
+    rule = f"mean < {SOLVED:g}: upper end < {SOLVED:g} reproduces, lower end >= {SOLVED:g} does not"
+    return Claim(paper, success_measure(g), Judgement(verdict, rule, completes.estimates))
 
 
 def by_seed(g: Group, measure: Callable[[RunResult], float]) -> dict[int, float]:

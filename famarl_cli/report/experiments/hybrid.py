@@ -2,7 +2,8 @@
 and FiGAR, judged on goals fixed before its runs rather than on the paper's claims.
 
 The famarl, ppo and figar runs are those of the default pipeline (Maze) and of pipelines/robothand; the hybrid
-pipeline runs only the hybrid agent and its variants, on the same seeds and budgets.
+pipeline runs only the hybrid agent and its variants, on the same seeds, budgets and evaluation seeds (the Maze's
+evaluated into ``data/hybrid/eval``, RobotHand's into ``data/hybrid/robothand-eval``).
 """
 
 from __future__ import annotations
@@ -168,7 +169,7 @@ def hybrid(data: Path, out: Path):
     from famarl_cli.artifacts.runs import ROLLOUTS_FILE, STILLS_FILE
     from famarl_cli.report.section import Section
 
-    mine = gather([data / "hybrid" / "eval"])
+    mine = gather([data / "hybrid" / "eval", data / "hybrid" / "robothand-eval"])
     if not mine:
         return None
     results = gather([data / "maze" / "eval", data / "robothand" / "eval"]) + mine

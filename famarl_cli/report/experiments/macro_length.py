@@ -1,4 +1,6 @@
-"""Paper Fig. 8: FaMARL's macro length over training on Reaching, with and without the time penalty."""
+"""Paper Fig. 8: FaMARL's macro length over training on Reaching, with and without the time penalty, under the
+discount of docs/robothand.md's protocol (every decision discounted by its duration) and, as its variant, the
+per-decision one."""
 
 from __future__ import annotations
 
@@ -7,7 +9,7 @@ from pathlib import Path
 from famarl_cli.core.statistics import mean_interval
 from famarl_cli.report.experiments import experiment
 from famarl_cli.report.experiments.common import curves
-from famarl_cli.report.experiments.robothand import REACHING
+from famarl_cli.report.experiments.robothand import PER_DECISION, PER_DECISION_WHAT, REACHING
 from famarl_cli.report.results import Group, gather, group, results_table
 from famarl_cli.report.verdicts import Claim, fails, not_run, solves
 
@@ -18,27 +20,28 @@ SHORTENED = 0.85
 KEPT = 0.9
 """The same ratio from which macros count as not shortened."""
 MEASURE = "mean macro length chosen in the last 10% of training updates over that in the first 10%"
-
-
-SEMI_MDP = "famarl-semi-mdp"
-"""Label of the runs of the same two settings under semi-MDP discounting (pipelines/macro-length, semi-mdp)."""
+DISCOUNTS = (("", "famarl", ""), (", per-decision", PER_DECISION, f" ({PER_DECISION_WHAT})"))
+"""Per discount: its suffix in the groups' names, the label of its runs (pipelines/robothand's with the penalty,
+pipelines/macro-length's without) and its note in the claims. The protocol's discount first, its claims unmarked;
+the per-decision variant beside it, never in its place."""
 
 
 @experiment("macro-length", "pipelines/macro-length/dvc.yaml", order=7)
 def macro_length(data: Path, out: Path):
     from famarl_cli.report.section import Section
 
-    results = gather([data / "robothand" / "eval", data / "macro-length" / "eval"])
+    robothand = data / "robothand"
+    results = gather([robothand / "eval", robothand / "per-decision" / "eval", data / "macro-length" / "eval"])
     parts = {}
-    for discount, label in (("", "famarl"), (", semi-MDP", SEMI_MDP)):
+    for discount, label, _ in DISCOUNTS:
         for name, env in (("time penalty", REACHING), ("no time penalty", REACHING_NO_PENALTY)):
             g = group(results, env, "famarl").get(label)
             if g is not None:
                 parts[name + discount] = Group(f"famarl, {name}{discount}", g.runs)
-    if "no time penalty" not in parts:
+    if not any(key.startswith("no time penalty") for key in parts):
         return None
     claims = []
-    for discount, note in (("", ""), (", semi-MDP", " (semi-MDP discounting, not the paper's)")):
+    for discount, _, note in DISCOUNTS:
         if discount and not any(name.endswith(discount) for name in parts):
             continue
         for name, paper, rule, tau in (

@@ -53,7 +53,7 @@ PER_DECISION = "famarl-per-decision"
 ``per_decision``; ``data/robothand/per-decision``): the same macros and budget, gamma per macro action whatever its
 length. Judged by the same rules as the protocol's FaMARL (every decision discounted by its duration), and never in
 its place."""
-PER_DECISION_WHAT = "the per-decision discount, gamma per macro action"
+PER_DECISION_WHAT = "variant: the per-decision discount, gamma per macro action"
 LEARNERS = ("famarl", "ppo")
 """The agents that learn BallPlacing in the paper (only FiGAR fails it): FiGAR's failure is judged against them."""
 ORACLE_MEASURE = (
@@ -113,11 +113,13 @@ def controls_table(found: dict[str, dict], returns: dict[str, dict[str, float]])
     return "\n".join(rows)
 
 
-def figar_contrast_claim(ball: dict[str, Group]) -> Claim:
-    """FiGAR fails BallPlacing, and below each agent the paper has learn it: its failure alone would hold where no
-    agent learns the task, and then says nothing about FiGAR's precision. Every part at the Bonferroni level over
-    the parts; the contrasts paired by replicate where the arms share them."""
-    paper = "FiGAR fails BallPlacing (no precise control)"
+FIGAR_FAILS = "FiGAR fails BallPlacing (no precise control)"
+
+
+def figar_contrast_claim(ball: dict[str, Group], paper: str = FIGAR_FAILS) -> Claim:
+    """FiGAR fails BallPlacing, and below each agent the paper has learn it (of those in ``ball``, by agent): its
+    failure alone would hold where no agent learns the task, and then says nothing about FiGAR's precision. Every
+    part at the Bonferroni level over the parts; the contrasts paired by replicate where the arms share them."""
     figar, learners = ball.get("figar"), [ball[label] for label in LEARNERS if label in ball]
     if figar is None or not learners:
         return not_run(paper, success_measure(figar))

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from famarl_cli.report.experiments import experiment
 from famarl_cli.report.experiments.common import curves, fails_claim, solves_claim
-from famarl_cli.report.experiments.robothand import BALL_PLACING, REACHING
+from famarl_cli.report.experiments.robothand import BALL_PLACING, FIGAR_FAILS, REACHING, figar_contrast_claim
 from famarl_cli.report.results import Group, RunResult, by_agent, gather, group, results_table
 
 CLAIMS = {
@@ -22,11 +22,12 @@ CLAIMS = {
     ),
     "ball-placing": (
         ("FaMARL completes BallPlacing", "famarl", solves_claim),
-        ("FiGAR fails BallPlacing (no precise control)", "figar", fails_claim),
+        (FIGAR_FAILS, "figar", None),
     ),
 }
 """pipelines/robothand's claims about each task alone (by the name of the env's task, whatever its variant), with the
-agent each names and its rule."""
+agent each names and its rule; None: FiGAR's contrast with the setting's other agents, as pipelines/robothand judges
+it (:func:`~famarl_cli.report.experiments.robothand.figar_contrast_claim`)."""
 AS_PIPELINE = "as pipelines/robothand"
 """What the default setting's runs, pipelines/robothand's own, are named by in place of changed keyword arguments."""
 
@@ -73,9 +74,10 @@ def robothand_sensitivity(data: Path, out: Path):
         for agent, runs in agents.items():
             groups.append(Group(f"{agent}{suffix}", runs))
         where = env.removeprefix("famarl/RobotHand-") + suffix
+        named = {agent: Group(f"{agent}{suffix}", runs) for agent, runs in agents.items()}
         for words, agent, judge in CLAIMS.get(task_of(env), ()):
-            runs = agents.get(agent)
-            claims.append(judge(f"{words} [{where}]", Group(f"{agent}{suffix}", runs) if runs else None))
+            paper = f"{words} [{where}]"
+            claims.append(judge(paper, named.get(agent)) if judge else figar_contrast_claim(named, paper))
     tables = [
         "Each claim of pipelines/robothand judged again under one constant changed at a time (in brackets: the env "
         "and the keyword arguments its runs were made with; pipelines/robothand's own runs are the default).\n\n"

@@ -38,8 +38,18 @@ def _ladder(name: str) -> int:
     return int(name.strip("()").split(",")[0])
 
 
+def _others(matrix: np.ndarray) -> np.ndarray:
+    """Per seed, the largest effect of the variables other than its strongest (the one that changes the direction):
+    the others show no change only if the largest of them does not (none where a FAVAE has one variable)."""
+    if matrix.shape[1] < 2:
+        return np.zeros(len(matrix))
+    return np.sort(matrix, axis=1)[:, -2]
+
+
 def _claims(names: list[str], matrix: np.ndarray, level: float, whose: str = "") -> list[Claim]:
-    """The paper's three claims about Fig. 5, judged on one FAVAE procedure's seeds (``whose`` prefixes them)."""
+    """The paper's three claims about Fig. 5, judged on one FAVAE procedure's seeds (``whose`` prefixes them). "One
+    latent variable" is each seed's strongest; "other variables" are the rest of that seed's, judged by the largest
+    of their effects."""
     deepest = max(_ladder(name) for name in names)
     strongest = matrix.argmax(axis=1)
     in_deepest = np.array([_ladder(names[i]) == deepest for i in strongest], dtype=float)
@@ -52,8 +62,8 @@ def _claims(names: list[str], matrix: np.ndarray, level: float, whose: str = "")
         ),
         Claim(
             whose + "other variables show no change",
-            measure + ": the smallest",
-            fails("smallest effect", matrix.min(axis=1), STILL, level=level),
+            measure + ": the largest among the variables other than its strongest",
+            fails("largest effect of the others", _others(matrix), STILL, level=level),
         ),
         Claim(
             whose + f"the direction is the 1st variable of the 3rd ladder, (3,1); we test the ladder ({deepest})",

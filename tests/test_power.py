@@ -1,0 +1,172 @@
+"""``famarl power``: the replicates an inconclusive claim's rule needs to decide at 80% power (Colas et al. 2018),
+and the n and per-replicate values summary.json keeps for it."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from cli_helpers import famarl, one_line_error
+from scipy import stats
+
+from famarl_cli.core.power import difference_power, replicates_for_difference, replicates_for_mean
+from famarl_cli.report.power import claims, paired_variance
+from famarl_cli.report.section import Section
+from famarl_cli.report.verdicts import Claim, Verdict, beats, equivalent, faster, solves
+
+NEAR = [0.62, 0.98, 0.71, 0.9, 0.84]
+"""Five replicates whose mean (0.81) lies just above 0.8, too spread to show it."""
+AT = [0.7, 0.9, 0.8, 0.75, 0.85]
+"""Five replicates whose mean is 0.8 to the summary's four decimals."""
+
+
+def summary_of(*judgements) -> dict:
+    """The summary.json ``famarl report`` would write for claims judged so."""
+    section = Section("test", [Claim(f"claim {i} [wide-bowl+{i}]", "success", j) for i, j in enumerate(judgements)])
+    return {"test": json.loads(json.dumps(section.summary()))}
+
+
+def test_the_sample_size_is_the_textbook_one():
+    # Cohen (1988), two-sided 0.05 at 80% power: 64, 26, 17 per group for effect sizes 0.5, 0.8, 1; one sample at 0.5:
+    # 34. G*Power gives the power at 64 per group for 0.5 as 0.8015.
+    assert [replicates_for_difference(d, 1.0, 1.0) for d in (0.5, 0.8, 1.0)] == [64, 26, 17]
+    assert replicates_for_mean(0.5, 1.0) == 34
+    assert difference_power(64, 0.5, 1.0, 1.0) == pytest.approx(0.8015, abs=1e-4)
+    assert difference_power(63, 0.5, 1.0, 1.0) < 0.8
+    # the effect is the distance to the threshold, either way; none at all needs unbounded replicates
+    assert replicates_for_mean(-0.5, 1.0) == 34 and replicates_for_mean(0.0, 1.0) == math.inf
+
+
+def test_the_planned_replicates_decide_the_rule_four_times_in_five():
+    """At the n planned, the rule's own interval clears the threshold in about 80% of draws: one arm (the t interval
+    of "mean >= tau") and two unequal arms (Welch's interval of "a beats b by delta")."""
+    rng = np.random.default_rng(0)
+    draws = 4000
+    n = replicates_for_mean(0.1, 0.2)
+    x = rng.normal(0.6, 0.2, (draws, n))
+    low = x.mean(1) - stats.t.ppf(0.975, n - 1) * x.std(1, ddof=1) / np.sqrt(n)
+    assert (low >= 0.5).mean() == pytest.approx(0.8, abs=0.025)
+
+    n = replicates_for_difference(0.1, 0.1, 0.3)
+    a, b = rng.normal(0.25, 0.1, (draws, n)), rng.normal(0.1, 0.3, (draws, n))  # 0.15 - delta 0.05 = 0.1
+    va, vb = a.var(1, ddof=1) / n, b.var(1, ddof=1) / n
+    df = (va + vb) ** 2 / (va**2 / (n - 1) + vb**2 / (n - 1))
+    low = a.mean(1) - b.mean(1) - stats.t.ppf(0.975, df) * np.sqrt(va + vb)
+    assert (low >= 0.05).mean() == pytest.approx(0.8, abs=0.025)
+
+
+def test_an_inconclusive_claim_needs_more_replicates_than_it_has():
+    base = [0.5, 0.7, 0.6, 0.8, 0.4]
+    noisy = [v + d for v, d in zip(base, [0.3, 0.0, 0.25, -0.05, 0.2], strict=True)]
+    judgement = beats("a", noisy, "b", base, 0.05, paired=True)
+    one_arm = solves("c", NEAR, 0.8)
+    assert judgement.verdict == one_arm.verdict == Verdict.INCONCLUSIVE
+    found = claims(summary_of(judgement, one_arm), "summary.json")
+    paired, mean = (needed.deciding for needed in found)
+    assert paired.basis == "values, paired differences" and paired.side == "reproduces" and paired.n == 5
+    difference = np.mean(noisy) - np.mean(base)
+    assert paired.needed == replicates_for_mean(difference - 0.05, np.std(np.subtract(noisy, base), ddof=1))
+    assert paired.needed > 5
+    assert mean.basis == "values" and mean.needed == replicates_for_mean(np.mean(NEAR) - 0.8, np.std(NEAR, ddof=1))
+    assert mean.needed > 5
+
+
+def test_the_paired_spread_is_the_one_the_rule_reads():
+    """For rates, the paired interval's half-width is t sqrt(variance / n) with the variance power plans on."""
+    from famarl_cli.core.statistics import paired_difference_interval
+
+    a, b = np.array([1.0, 1.0, 1.0, 0.99]), np.array([0.98, 0.98, 0.98, 0.97])  # differences all but equal: floored
+    interval = paired_difference_interval(a, b, episodes=100)
+    half = stats.t.ppf(0.975, 3) * math.sqrt(paired_variance(a, b, 100) / 4)
+    assert interval.high - interval.estimate == pytest.approx(half)
+    assert paired_variance(a, b, 100) > paired_variance(a, b)
+
+
+def test_an_estimate_at_its_threshold_needs_unbounded_replicates():
+    (needed,) = claims(summary_of(solves("a", AT, 0.8)), "summary.json")
+    assert needed.deciding.needed == math.inf and needed.text() == "unbounded (at the threshold)"
+    record = needed.record()
+    assert record["unbounded"] and record["needed"] is None and record["parts"][0]["threshold"] == 0.8
+
+
+def test_a_lower_bound_below_its_threshold_never_decides():
+    from famarl_cli.report.verdicts import reaches
+
+    (needed,) = claims(summary_of(reaches("macros", [0.1, 0.2, 0.15], 0.8, episodes=10)), "summary.json")
+    assert needed.deciding.needed == math.inf and "lower bound" in needed.text()
+
+
+def test_every_estimate_keeps_its_n_and_per_replicate_values_and_older_summaries_still_read():
+    a, b = [0.9, 0.8, 0.85, 0.95], [0.7, 0.75, 0.8, 0.6, 0.65]
+    judged = summary_of(
+        beats("a", a, "b", b, 0.05, episodes=100),
+        equivalent({"x": a, "y": a[::-1]}, 0.1, episodes=100),
+        solves("c", NEAR, 0.8, episodes=100),
+        faster("f", [0.2, 0.3, np.inf], "s", [0.5, 0.6, 0.7], 0.05, paired=True),
+    )["test"]["judged"]
+    welch, same, mean, speed = (claim["estimates"][0] for claim in judged)
+    assert welch["n"] == 4 and welch["paired"] is False and welch["episodes"] == 100
+    assert [(arm["name"], arm["n"], arm["values"]) for arm in welch["arms"]] == [("a", 4, a), ("b", 5, b)]
+    assert same["n"] == 4 and same["arms"][1]["values"] == a[::-1] and same["reference"] == 0.1
+    assert mean["n"] == 5 and mean["values"] == NEAR and "arms" not in mean and mean["episodes"] == 100
+    # a speed's difference is the rival's time minus the candidate's; a run that never held the level is infinite
+    assert speed["name"] == "s - f" and speed["paired"] and speed["arms"][1]["values"][-1] == math.inf
+
+    # a summary written before: n 0 for a difference, no values or threshold; its need is a multiple of today's
+    old = summary_of(beats("a", [0.5, 0.9, 0.6, 0.8], "b", [0.5, 0.7, 0.6, 0.6], 0.05, paired=True))
+    for estimate in old["test"]["judged"][0]["estimates"]:
+        estimate.update(n=0)
+        for key in ("arms", "paired", "reference", "values", "episodes"):
+            estimate.pop(key, None)
+    (needed,) = claims(old, "summary.json")
+    assert needed.deciding.basis == "interval (n not recorded)" and needed.deciding.times > 1
+    assert needed.text().endswith("x today's n") and needed.deciding.threshold == 0.05
+
+
+@pytest.fixture
+def summary_file(tmp_path):
+    path = tmp_path / "summary.json"
+    path.write_text(json.dumps(summary_of(solves("c", NEAR, 0.8), solves("d", [0.9, 0.95, 0.92], 0.8))))
+    return path
+
+
+def test_famarl_power_json_lists_each_inconclusive_claim_with_its_need(summary_file, monkeypatch):
+    monkeypatch.setenv("COLUMNS", "200")  # the table's columns whole beside a long temporary path
+    result = famarl("power", "--summary", summary_file, "--json")
+    assert result.exit_code == 0, result.output
+    found = json.loads(result.stdout)
+    assert found["power"] == 0.8 and [c["claim"] for c in found["claims"]] == ["claim 0 [wide-bowl+0]"]  # 1 holds
+    (claim,) = found["claims"]
+    assert claim["needed"] == replicates_for_mean(round(np.mean(NEAR), 4) - 0.8, np.std(NEAR, ddof=1))
+    assert claim["summary"] == str(summary_file) and claim["parts"][0]["n"] == 5
+    table = famarl("power", "--summary", summary_file)
+    # a claim's setting in brackets is shown as words, not taken for rich markup
+    assert table.exit_code == 0 and "claim 0 [wide-bowl+0]" in table.stdout and str(claim["needed"]) in table.stdout
+
+
+@pytest.mark.parametrize(
+    ("content", "needle"),
+    [
+        (None, "missing or unreadable"),
+        ("{not json", "missing or unreadable"),
+        ("[1, 2]", "not a summary famarl report writes"),
+        ("BROKEN", "lacks a number among"),
+    ],
+)
+def test_famarl_power_refuses_a_missing_or_malformed_summary_in_one_line(tmp_path, summary_file, content, needle):
+    path = tmp_path / "bad.json"
+    if content == "BROKEN":
+        summary = json.loads(summary_file.read_text())
+        del summary["test"]["judged"][0]["estimates"][0]["low"]
+        content = json.dumps(summary)
+    if content is not None:
+        path.write_text(content)
+    one_line_error(famarl("power", "--summary", path), 1, needle)
+
+
+def test_famarl_power_without_summaries_needs_a_project(tmp_path):
+    one_line_error(famarl("power", "--root", tmp_path), 1, "no dvc.yaml here")
+    (tmp_path / "dvc.yaml").write_text("stages: {}\n")
+    one_line_error(famarl("power", "--root", tmp_path), 1, "no summary.json")
