@@ -36,7 +36,8 @@ NAMES = {"ppo": "PPO", "figar": "FiGAR", "famarl": "FaMARL"}
 
 
 def records(steps: int, seeds: list[int], rows: list[dict], command: str) -> dict[str, dict]:
-    """measured.json's entry: each agent's speed-up of its seeds trained together over each seed alone."""
+    """measured.json's entry: each agent's speed-up of its seeds trained together over each seed alone (x, by
+    agent)."""
     speedups = ", ".join(
         f"{NAMES.get(row['agent'], row['agent'])} {row['alone_s'] / row['together_s']:.2f}x" for row in rows
     )
@@ -46,6 +47,9 @@ def records(steps: int, seeds: list[int], rows: list[dict], command: str) -> dic
             "trained together in one process against each alone",
             "command": command,
             "measured": speedups or "no agent ran",
+            "values": {row["agent"]: row["alone_s"] / row["together_s"] for row in rows},
+            "unit": "x",
+            "better": "higher",
         }
     }
 

@@ -1,5 +1,6 @@
-"""What every benchmark shares: torch on one thread, the peak RSS, a JSON result with the machine beside it, the
-figure each run records in benchmarks/measured.json, and famarl's own commands run as the pipelines run them."""
+"""What every benchmark and study shares: torch on one thread, the peak RSS, a JSON result with the machine beside
+it, the figures each run records (a benchmark's numbers in benchmarks/measured.json, :func:`record`; a study's text in
+studies/measured.json, through studies/study.py), and famarl's own commands run as the pipelines run them."""
 
 from __future__ import annotations
 
@@ -25,6 +26,10 @@ from famarl_cli.core import reproducibility
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = Path(__file__).parent / "results"
 MEASURED = Path(__file__).parent / "measured.json"
+STUDIES = ROOT / "studies"
+"""The research studies (studies/study.py gives them these helpers with their own results folder and record)."""
+HIGHER, LOWER = "higher", "lower"
+"""Which way a recorded number improves (``better``): a rate's up, a time's or a memory's down."""
 
 
 def peak_rss_mib() -> float:
@@ -111,20 +116,13 @@ def write_result(path: Path, payload: dict) -> None:
     print(f"written {path}")
 
 
-def record(name: str, what: str, command: str, measured: str, target: str = "") -> None:
-    """Merge this run's figure into benchmarks/measured.json as entry ``name`` (replacing its previous one): what
-    was measured, the command, the figure and its target, with the date, machine and revision of the run.
-
-    The file is committed and ``famarl docs`` generates docs/performance.md's table from it, so that every figure
-    there is one a run wrote. FAMARL_MEASURED names another file (tests, smoke runs).
-    """
-    path = Path(os.environ.get("FAMARL_MEASURED") or MEASURED)
+def write_record(path: Path, name: str, fields: dict) -> None:
+    """Merge ``fields`` into the committed records at ``path`` as entry ``name`` (replacing its previous one), with
+    the date, machine and revision of the run. FAMARL_MEASURED names another file (tests, smoke runs)."""
+    path = Path(os.environ.get("FAMARL_MEASURED") or path)
     entries = json.loads(path.read_text(encoding="utf-8")) if path.is_file() else {}
     entries[name] = {
-        "what": what,
-        "command": command,
-        "measured": measured,
-        "target": target,
+        **fields,
         "date": datetime.now(UTC).strftime("%Y-%m-%d"),
         "machine": reproducibility.machine(),
         "revision": reproducibility.source_revision(str(ROOT)),
@@ -136,6 +134,67 @@ def record(name: str, what: str, command: str, measured: str, target: str = "") 
     print(f"recorded {name} in {path}")
 
 
+def better_of(unit: str) -> str | None:
+    """The way a figure in ``unit`` improves where the unit says it: a rate (``.../s``) up; a time or a memory down;
+    None for a ratio or a share, whose sense only its benchmark knows."""
+    if unit.endswith("/s"):
+        return HIGHER
+    return LOWER if unit in ("s", "ms", "us", "min", "MiB", "GiB") else None
+
+
+def _per_value(given: str | dict | None, names: list[str], what: str) -> dict[str, str]:
+    """``given`` (one for every value, or one per value) as a mapping of each value's name."""
+    per = given if isinstance(given, dict) else dict.fromkeys(names, given)
+    if set(per) != set(names):
+        raise ValueError(f"{what} names {sorted(per)}, the values {sorted(names)}")
+    return per
+
+
+def _one_or_each(per: dict[str, str]) -> str | dict[str, str]:
+    """What a record keeps of a per-value mapping: the one it is for every value, else the mapping."""
+    return next(iter(per.values())) if len(set(per.values())) == 1 else per
+
+
+def record(
+    name: str,
+    what: str,
+    command: str,
+    measured: str = "",
+    target: str = "",
+    *,
+    value: float | None = None,
+    values: dict[str, float] | None = None,
+    unit: str | dict[str, str],
+    better: str | dict[str, str] | None = None,
+) -> None:
+    """Merge this run's figures into benchmarks/measured.json as entry ``name`` (replacing its previous one): what
+    was measured, the command, the numbers (one ``value`` or named ``values``) with their ``unit`` and the way each
+    improves (``better``: ``higher`` or ``lower``, where the unit does not say it, :func:`better_of`), the figure as
+    the docs write it (``measured``; by default the numbers with their units) and its target, with the date, machine
+    and revision of the run. ``unit`` is one for every value or one per value's name; ``better`` one for every value
+    or one for some of them.
+
+    The file is committed; ``famarl docs`` generates docs/performance.md's table from it, so that every figure
+    there is one a run wrote, and ``python benchmarks/compare.py OLD NEW`` flags the numbers that got worse.
+    """
+    if (value is None) == (values is None):
+        raise ValueError(f"record {name!r}: give one value or named values")
+    numbers = {"value": value} if value is not None else dict(values)
+    units = _per_value(unit, list(numbers), f"record {name!r}: unit")
+    given = better if isinstance(better, dict) else dict.fromkeys(numbers, better)
+    if extra := sorted(set(given) - set(numbers)):
+        raise ValueError(f"record {name!r}: better names {', '.join(extra)}, which it has no value of")
+    senses = {key: given.get(key) or better_of(units[key]) for key in numbers}
+    if unknown := sorted(key for key, sense in senses.items() if sense not in (HIGHER, LOWER)):
+        raise ValueError(f"record {name!r}: say whether higher or lower is better for {', '.join(unknown)}")
+    kept = {key: float(f"{float(v):.6g}") if math.isfinite(float(v)) else None for key, v in numbers.items()}
+    shown = measured or ", ".join(f"{key} {'-' if v is None else f'{v:g}'} {units[key]}" for key, v in kept.items())
+    fields = {"what": what, "command": command, "measured": shown}
+    fields |= {"value": kept["value"]} if value is not None else {"values": kept}
+    fields |= {"unit": _one_or_each(units), "better": _one_or_each(senses), "target": target}
+    write_record(MEASURED, name, fields)
+
+
 def command_line(
     script: str,
     parser: argparse.ArgumentParser,
@@ -144,10 +203,11 @@ def command_line(
     hidden: tuple[str, ...] = ("out",),
     prefix: str = "",
 ) -> str:
-    """The command of this run for measured.json: ``python benchmarks/SCRIPT`` (``script``: its path, ``__file__``)
-    and each option whose value is not its default (those in ``shown`` always, those in ``hidden``, where results
-    go, never), in the parser's order."""
-    parts = ["python", f"benchmarks/{Path(script).name}"]
+    """The command of this run for measured.json: ``python FOLDER/SCRIPT`` (``script``: its path, ``__file__``, in
+    benchmarks/ or studies/) and each option whose value is not its default (those in ``shown`` always, those in
+    ``hidden``, where results go, never), in the parser's order."""
+    path = Path(script).resolve()
+    parts = ["python", f"{path.parent.name}/{path.name}"]
     for key, value in vars(args).items():
         if key in hidden or (key not in shown and value == parser.get_default(key)) or value is None or value is False:
             continue

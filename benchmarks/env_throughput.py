@@ -61,6 +61,8 @@ def records(rows: list[tuple[str, str, int, float]], command: str) -> dict[str, 
             "measured": f"{rounded(batched[0])} / {rounded(batched[1])} / **{rounded(batched[2])}** env steps/s"
             + verdict(batched[2] >= 1_000_000),
             "target": ">= 1,000,000 at 1024",
+            "values": {f"worlds_{n}": per_s for n, per_s in zip((1, 64, 1024), batched, strict=True)},
+            "unit": "env steps/s",
         },
         "env_throughput_single": {
             "what": "ContinuousWorld Maze, single env (`gym.make`); RobotHand Base / Reaching / BallPlacing, single "
@@ -69,6 +71,8 @@ def records(rows: list[tuple[str, str, int, float]], command: str) -> dict[str, 
             "measured": f"{rounded(rates['maze', 'single (gym.make)', 1])} env steps/s; RobotHand "
             + " / ".join(rounded(per_s) for per_s in hands)
             + " env steps/s",
+            "values": {"maze": rates["maze", "single (gym.make)", 1], **dict(zip(ROBOT_HANDS, hands, strict=True))},
+            "unit": "env steps/s",
         },
     }
 

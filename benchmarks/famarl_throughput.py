@@ -83,11 +83,28 @@ def records(decode_rows: list[dict], train_rows: list[dict], command: str) -> di
             f"{rounded(trained['ppo']['env_steps_per_s'])}, FiGAR {rounded(trained['figar']['env_steps_per_s'])}: "
             f"FaMARL **{ratio:.1f}x** PPO's" + verdict(ratio >= 0.5),
             "target": ">= 0.5x PPO's",
+            "values": {
+                "famarl": trained["famarl"]["env_steps_per_s"],
+                "famarl_decisions": trained["famarl"]["decisions_per_s"],
+                "ppo": trained["ppo"]["env_steps_per_s"],
+                "figar": trained["figar"]["env_steps_per_s"],
+                "famarl_over_ppo": ratio,
+            },
+            "unit": {
+                "famarl": "env steps/s",
+                "famarl_decisions": "decisions/s",
+                "ppo": "env steps/s",
+                "figar": "env steps/s",
+                "famarl_over_ppo": "x",
+            },
+            "better": {"famarl_over_ppo": "higher"},
         },
         "famarl_throughput_decoding": {
             "what": "FAVAE decoding, batched",
             "command": command,
             "measured": f"{rounded(decoded[16])} decisions/s at 16 latents per call, {rounded(decoded[64])} at 64",
+            "values": {"latents_16": decoded[16], "latents_64": decoded[64]},
+            "unit": "decisions/s",
         },
     }
 

@@ -208,6 +208,15 @@ def main() -> None:
             text += f", decoding {row['batched_decode_ms']:.3f} vs {row['single_decode_ms']:.3f} ms ({decode:.2f}x)"
         return text
 
+    def numbers(row: dict) -> dict[str, float]:
+        k = f"k{row['replicates']}"
+        kept = {name.removesuffix("_ms"): ms for name, ms in row.items() if name.endswith("_ms")}
+        return {
+            **{f"{k}_{name}": ms for name, ms in kept.items()},
+            f"{k}_over_ensemble": row["batched_ms"] / row["ensemble_ms"],
+        }
+
+    values = {name: v for row in rows for name, v in numbers(row).items()}
     record(
         f"favae_models{suffix}",
         what=f"a FAVAE step's forward, loss and backward of K replicates{where}, the one batched model against the "
@@ -216,6 +225,9 @@ def main() -> None:
         command=command_line(__file__, parser, args, shown=("macros",)),
         measured=" / ".join(map(measured, rows)),
         target="the one definition at most 1.2x slower than what it replaced",
+        values=values,
+        unit={name: "x" if name.endswith("_over_ensemble") else "ms" for name in values},
+        better="lower",
     )
 
 

@@ -107,6 +107,7 @@ def records(rows: list[dict], command: str, device: str, graph: bool) -> dict[st
                 + f" ms; {100 * min(shares):.0f}-{100 * max(shares):.0f}% of the core's `torch.mm` rate"
                 + verdict(max(shares) >= 0.5),
                 "target": ">= 50%",
+                **numbers(rows, "ms_per_replicate_step"),
             }
         }
     steps = {row["replicates"]: row["ms_per_step"] for row in rows}
@@ -121,7 +122,19 @@ def records(rows: list[dict], command: str, device: str, graph: bool) -> dict[st
             + f" ms a step; {100 * min(shares):.2g}-{100 * max(shares):.2g}% of the device's `torch.mm` rate"
             + (verdict(all(met)) if met and graph else ""),
             "target": "K = 10 <= 2 ms, K = 1000 <= 40 ms" if graph else "",
+            **numbers(rows, "ms_per_step"),
         }
+    }
+
+
+def numbers(rows: list[dict], time: str) -> dict:
+    """A record's numbers: each K's time (``time``, ms) and the least and most of the device's rate reached (%)."""
+    values = {f"k{row['replicates']}": row[time] for row in rows}
+    shares = [100 * row["share_of_core"] for row in rows]
+    return {
+        "values": {**values, "share_min": min(shares), "share_max": max(shares)},
+        "unit": {**dict.fromkeys(values, "ms"), "share_min": "%", "share_max": "%"},
+        "better": {"share_min": "higher", "share_max": "higher"},
     }
 
 

@@ -3,7 +3,7 @@
     python benchmarks/favae_step.py [--designs shared-kl,ladder-info-p20] [--segments PATH] [--steps 400]
 
 One step is what the fit does per batch: forward (sampling), the loss with its capacity term, backward, Adam. The
-designs (benchmarks/favae_designs.py) take turns, ``--repeats`` times each, on the same batch of 64 segments (the
+designs (studies/favae_designs.py) take turns, ``--repeats`` times each, on the same batch of 64 segments (the
 pipeline's batch size), and each reports the median over repeats of the mean time of ``--steps`` steps after a
 warm-up. With no segments file (before ``dvc repro``) the batch is random data of the default pipeline's shape.
 """
@@ -11,14 +11,14 @@ warm-up. With no segments file (before ``dvc repro``) the batch is random data o
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import torch
-from common import RESULTS, write_result
-from favae_designs import DESIGNS
+from common import RESULTS, STUDIES, write_result
 
 from famarl_cli.artifacts.segments import read_segments
 from famarl_cli.method.favae.loss import favae_loss
@@ -59,6 +59,15 @@ def time_steps(model: Favae, x: torch.Tensor, design, steps: int) -> float:
     return (time.perf_counter() - start) / steps
 
 
+def designs() -> dict:
+    """The designs of studies/favae_designs.py (the FAVAE studies compare what they learn; this times them)."""
+    if str(STUDIES) not in sys.path:
+        sys.path.insert(1, str(STUDIES))
+    from favae_designs import DESIGNS
+
+    return DESIGNS
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--designs", default="shared-kl,ladder-info-p20")
@@ -71,11 +80,11 @@ def main() -> None:
     padded = batch_of(args.segments)
     x = to_input(padded)
     base = FavaeConfig(action_dim=padded.shape[2] - 2, length=padded.shape[1])
-    names = parse_values(args.designs)
+    names, known = parse_values(args.designs), designs()
     times: dict[str, list[float]] = {name: [] for name in names}
     for _ in range(args.repeats):
         for name in names:
-            design = DESIGNS[name]
+            design = known[name]
             torch.manual_seed(0)
             config = replace(base, decoder=design.decoder, head=design.head, latent_dims=design.dims)
             times[name].append(time_steps(Favae(config), x, design, args.steps))

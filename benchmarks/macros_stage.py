@@ -8,7 +8,7 @@ Runs ``famarl sweep macros --seeds SEEDS --jobs 1`` with the default pipeline's 
 folder of a sweep's seedS/segments.h5) the replicates start from those segments, so the stage is the pre-run, the
 fit and the traversal; without it they segment ``--demos`` first (the segmenters on the device too). One batch of
 every seed (``--jobs 1``), so a GPU holds them all. ``--keep DIR`` keeps the replicates' folders (their metrics
-compare with another device's, ``benchmarks/compare_replicates.py``); ``--epochs`` and ``--segment-epochs`` replace
+compare with another device's, ``studies/compare_replicates.py``); ``--epochs`` and ``--segment-epochs`` replace
 params.yaml's (a smoke run; a run with them records nothing).
 """
 
@@ -93,6 +93,8 @@ def main() -> None:
         command=command_line(__file__, parser, args, shown=("device", "seeds"), hidden=("out", "keep")),
         measured=f"**{wall:.1f} s**" + (verdict(wall <= GOAL_S) if goal else ""),
         target=f"<= {GOAL_S:g} s" if goal else "",
+        value=wall,
+        unit="s",
     )
 
 

@@ -62,12 +62,18 @@ def records(seeds: str, rows: list[dict], before: list[dict] | None, against: st
         measured += f"; {against}, the same run: {previous:.0f} s: {_stages(before)}: **{total / previous:.2f}x**"
         measured += verdict(total / previous <= 0.45)
     peak = max(rows, key=lambda row: row["peak_rss_mib"])
+    values = {"total": total, **{row["stage"]: row["seconds"] for row in rows}}
+    if before is not None:
+        values |= {"before_total": previous, "ratio": total / previous}
     return {
         "pipeline_stages": {
             "what": f"every stage of the default `dvc repro`, {len(parse_values(seeds))} replicates, from scratch",
             "command": command,
             "measured": measured,
             "target": "" if before is None else f"<= 0.45x (must 0.6x) of {against}'s wall, on the same machine",
+            "values": values,
+            "unit": {name: "x" if name == "ratio" else "s" for name in values},
+            "better": "lower",
         },
         "pipeline_stages_peak_rss": {
             "what": "peak RSS of any stage of the default `dvc repro` (its process tree, sweep workers included)",
@@ -75,6 +81,8 @@ def records(seeds: str, rows: list[dict], before: list[dict] | None, against: st
             "measured": f"**{peak['peak_rss_mib']:.0f} MiB** (the {peak['stage']})"
             + verdict(peak["peak_rss_mib"] < 1024),
             "target": "< 1 GiB",
+            "value": peak["peak_rss_mib"],
+            "unit": "MiB",
         },
     }
 

@@ -80,6 +80,16 @@ def records(rows: list[dict], baseline: dict, steps: int, seeds: list[int], comm
             "command": command,
             "measured": f"{rates}; {rounded(ratio)}x the time{verdict(ratio <= GATE)}",
             "target": f"<= {GATE}x (else the written-out gradient stays)",
+            "values": {
+                **{f"{row['agent']}_before": theirs[row["agent"]]["env_steps_per_s"] for row in rows},
+                **{row["agent"]: row["env_steps_per_s"] for row in rows},
+                "time_ratio": ratio,
+            },
+            "unit": {
+                **{f"{row['agent']}{after}": "env steps/s" for row in rows for after in ("_before", "")},
+                "time_ratio": "x",
+            },
+            "better": {"time_ratio": "lower"},
         }
     }
 

@@ -157,6 +157,31 @@ def records(steps: int, seeds: list[int], together: bool, ratio: float, summary:
     first = ours["steps_to_80pct_success"]
     reached = f"80% success held from {k(first)} steps" if np.isfinite(first) else "80% success not held"
     runs = f"{len(seeds)} seed{'s' if len(seeds) > 1 else ''}"
+    rates = {
+        "values": {"ours": ours["env_steps_per_s"], "sb3": sb3["env_steps_per_s"], "ratio": ratio},
+        "unit": {"ours": "env steps/s", "sb3": "env steps/s", "ratio": "x"},
+        "better": {"ratio": "higher"},
+    }
+    learning = {
+        "values": {
+            "steps_to_80": first,
+            "sb3_steps_to_80": sb3["steps_to_80pct_success"],
+            "late_success": ours["late_success"],
+            "sb3_late_success": sb3["late_success"],
+        },
+        "unit": {
+            "steps_to_80": "env steps",
+            "sb3_steps_to_80": "env steps",
+            "late_success": "share",
+            "sb3_late_success": "share",
+        },
+        "better": {
+            "steps_to_80": "lower",
+            "sb3_steps_to_80": "lower",
+            "late_success": "higher",
+            "sb3_late_success": "higher",
+        },
+    }
     if together:
         learned = f"{reached} (SB3 {k(sb3['steps_to_80pct_success'])}), late success {ours['late_success']:.2f} "
         learned += f"({sb3['late_success']:.2f})"
@@ -167,6 +192,9 @@ def records(steps: int, seeds: list[int], together: bool, ratio: float, summary:
                 "command": command,
                 "measured": f"{speed}; {learned}" + verdict(ratio >= 10),
                 "target": "10x",
+                "values": rates["values"] | learning["values"],
+                "unit": rates["unit"] | learning["unit"],
+                "better": rates["better"] | learning["better"],
             }
         }
     command = f'pip install -e ".[bench]" && {command}'
@@ -176,6 +204,7 @@ def records(steps: int, seeds: list[int], together: bool, ratio: float, summary:
             "command": command,
             "measured": speed + verdict(ratio >= 5),
             "target": ">= 5x",
+            **rates,
         },
         "ppo_vs_sb3_learning": {
             "what": "the same, learning",
@@ -183,6 +212,7 @@ def records(steps: int, seeds: list[int], together: bool, ratio: float, summary:
             "measured": f"{reached} (SB3 {k(sb3['steps_to_80pct_success'])}); late success "
             f"{ours['late_success']:.2f} (SB3 {sb3['late_success']:.2f})",
             "target": "no worse",
+            **learning,
         },
     }
 

@@ -17,6 +17,7 @@ Run it alone (one CPU-heavy job at a time). Prints a table and writes benchmarks
 from __future__ import annotations
 
 import argparse
+import re
 import time
 from pathlib import Path
 
@@ -80,6 +81,7 @@ def records(step: dict[str, float], rates: dict[str, float], command: str) -> di
     """measured.json's entry: the minibatch step without and with the prior's KL, and the rollouts' rates."""
     plain, guided = step["plain"], step["with the prior's KL"]
     open_loop = rates["open-loop"]
+    named = {re.sub(r"\W+", "_", name): per_s for name, per_s in rates.items()}
     rollouts = " / ".join(
         rounded(per_s) + ("" if name == "open-loop" else f" ({per_s / open_loop:.2f}x)")
         for name, per_s in rates.items()
@@ -90,6 +92,8 @@ def records(step: dict[str, float], rates: dict[str, float], command: str) -> di
             "KL; FaMARL's rollouts on the Maze open-loop / with the prior's guide / closed-loop",
             "command": command,
             "measured": f"{1000 * plain:.2f} / {1000 * guided:.2f} ms ({guided / plain:.2f}x); {rollouts} env steps/s",
+            "values": {"step": 1000 * plain, "step_prior": 1000 * guided, **named},
+            "unit": {"step": "ms", "step_prior": "ms", **dict.fromkeys(named, "env steps/s")},
         }
     }
 

@@ -80,22 +80,30 @@ def records(seeds: int, steps: int, agent: str, ours: dict[int, dict], sb3: dict
     most, least = max(ours), min(ours)
     name = {"ppo": "PPO", "figar": "FiGAR", "famarl": "FaMARL"}.get(agent, agent)
     measured = f"{rounded(ours[most]['rate'])} env steps/s"
+    values, units = {f"workers_{most}": ours[most]["rate"]}, {f"workers_{most}": "env steps/s"}
     targets = []
     if most != least:
         speedup = ours[most]["rate"] / ours[least]["rate"]
         measured = f"{rounded(ours[most]['rate'])} against {rounded(ours[least]['rate'])} env steps/s: "
         measured += f"**{speedup:.2f}x**" + verdict(speedup >= 1.8)
         targets.append(">= 1.8x")
+        values |= {f"workers_{least}": ours[least]["rate"], "speedup": speedup}
+        units |= {f"workers_{least}": "env steps/s", "speedup": "x"}
     if sb3:
         over = ours[most]["rate"] / sb3["rate"]
         measured += f"; SB3 on the same {most} cores {rounded(sb3['rate'])} (ours {over:.1f}x)" + verdict(over >= 10)
         targets.append(">= 10x SB3")
+        values |= {"sb3": sb3["rate"], "over_sb3": over}
+        units |= {"sb3": "env steps/s", "over_sb3": "x"}
     entries = {
         "sweep_throughput": {
             "what": f"a sweep on {most} local workers against {least} ({seeds} {name} seeds x {step_count(steps)})",
             "command": command,
             "measured": measured,
             "target": "; ".join(targets),
+            "values": values,
+            "unit": units,
+            "better": {name: "higher" for name, unit in units.items() if unit == "x"},
         }
     }
     if peaks := [peak for result in ours.values() for peak in result["worker_peak_rss_mib"]]:
@@ -104,6 +112,8 @@ def records(seeds: int, steps: int, agent: str, ours: dict[int, dict], sb3: dict
             "command": command,
             "measured": f"{max(peaks):.0f} MiB" + verdict(max(peaks) < 1024),
             "target": "< 1 GiB",
+            "value": max(peaks),
+            "unit": "MiB",
         }
     return entries
 

@@ -1,5 +1,5 @@
-"""The benchmark scripts' options this repository's tools added: a bad input is one ``error:`` line, a non-zero exit
-and nothing written."""
+"""The benchmark and study scripts' options this repository's tools added: a bad input is one ``error:`` line, a
+non-zero exit and nothing written; the benchmarks' records hold numbers, which benchmarks/compare.py compares."""
 
 import contextlib
 import io
@@ -12,15 +12,23 @@ from pathlib import Path
 import pytest
 import torch
 
-BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+ROOT = Path(__file__).resolve().parents[1]
+BENCHMARKS, STUDIES = ROOT / "benchmarks", ROOT / "studies"
+
+
+def where(script: str) -> Path:
+    """A script's path: ``benchmarks/SCRIPT`` (a speed benchmark or its tools) or ``studies/SCRIPT`` (a study)."""
+    path = BENCHMARKS / script
+    return path if path.is_file() else STUDIES / script
 
 
 def run_process(script: str, *args, env: dict | None = None) -> subprocess.CompletedProcess:
-    """``python benchmarks/SCRIPT ARGS`` in an interpreter of its own, with ``env`` added to the environment."""
+    """``python benchmarks/SCRIPT ARGS`` (or ``studies/SCRIPT``, :func:`where`) in an interpreter of its own, with
+    ``env`` added to the environment."""
     import os
 
     return subprocess.run(
-        [sys.executable, str(BENCHMARKS / script), *map(str, args)],
+        [sys.executable, str(where(script)), *map(str, args)],
         capture_output=True,
         text=True,
         timeout=120,
@@ -33,17 +41,18 @@ def _to_stderr(message, category, filename, lineno, file=None, line=None) -> Non
 
 
 def run(script: str, *args, env: dict | None = None) -> subprocess.CompletedProcess:
-    """``python benchmarks/SCRIPT ARGS`` (with ``env`` added to the environment) run in this process: what the
-    interpreter would print and exit with, without one more interpreter importing torch (about 2 s each, the most
-    of a refusal's time). As there: the script's folder first on sys.path, Python's default warning filters with
-    the warnings printed on stderr (a warning beside an error is a second line), and a ``SystemExit`` of a message
-    printed and exit 1. Only for scripts that start no pool of processes (a worker could not import the script's
-    functions from a ``__main__`` that is pytest); test_pipeline_stages_against_a_revision_that_is_not_there runs a
-    script in an interpreter of its own, as a user does."""
-    argv, out, err = [str(BENCHMARKS / script), *map(str, args)], io.StringIO(), io.StringIO()
+    """``python benchmarks/SCRIPT ARGS`` (or ``studies/SCRIPT``; with ``env`` added to the environment) run in this
+    process: what the interpreter would print and exit with, without one more interpreter importing torch (about 2 s
+    each, the most of a refusal's time). As there: the script's folder first on sys.path, Python's default warning
+    filters with the warnings printed on stderr (a warning beside an error is a second line), and a ``SystemExit``
+    of a message printed and exit 1. Only for scripts that start no pool of processes (a worker could not import the
+    script's functions from a ``__main__`` that is pytest);
+    test_pipeline_stages_against_a_revision_that_is_not_there runs a script in an interpreter of its own, as a user
+    does."""
+    argv, out, err = [str(where(script)), *map(str, args)], io.StringIO(), io.StringIO()
     code = 0
     with pytest.MonkeyPatch.context() as patch, warnings.catch_warnings():
-        patch.syspath_prepend(str(BENCHMARKS))
+        patch.syspath_prepend(str(where(script).parent))
         patch.setattr(sys, "argv", argv)
         for name, value in (env or {}).items():
             patch.setenv(name, value)
@@ -65,7 +74,7 @@ def run(script: str, *args, env: dict | None = None) -> subprocess.CompletedProc
 
 
 def run_recording(script: str, measured: Path, *args) -> subprocess.CompletedProcess:
-    """``script`` run with ``args``, its figures recorded in ``measured`` rather than benchmarks/measured.json."""
+    """``script`` run with ``args``, its figures recorded in ``measured`` rather than its folder's measured.json."""
     return run(script, *args, env={"FAMARL_MEASURED": str(measured)})
 
 
@@ -264,3 +273,102 @@ def test_the_gates_benchmarks_refuse_bad_options_and_baselines_before_any_work(t
     one_error_line(run_with("favae_models.py", "--replicates", "0,5"), "must be at least 1")
     one_error_line(run_with("favae_models.py", "--steps", 0), "must be at least 1")
     assert not out.exists() and not measured.exists()
+
+
+def benchmark_module(name: str, monkeypatch):
+    """benchmarks/NAME.py imported as a module (its folder on sys.path, as when it runs)."""
+    import importlib
+
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    return importlib.import_module(name)
+
+
+def test_a_benchmark_records_numbers_with_their_unit_and_the_way_each_improves(tmp_path, monkeypatch):
+    import json
+
+    measured = tmp_path / "measured.json"
+    monkeypatch.setenv("FAMARL_MEASURED", str(measured))
+    common = benchmark_module("common", monkeypatch)
+    common.record("step", "a step", "python benchmarks/step.py", values={"a": 1.23456789, "b": float("nan")}, unit="ms")
+    rates = {"ours": 30_000.0, "ratio": 4.0}
+    units = {"ours": "env steps/s", "ratio": "x"}
+    common.record(
+        "rate", "a rate", "c", "ours 30,000 env steps/s: **4.0x**", values=rates, unit=units, better={"ratio": "higher"}
+    )
+    common.record("peak", "a peak", "c", "264 MiB — met", "< 1 GiB", value=264.4, unit="MiB")
+    entries = json.loads(measured.read_text())
+    assert list(entries) == ["peak", "rate", "step"]
+    step = entries["step"]
+    # the figure as the docs write it defaults to the numbers with their units; a value the run lacks is null
+    assert step["values"] == {"a": 1.23457, "b": None} and step["measured"] == "a 1.23457 ms, b - ms"
+    assert (step["unit"], step["better"]) == ("ms", "lower")  # a time improves downwards
+    assert entries["rate"]["unit"] == units and entries["rate"]["better"] == "higher"
+    assert entries["rate"]["measured"] == "ours 30,000 env steps/s: **4.0x**"
+    assert entries["peak"]["value"] == 264.4 and entries["peak"]["target"] == "< 1 GiB"
+    assert set(step) >= {"what", "command", "date", "machine", "revision"}
+    with pytest.raises(ValueError, match="say whether higher or lower is better for value"):
+        common.record("ratio", "a ratio", "c", value=1.2, unit="x")
+    with pytest.raises(ValueError, match="give one value or named values"):
+        common.record("none", "nothing", "c", "1 ms", unit="ms")
+    with pytest.raises(ValueError, match="unit names"):
+        common.record("units", "w", "c", values=rates, unit={"ours": "env steps/s"})
+    assert list(json.loads(measured.read_text())) == ["peak", "rate", "step"]
+
+
+def test_compare_flags_each_number_worse_than_the_tolerance_and_only_those(tmp_path):
+    import json
+
+    def entry(values: dict, unit, better, machine: str = "CPU, AVX2, 2 cores") -> dict:
+        return {"values": values, "unit": unit, "better": better, "machine": machine}
+
+    old = {
+        "rate": entry({"ours": 100.0, "sb3": 50.0, "ratio": 2.0}, "env steps/s", "higher"),
+        "wall": {"value": 10.0, "unit": "s", "better": "lower", "machine": "CPU, AVX2, 2 cores"},
+        "mixed": entry(
+            {"step": 1.0, "share": 40.0}, {"step": "ms", "share": "%"}, {"step": "lower", "share": "higher"}
+        ),
+        "words": {"measured": "1 ms"},
+        "gone": entry({"a": 1.0}, "s", "lower"),
+    }
+    new = json.loads(json.dumps(old))
+    new["rate"]["values"] |= {"ours": 85.0, "sb3": 60.0, "ratio": None}  # 15% worse, better, not measured
+    new["wall"] |= {"value": 10.5, "machine": "GPU host"}  # 5% worse: within the tolerance
+    new["mixed"]["values"] |= {"step": 1.2, "share": 41.0}  # a time 20% longer
+    new["words"] = {"measured": "2 ms"}
+    del new["gone"]
+    paths = tmp_path / "old.json", tmp_path / "new.json"
+    for path, records in zip(paths, (old, new), strict=True):
+        path.write_text(json.dumps(records))
+    result = run("compare.py", *paths)
+    assert result.returncode == 1, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0] == "left out, without numbers in one of the files: words"
+    assert lines[1] == "5 numbers compared, 2 worse by more than 10%"
+    assert lines[2:] == ["  mixed step: 1 -> 1.2 ms (20% worse)", "  rate ours: 100 -> 85 env steps/s (15% worse)"]
+    assert run("compare.py", *paths, "--tolerance", "0.25").returncode == 0
+    worse = run("compare.py", *paths, "--tolerance", "0.01")
+    assert "wall: 10 -> 10.5 s (5% worse) (on CPU, AVX2, 2 cores, then on GPU host)" in worse.stdout
+    one_error_line(run("compare.py", *paths, "--tolerance", "-1"), "--tolerance must be a share")
+    new["wall"]["better"] = "faster"
+    paths[1].write_text(json.dumps(new))
+    one_error_line(run("compare.py", *paths), "record 'wall': better of value is 'faster'")
+    paths[1].write_text("[1]")
+    one_error_line(run("compare.py", *paths), "not a JSON object of named records")
+
+
+def test_each_record_is_in_its_script_s_folder_and_every_benchmark_s_holds_numbers(monkeypatch):
+    """benchmarks/measured.json holds the speed benchmarks' records, each with its numbers; studies/measured.json
+    the studies' findings; a record's command runs a script of its own folder."""
+    import json
+    import re
+
+    compare = benchmark_module("compare", monkeypatch)
+    for folder in (BENCHMARKS, STUDIES):
+        for name, entry in json.loads((folder / "measured.json").read_text()).items():
+            scripts = re.findall(r"\b(benchmarks|studies)/(\w+)\.py\b", entry["command"])
+            assert scripts and scripts[-1][0] == folder.name, (name, entry["command"])
+            assert (folder / f"{scripts[-1][1]}.py").is_file(), (name, entry["command"])
+            if folder == BENCHMARKS:
+                assert compare.numbers(name, entry), f"{name} holds no numbers"
+            else:
+                assert "value" not in entry and "values" not in entry, name

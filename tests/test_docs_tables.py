@@ -85,7 +85,7 @@ def project(tmp_path: Path, monkeypatch) -> Path:
     (tmp_path / "docs" / "skills.md").write_text("# Skills\n")
     (tmp_path / "docs" / "favae.md").write_text("# FAVAE\n")
     (tmp_path / "docs" / "verdicts.md").write_text("# Verdicts\n")
-    for page in ("robothand", "external", "hybrid", "commands"):
+    for page in ("robothand", "external", "hybrid", "commands", "studies"):
         (tmp_path / "docs" / f"{page}.md").write_text(f"# {page}\n")
     (tmp_path / "docs" / "aggregate.md").write_text("# aggregate\n")
     entry = {"what": "a step", "command": "python benchmarks/step.py", "measured": "1 ms", "target": ""}
@@ -156,7 +156,7 @@ def test_changed_code_or_params_mark_the_pipeline_stale_and_missing_data_does_no
     assert docs.pipelines(project)[0].stale == ("report",)
 
 
-def test_the_performance_table_is_each_benchmark_s_recorded_result_with_where_it_ran(project):
+def test_the_performance_and_studies_tables_are_each_script_s_recorded_results_with_where_they_ran(project):
     (project / docs.MEASURED).unlink()
     assert "No benchmark has recorded a result yet" in docs.tables(project)["performance"]
     (project / "benchmarks").mkdir(exist_ok=True)
@@ -169,21 +169,52 @@ def test_the_performance_table_is_each_benchmark_s_recorded_result_with_where_it
         "machine": "CPU, AVX2, 2 cores",
         "revision": "abc1234",
     }
-    favae = {**entry, "what": "the pre-run", "command": "python benchmarks/compare_replicates.py a b"}
-    (project / docs.MEASURED).write_text(json.dumps({"ppo_vs_sb3": entry, "favae_prerun": favae}))
+    step = {**entry, "what": "a FAVAE step", "command": "python benchmarks/favae_step.py"}
+    (project / docs.MEASURED).write_text(json.dumps({"ppo_vs_sb3": entry, "favae_step": step}))
+    (project / "studies").mkdir()
+    favae = {
+        **entry,
+        "what": "the pre-run",
+        "command": "famarl sweep macros ...; python studies/compare_replicates.py a b",
+    }
+    chance = {**entry, "what": "chance", "command": "python studies/robothand_chance.py"}
+    (project / docs.STUDIES).write_text(json.dumps({"favae_prerun": favae, "robothand_chance": chance}))
     page = project / "docs/favae.md"
     page.write_text(
         f"# FAVAE\n{docs.BEGIN.format(name='benchmarks-favae')}\n{docs.END.format(name='benchmarks-favae')}\n"
     )
+    studies = project / "docs/studies.md"
+    studies.write_text(f"# Studies\n{docs.BEGIN.format(name='studies')}\n{docs.END.format(name='studies')}\n")
     docs.write_docs(project)
     row = (
         "| PPO vs SB3 | `python benchmarks/ppo_vs_sb3.py` | ours 13,700 env steps/s: **4.7x** | >= 5x | 2026-12-04, "
         "`abc1234`, CPU, AVX2, 2 cores |"
     )
-    assert row in (project / "docs/performance.md").read_text()
-    # a page about one subject shows that subject's results alone: those named after it
-    assert "| the pre-run | `python benchmarks/compare_replicates.py a b` |" in page.read_text()
-    assert "PPO vs SB3" not in page.read_text()
+    performance = (project / "docs/performance.md").read_text()
+    assert row in performance and "the pre-run" not in performance  # the benchmarks' results alone
+    # a page about one subject shows that subject's results alone, the benchmarks' and the studies' together, in the
+    # order of their names
+    shown = page.read_text()
+    assert "PPO vs SB3" not in shown and "chance" not in shown
+    assert shown.index("| the pre-run | `famarl sweep macros ...; python studies/compare_replicates.py a b` |") < (
+        shown.index("| a FAVAE step | `python benchmarks/favae_step.py` |")
+    )
+    # the studies' page: one table per study script, the studies' results alone
+    text = studies.read_text()
+    assert text.index("### `studies/compare_replicates.py`\n\n| what |") < text.index(
+        "### `studies/robothand_chance.py`"
+    )
+    assert "| chance | `python studies/robothand_chance.py` |" in text and "PPO vs SB3" not in text
+    (project / docs.STUDIES).write_text(json.dumps({"favae_step": favae}))
+    with pytest.raises(
+        ArtifactError, match="study result 'favae_step' has the name of one in benchmarks/measured.json"
+    ):
+        docs.tables(project)
+    (project / docs.STUDIES).write_text(json.dumps({"favae_prerun": {"what": "x"}}))
+    with pytest.raises(ArtifactError, match="study result 'favae_prerun' lacks command"):
+        docs.tables(project)
+    (project / docs.STUDIES).unlink()
+    assert "No study has recorded a result yet" in docs.tables(project)["studies"]
     (project / docs.MEASURED).write_text(json.dumps({"ppo_vs_sb3": {"what": "x"}}))
     with pytest.raises(ArtifactError, match="benchmark result 'ppo_vs_sb3' lacks command"):
         docs.tables(project)
@@ -318,10 +349,13 @@ def test_unreadable_walls_or_a_missing_project_are_one_error_line(project, tmp_p
     one_line_error(famarl("docs", "--root", tmp_path_factory.mktemp("empty")), 1, "no dvc.yaml here")
 
 
-@pytest.mark.parametrize("which, what", [(docs.WALLS, "pipeline walls"), (docs.MEASURED, "benchmark results")])
+@pytest.mark.parametrize(
+    "which, what",
+    [(docs.WALLS, "pipeline walls"), (docs.MEASURED, "benchmark results"), (docs.STUDIES, "study results")],
+)
 @pytest.mark.parametrize("content", ["[1, 2]", '"text"', "3"])
 def test_walls_or_benchmark_results_that_are_not_named_entries_are_one_error_line(project, which, what, content):
-    (project / "benchmarks").mkdir(exist_ok=True)
+    (project / which).parent.mkdir(exist_ok=True)
     (project / which).write_text(content)
     before = {name: (project / name).read_text() for name in docs.FILES}
     one_line_error(famarl("docs", "--root", project), 1, f"{what} must be a JSON object of named entries")

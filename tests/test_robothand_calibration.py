@@ -1,4 +1,4 @@
-"""BallPlacing's calibration rules (benchmarks/robothand_calibration.py, docs/robothand.md's protocol): each rule's
+"""BallPlacing's calibration rules (studies/robothand_calibration.py, docs/robothand.md's protocol): each rule's
 verdict from its numbers, and the measurements on a tiny setting: today's shallow cup loses a missed ball, a bowl
 keeps it; the candidate settings are made by name, the default is today's."""
 
@@ -12,7 +12,7 @@ import pytest
 from famarl_cli.envs import ROBOT_HAND_IDS
 from famarl_cli.envs import robot_hand as rh
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
 import robothand_calibration as cal  # noqa: E402
 
 BOWL = {"cup_width": 1.0, "cup_depth": 0.3}

@@ -176,7 +176,7 @@ def test_an_arm_that_never_learns_has_an_undefined_speed_with_its_reason():
 
 
 def test_the_reported_intervals_cover_at_their_level_when_each_replicate_meets_its_own_layouts(tmp_path):
-    """The coverage simulation (benchmarks/interval_coverage.py, which docs/verdicts.md's table records): with a
+    """The coverage simulation (studies/interval_coverage.py, which docs/verdicts.md's table records): with a
     replicate effect and a layout effect, the interval over replicates covers the truth at 95% (within 3 Monte Carlo
     standard errors) when every replicate meets its own layouts, and falls short when all meet one set, for a
     success rate and for a difference of two agents, paired or not; where replicates are learners and non-learners
@@ -187,7 +187,7 @@ def test_the_reported_intervals_cover_at_their_level_when_each_replicate_meets_i
     import sys
     from pathlib import Path
 
-    script = Path(__file__).resolve().parents[1] / "benchmarks" / "interval_coverage.py"
+    script = Path(__file__).resolve().parents[1] / "studies" / "interval_coverage.py"
     out = tmp_path / "coverage.json"
     subprocess.run(
         [sys.executable, str(script), "--simulations", "1500", "--out", str(out), "--no-record"],

@@ -19,9 +19,9 @@ def docs(
     ] = False,
 ) -> None:
     """Write the result tables of README.md and docs/ (verdicts, every claim's interval and rule, each pipeline's
-    headline, pipeline walls, speed benchmarks, and the options of every command by name) from each pipeline's
-    committed summary.json,
-    benchmarks/pipeline_walls.json and benchmarks/measured.json, between their marker comments; a pipeline whose
+    headline, pipeline walls, speed benchmarks, studies, and the options of every command by name) from each
+    pipeline's committed summary.json, benchmarks/pipeline_walls.json, benchmarks/measured.json and
+    studies/measured.json, between their marker comments; a pipeline whose
     code, params or command changed since its dvc.lock is marked stale. Takes a few seconds (it asks DVC which
     stages are stale)."""
     from famarl_cli.cli.names import names_table

@@ -2,7 +2,7 @@
 
     dvc repro                                            # data/maze/macros/seed*/favae.pt
     dvc repro pipelines/robothand/dvc.yaml               # data/robothand/macros/seed*/favae.pt (for --env reaching)
-    python benchmarks/hybrid_variants.py [--env maze|reaching] [--seeds 0-9] [--variants h10,h5,...]
+    python studies/hybrid_variants.py [--env maze|reaching] [--seeds 0-9] [--variants h10,h5,...]
 
 Each variant is a ``famarl sweep train --agent hybrid`` over the seeds (seed S decodes with replicate S's FAVAE),
 into data/hybrid-variants/<env>/<variant>; finished runs are reused. Per variant it prints, with 95% intervals
@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from common import RESULTS, write_result
+from study import RESULTS, write_result
 
 from famarl_cli.artifacts.runs import read_run_file, read_training_log
 from famarl_cli.core.statistics import mean_interval, normalised_auc, steps_to_threshold

@@ -2,7 +2,7 @@
 ``famarl demos --from-minari``, ``famarl macros``, ``famarl train`` and ``famarl evaluate``, with the success and
 return each stage reports.
 
-    python benchmarks/lunar_lander_chain.py [--episodes 30] [--steps 200000] [--work /tmp/lander]
+    python studies/lunar_lander_chain.py [--episodes 30] [--steps 200000] [--work /tmp/lander]
 
 LunarLanderContinuous reports no success and terminates on every crash; gymnasium declares its
 ``reward_threshold`` (200), the return at which the task counts as solved. Before famarl judged success by that
@@ -22,7 +22,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-from common import RESULTS, write_result
+from study import RESULTS, write_result
 
 from famarl_cli.artifacts.runs import read_evaluation
 

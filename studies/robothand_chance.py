@@ -12,16 +12,16 @@ demos, open or closed loop) FaMARL's untrained policy is the prior itself, which
 its success on the evaluation's 100 layouts per replicate, as ``famarl evaluate`` draws them, from a run of one
 rollout at learning rate 0 (into data/robothand-chance; finished runs are reused).
 
-    python benchmarks/robothand_chance.py [--seeds 0-9] [--episodes 5] [--plans 64] [--jobs 2] [--data data]
+    python studies/robothand_chance.py [--seeds 0-9] [--episodes 5] [--plans 64] [--jobs 2] [--data data]
         [--tasks Reaching-v1,BallPlacing-v0] [--agents famarl,famarl-ours,figar,ppo]
         [--starts famarl+prior,famarl+prior+closed]
 
 It is the rate at which a learner's first rollouts meet the success it has to learn from, where the oracle
-(benchmarks/robothand_oracle.py) searches thousands of plans per layout from the layout's own reset. Needs
+(studies/robothand_oracle.py) searches thousands of plans per layout from the layout's own reset. Needs
 ``dvc repro pipelines/robothand/dvc.yaml`` first (its runs; only their action spaces are used, not their policies),
 and for --starts ``dvc repro pipelines/skills/dvc.yaml`` (its priors).
 Run it alone (one CPU-heavy job at a time): it uses --jobs cores. Records one row per task and agent in
-benchmarks/measured.json (docs/robothand.md shows them) and writes benchmarks/results/robothand_chance.json.
+studies/measured.json (docs/robothand.md shows them) and writes studies/results/robothand_chance.json.
 """
 
 from __future__ import annotations
@@ -32,8 +32,8 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-from common import RESULTS, ROOT, command_line, record, seed_list, train_and_evaluate, write_result
 from robothand_oracle import RUNS, TASKS, pipeline_runs
+from study import RESULTS, ROOT, command_line, record, seed_list, train_and_evaluate, write_result
 
 from famarl_cli.core.statistics import mean_interval
 from famarl_cli.envs.robot_hand import OBSERVATION_NAMES

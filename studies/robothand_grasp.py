@@ -2,16 +2,16 @@
 positive control, ``famarl_cli/experts/robot_hand_tasks.py``) is run with its approach and descent aimed off the
 ball's centre by (dx, dy), everything else as it is: the share of layouts it still solves, over a grid of offsets.
 
-    python benchmarks/robothand_grasp.py [--layouts 20] [--dx=-0.3,...,0.3] [--dy=-0.5,...,0.2] [--jobs 2]
+    python studies/robothand_grasp.py [--layouts 20] [--dx=-0.3,...,0.3] [--dy=-0.5,...,0.2] [--jobs 2]
         [--env famarl/RobotHand-BallPlacing-v0]
 
 The grasp window is what a learner's approach has to land in before the ball moves at all, and until it moves the
-reward -|b - g| is the same whatever the hand does (benchmarks/robothand_chance.py counts how often chance gets
+reward -|b - g| is the same whatever the hand does (studies/robothand_chance.py counts how often chance gets
 there in each agent's action space). An aim the controller cannot reach (below what the cup and the ball let the
 fingers descend to) leaves it pressing there, never closing: a failure of that aim, as it would be of a macro that
 stops there. The layouts are the pipeline's evaluation layouts of replicate 0's controls (reset seeds from --seed).
 Run it alone (one CPU-heavy job at a time): it uses --jobs cores. Records the window's extent in
-benchmarks/measured.json (docs/robothand.md shows it), writes benchmarks/results/robothand_grasp.json and its
+studies/measured.json (docs/robothand.md shows it), writes studies/results/robothand_grasp.json and its
 picture, docs/img/robothand-grasp.png (--out, --picture elsewhere).
 """
 
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-from common import RESULTS, ROOT, command_line, record, write_result
+from study import RESULTS, ROOT, command_line, record, write_result
 
 import famarl_cli  # noqa: F401  (registers the envs)
 from famarl_cli.artifacts import atomic_path

@@ -1,7 +1,7 @@
 """How often the std floor holds each latent, per replicate of a macros sweep: the committed FAVAEs re-scored on
 their own segments, latent by latent.
 
-    python benchmarks/floor_per_latent.py data/maze/macros [data/traversal/macros ...]
+    python studies/floor_per_latent.py data/maze/macros [data/traversal/macros ...]
 
 A fit's metrics give the floor's share per ladder (``floor_share_per_ladder``) and call a fit bound when a ladder's
 share passes one half (``floor_binds``). A ladder of two latents, one of them on the floor for every segment and the

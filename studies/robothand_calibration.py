@@ -2,9 +2,9 @@
 paper leaves open (``famarl_cli.envs.robot_hand.CALIBRATION_GRID``; docs/robothand.md, "BallPlacing's calibration
 protocol", states the rules and why).
 
-    python benchmarks/robothand_calibration.py [--episodes 1000] [--layouts 40] [--miss-layouts 10]
+    python studies/robothand_calibration.py [--episodes 1000] [--layouts 40] [--miss-layouts 10]
         [--settings cup+fingers-0.1+cups-1.5-4+hand-anywhere,...] [--seed 1000]
-        [--out benchmarks/results/robothand_calibration.json]
+        [--out studies/results/robothand_calibration.json]
 
 Per setting (``RobotHand-BallPlacing-v0`` made with the setting's keyword arguments; the paper's +200, -|b - g| and
 edge rule as registered):
@@ -12,7 +12,7 @@ edge rule as registered):
 (a) not sparse: the share of episodes in which uniformly random primitive actions move the ball at least MOVED
     from its rest (its distance term changes; a ball that hits an edge has moved), over --episodes episodes run to
     the time limit, with its 95% Wilson interval; passes where the interval's lower end is above 2% (the complement
-    of Reaching's sparsity rule, benchmarks/robothand_sparsity.py);
+    of Reaching's sparsity rule, studies/robothand_sparsity.py);
 (b) placing pays: on --layouts layouts, the return of the scripted placement (the positive control,
     ``BallPlacingControl``) against the best of the scripted knock-offs on each layout (strike the ball off its cup
     to the left or the right; grasp it, lift it clear of the cup to the left or the right and let it fall), each
@@ -27,7 +27,7 @@ edge rule as registered):
 
 Layouts are reset seeds from --seed (1000: no evaluation of a development or judged run draws them). Prints one
 line per setting as it goes and writes every row (each rule's values and verdict) to --out. Records nothing in
-benchmarks/measured.json: the rows feed the protocol's choice, not a docs table. One core, a few minutes.
+studies/measured.json: the rows feed the protocol's choice, not a docs table. One core, a few minutes.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-from common import RESULTS, command_line, write_result
+from study import RESULTS, command_line, write_result
 
 import famarl_cli  # noqa: F401  (registers the envs)
 from famarl_cli.core.statistics import proportion_interval
@@ -49,7 +49,7 @@ from famarl_cli.experts.robot_hand_tasks import GRASP_STEPS, BallPlacingControl
 
 ENV = "famarl/RobotHand-BallPlacing-v0"
 SPARSE = 0.02
-"""Reaching's sparsity rule (benchmarks/robothand_sparsity.py): BallPlacing is not sparse where the share of random
+"""Reaching's sparsity rule (studies/robothand_sparsity.py): BallPlacing is not sparse where the share of random
 episodes that move the ball has its interval's lower end above this."""
 MOVED = 0.05
 """The ball's distance term has changed once its centre is this far (m) from its rest (robothand_sparsity's)."""

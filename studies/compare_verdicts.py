@@ -1,7 +1,7 @@
 """Two reports' verdicts side by side: which changed, and which contradict each other (one reproduces where the
 other does not). For the same pipeline run twice, with other seeds or on another machine.
 
-    python benchmarks/compare_verdicts.py A/summary.json B/summary.json [--names "seeds 0-9" "seeds 10-19"]
+    python studies/compare_verdicts.py A/summary.json B/summary.json [--names "seeds 0-9" "seeds 10-19"]
 """
 
 from __future__ import annotations

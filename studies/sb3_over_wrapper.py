@@ -3,7 +3,7 @@ famarl``, on the Maze, with the same FAVAE per seed and the same budget of envir
 
     pip install -e ".[bench]"
     dvc repro                      # the default pipeline: data/maze/macros/seed*/favae.pt and data/maze/eval
-    python benchmarks/sb3_over_wrapper.py [--seeds 0-9] [--steps 500000]
+    python studies/sb3_over_wrapper.py [--seeds 0-9] [--steps 500000]
 
 Seed S of SB3 learns over the FAVAE of ``data/maze/macros/seedS`` and is compared with the default pipeline's
 ``famarl-seedS`` run (the same FAVAE, 500k env steps). SB3 is set up as our PPO is (``famarl train``'s defaults:
@@ -26,8 +26,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import torch
-from common import RESULTS, command_line, record, step_count, write_result
-from ppo_vs_sb3 import sb3_ppo
+from study import RESULTS, command_line, record, step_count, write_result
 
 from famarl_cli.core.statistics import mean_interval
 from famarl_cli.envs import ENV_IDS
@@ -40,6 +39,7 @@ EVAL_EPISODES, EVAL_SEED = 100, 100
 
 
 def sb3_run(favae: Path, steps: int, seed: int) -> dict:
+    from ppo_vs_sb3 import sb3_ppo  # benchmarks/ppo_vs_sb3.py (study.py puts benchmarks/ on the path)
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor, VecNormalize
 

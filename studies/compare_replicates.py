@@ -3,9 +3,9 @@ accuracy and ladder 3's traversal effects; then each score's paired difference (
 both hold, its mean with a 95% t-interval. For the same replicates made two ways (batched and one by one, before and
 after a change of the code, on two devices).
 
-    python benchmarks/compare_replicates.py A/macros B/macros [--names before after] [--record NAME --what TEXT]
+    python studies/compare_replicates.py A/macros B/macros [--names before after] [--record NAME --what TEXT]
 
-``--record`` writes the paired differences to benchmarks/measured.json as entry NAME (``--what`` says what the two
+``--record`` writes the paired differences to studies/measured.json as entry NAME (``--what`` says what the two
 sweeps are), so that a page can show them.
 """
 
@@ -17,7 +17,7 @@ import re
 from pathlib import Path
 
 import numpy as np
-from common import record
+from study import record
 
 from famarl_cli.core.statistics import mean_interval
 
@@ -109,7 +109,7 @@ def main() -> None:
         record(
             args.record,
             what=args.what or f"{args.names[1]} against {args.names[0]}, paired by replicate",
-            command=args.command or f"python benchmarks/compare_replicates.py {args.first} {args.second}",
+            command=args.command or f"python studies/compare_replicates.py {args.first} {args.second}",
             measured=f"n = {len(shared)} replicates, paired difference {args.names[1]} - {args.names[0]}, mean [95% "
             "t-interval]: " + "; ".join(f"{name} {text}" for name, text in differences.items()),
         )

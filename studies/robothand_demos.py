@@ -4,7 +4,7 @@ discounting, the success of its sampled policy, and the macro-space oracle's sha
 interval over replicates.
 
     dvc repro pipelines/robothand/dvc.yaml               # its settings; the pegging set's FAVAEs
-    python benchmarks/robothand_demos.py [--seeds 0-9] [--demos pegging-varied] [--discounts decision,steps]
+    python studies/robothand_demos.py [--seeds 0-9] [--demos pegging-varied] [--discounts decision,steps]
                                          [--steps N] [--lr X] [--tasks Reaching-v1,BallPlacing-v0]
                                          [--env-kwargs JSON]
 
@@ -20,8 +20,8 @@ sampled policy); the oracle (``famarl oracle``, the pipeline's 10 layouts a run)
 space per task on the first discount's runs, at the pipeline's budget or, in an env made with --env-kwargs, at the
 budget given (the search uses neither the policy nor the budget, so its row is named by the demo set, the task and
 the env's keyword arguments, not the budget). Finished work is reused.
-Records one row per cell and oracle in benchmarks/measured.json (docs/robothand.md shows them) and writes
-benchmarks/results/robothand_demos.json. Run it alone: it uses both cores (about 25 minutes for pegging-varied at 10
+Records one row per cell and oracle in studies/measured.json (docs/robothand.md shows them) and writes
+studies/results/robothand_demos.json. Run it alone: it uses both cores (about 25 minutes for pegging-varied at 10
 replicates on a 2-core AMD EPYC VM).
 """
 
@@ -32,7 +32,7 @@ import json
 from pathlib import Path
 
 import yaml
-from common import (
+from study import (
     RESULTS,
     ROOT,
     command_line,

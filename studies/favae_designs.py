@@ -1,4 +1,4 @@
-"""FAVAE designs side by side: what the variants benchmarks share (the designs, one fit of one, its scores).
+"""FAVAE designs side by side: what the variants studies share (the designs, one fit of one, its scores).
 
 A design is everything about a FAVAE that is not the data, the beta of the fit or the seed: its decoder, what the
 capacities constrain, progressive training, the heads, how C_last becomes capacities, the pre-run's beta and the

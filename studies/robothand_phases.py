@@ -12,12 +12,12 @@ Each with its 95% interval over replicates, and the paired difference (phases mi
 same replicate seeds the FAVAE of both sets. No policy is trained: the runs the oracle and chance read are one
 rollout at learning rate 0 (their action spaces only).
 
-    python benchmarks/robothand_phases.py [--seeds 0-4] [--layouts 10] [--plans 64] [--chance-layouts 5]
+    python studies/robothand_phases.py [--seeds 0-4] [--layouts 10] [--plans 64] [--chance-layouts 5]
         [--jobs 2] [--data data]
 
 Runs on the development replicates (0-4, evaluation seed 100): pipelines/robothand judges on others. Run it alone
 (one CPU-heavy job at a time): it uses --jobs cores. Records one row per measure, task and set in
-benchmarks/measured.json (docs/robothand.md shows them) and writes benchmarks/results/robothand_phases.json.
+studies/measured.json (docs/robothand.md shows them) and writes studies/results/robothand_phases.json.
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ from pathlib import Path
 
 import numpy as np
 import yaml
-from common import RESULTS, ROOT, command_line, famarl, record, seed_list, write_result
 from robothand_chance import chance_of
+from study import RESULTS, ROOT, command_line, famarl, record, seed_list, write_result
 
 from famarl_cli.artifacts.runs import ORACLE_FILE, read_oracle
 from famarl_cli.core.statistics import mean_interval, paired_difference_interval
@@ -105,7 +105,8 @@ def main() -> None:
                    args.layouts),
         "chance": (f"share of {args.chance_layouts} layouts x {args.plans} plans drawn by chance (latents from "
                    "N(0, 1)) that succeed", args.chance_layouts * args.plans),
-        "moved": (f"share of plans drawn by chance that move the ball at least 0.05 m", args.chance_layouts * args.plans),
+        "moved": ("share of plans drawn by chance that move the ball at least 0.05 m",
+                  args.chance_layouts * args.plans),
         "lifted": ("share of plans drawn by chance that lift the ball at least 0.3 m above its rest",
                    args.chance_layouts * args.plans),
     }  # fmt: skip
@@ -116,7 +117,8 @@ def main() -> None:
         rows[f"{demos}/{task}/{measure}"] = {"values": values, "interval": interval}
         record(
             f"robothand_phases_{demos}_{task}_{measure}".replace("-", "_").lower(),
-            f"RobotHand-{task}, macros of {DEMOS[demos]}, before any RL: {text}; replicates {args.seeds}, mean [95% CI]",
+            f"RobotHand-{task}, macros of {DEMOS[demos]}, before any RL: {text}; replicates {args.seeds}, "
+            "mean [95% CI]",
             line,
             interval,
         )

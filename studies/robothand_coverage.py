@@ -3,17 +3,17 @@ FAVAE, latents drawn from its prior N(0, I) (where FaMARL's policy starts) are d
 empty RobotHand world from its centre; each macro's move is where the grip ends up. Against them, the move each
 layout of the pipeline's Reaching asks for: from the grip's start to the goal.
 
-    python benchmarks/robothand_coverage.py [--demos pegging] [--seeds 0-9] [--samples 2000] [--layouts 2000]
+    python studies/robothand_coverage.py [--demos pegging] [--seeds 0-9] [--samples 2000] [--layouts 2000]
 
 ``--demos pegging`` measures the pipeline's FAVAEs (data/robothand/macros, from ``dvc repro
 pipelines/robothand/dvc.yaml``); ``--demos pegging-varied`` those of the pegging demos with raised baskets
-(data/robothand-demos/pegging-varied/macros, from ``python benchmarks/robothand_demos.py``): before and after.
+(data/robothand-demos/pegging-varied/macros, from ``python studies/robothand_demos.py``): before and after.
 
 Directions are 8 sectors of 45 degrees (0: right, counter-clockwise); a macro counts in its move's sector when it
 moves at least 0.5 m. A sector is covered when at least 2% of a replicate's macros fall in it. Reported, over the
 replicates (mean [95% t-interval]): the sectors covered, the macros' median move, and the share of Reaching layouts
-whose direction lies in a covered sector. Records the three rows per demo set in benchmarks/measured.json
-(docs/robothand.md shows them) and writes benchmarks/results/robothand_coverage-<demos>.json with each replicate's
+whose direction lies in a covered sector. Records the three rows per demo set in studies/measured.json
+(docs/robothand.md shows them) and writes studies/results/robothand_coverage-<demos>.json with each replicate's
 sector shares.
 """
 
@@ -25,7 +25,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import torch
-from common import RESULTS, ROOT, command_line, record, seed_list, write_result
+from study import RESULTS, ROOT, command_line, record, seed_list, write_result
 
 import famarl_cli  # noqa: F401  (registers the envs)
 from famarl_cli.core.statistics import mean_interval
@@ -73,9 +73,7 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=2000, help="Prior latents per replicate.")
     parser.add_argument("--layouts", type=int, default=2000, help="Reaching layouts.")
     parser.add_argument("--data", type=Path, default=ROOT / "data")
-    parser.add_argument(
-        "--out", type=Path, help="Result file [default: benchmarks/results/robothand_coverage-DEMOS.json]"
-    )
+    parser.add_argument("--out", type=Path, help="Result file [default: studies/results/robothand_coverage-DEMOS.json]")
     args = parser.parse_args()
     seeds = seed_list(args.seeds)
     favaes = [args.data / MACROS[args.demos] / f"seed{s}/favae.pt" for s in seeds]

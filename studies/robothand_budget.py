@@ -3,15 +3,15 @@ pipeline's pegging macros under a few budgets and learning rates, and the succes
 95% interval over replicates.
 
     dvc repro pipelines/robothand/dvc.yaml               # data/robothand/macros/seed*/favae.pt
-    python benchmarks/robothand_budget.py [--seeds 0-4] [--settings 300k,1M,1M-lr1e-3,3M,3M-semi-mdp]
+    python studies/robothand_budget.py [--seeds 0-4] [--settings 300k,1M,1M-lr1e-3,3M,3M-semi-mdp]
 
 The budget is counted in environment steps, as for every agent, but a macro action runs about 30 of them, so at
 300k env steps FaMARL makes about 10k decisions and, at 16 envs x 16 decisions a rollout, about 40 PPO updates,
 with its learning rate annealed to zero over them; PPO on primitive actions makes 30 times as many decisions from
 the same budget. Each setting is a ``famarl sweep train`` over the seeds (seed S decodes with replicate S's FAVAE)
 into data/robothand-budget/<setting>, evaluated like the pipeline's runs (100 layouts from seed 100, sampled
-policy); finished runs are reused. Records one row per setting in benchmarks/measured.json (docs/robothand.md
-shows them) and writes benchmarks/results/robothand_budget.json. Run it alone: it uses both cores.
+policy); finished runs are reused. Records one row per setting in studies/measured.json (docs/robothand.md
+shows them) and writes studies/results/robothand_budget.json. Run it alone: it uses both cores.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from common import RESULTS, ROOT, command_line, record, seed_list, train_and_evaluate, write_result
+from study import RESULTS, ROOT, command_line, record, seed_list, train_and_evaluate, write_result
 
 from famarl_cli.artifacts.runs import read_run_file
 from famarl_cli.core.statistics import mean_interval

@@ -4,7 +4,7 @@ Walks a 100-step constant-penalty path (famarl_cli.rl.semi_mdp.ConstantPenaltyEn
 through the training code's executor and reward function, and prints the discounted return from the start that
 PPO's targets would count, per unit of penalty, with and without a terminal bonus.
 
-    python benchmarks/length_neutrality.py
+    python studies/length_neutrality.py
 """
 
 from famarl_cli.rl.semi_mdp import path_value

@@ -3,14 +3,14 @@ given replicates, FaMARL's pegging macros, FiGAR's repeated actions and PPO's ac
 (``famarl-ours``: the pipeline's FaMARL beyond the paper, with the macros of the raised-basket demos), and the share
 of layouts a plan solved per space and task, with its 95% interval over replicates.
 
-    python benchmarks/robothand_oracle.py [--seeds 0-2] [--episodes 10] [--jobs 2] [--data data]
+    python studies/robothand_oracle.py [--seeds 0-2] [--episodes 10] [--jobs 2] [--data data]
         [--tasks Reaching-v1,BallPlacing-v0] [--agents famarl,figar,ppo] [--candidates 64] [--iterations 4]
 
 Needs ``dvc repro pipelines/robothand/dvc.yaml`` first (its runs). Each share is a lower bound of what the space
 can reach (the search is finite; docs/robothand.md): --candidates and --iterations above the pipeline's (64 and 4)
 say whether a larger search finds more. Run it alone (one CPU-heavy job at a time): it uses --jobs cores. Records
-one row per task and agent in benchmarks/measured.json (docs/robothand.md shows them) and writes
-benchmarks/results/robothand_oracle.json (robothand_oracle_CxI.json for a search of C plans x I iterations).
+one row per task and agent in studies/measured.json (docs/robothand.md shows them) and writes
+studies/results/robothand_oracle.json (robothand_oracle_CxI.json for a search of C plans x I iterations).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from common import RESULTS, ROOT, command_line, record, seed_list, write_result
+from study import RESULTS, ROOT, command_line, record, seed_list, write_result
 
 from famarl_cli.artifacts.runs import ORACLE_FILE, read_oracle
 from famarl_cli.core.statistics import mean_interval

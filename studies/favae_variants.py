@@ -1,10 +1,10 @@
 """FAVAE designs against each other on the default pipeline's segments: which ladder carries what, and at what cost.
 
     dvc repro                                   # data/maze/macros/seed*/segments.h5
-    python benchmarks/favae_variants.py [--seeds 0-2] [--designs shared-kl,ladder-info-p20] [--beta 50]
-    python benchmarks/favae_variants.py --data data/scripts/macros --pattern 'down-and-up-seed{seed}' --beta 0.1
+    python studies/favae_variants.py [--seeds 0-2] [--designs shared-kl,ladder-info-p20] [--beta 50]
+    python studies/favae_variants.py --data data/scripts/macros --pattern 'down-and-up-seed{seed}' --beta 0.1
 
-Per design (benchmarks/favae_designs.py) and seed, the C_last pre-run and a fit at the pipeline's settings (beta
+Per design (studies/favae_designs.py) and seed, the C_last pre-run and a fit at the pipeline's settings (beta
 50, 1500 epochs, 3 ladders x 2 latents) on replicate S's segments, scored: KL, information and shift per ladder,
 the active latents, MIG with its interval, reconstruction MSE, length accuracy, the traversal effect of each
 variable (m; values -3,-1,1,3, run in ContinuousWorld) and the time per optimiser step. Printed per design: the
@@ -18,8 +18,8 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from common import RESULTS, write_result
 from favae_designs import run_all, summary
+from study import RESULTS, write_result
 
 from famarl_cli.sweep.plan import parse_values
 

@@ -4,7 +4,7 @@ grip's start a goal may be drawn) and goal radii; for BallPlacing (``--env famar
 share in which they move the ball at all (until then its reward -|b - g| is the same whatever the hand does), per
 time limit. Each with its 95% Wilson interval over the episodes.
 
-    python benchmarks/robothand_sparsity.py [--episodes 2000] [--limits 100,200] [--radii 0.5]
+    python studies/robothand_sparsity.py [--episodes 2000] [--limits 100,200] [--radii 0.5]
                                             [--min-distances 0,1,2,3] [--env famarl/RobotHand-Reaching-v0]
 
 The paper chose Reaching's sparse reward "to make this task sufficiently difficult" (PPO fails it). Our rule for
@@ -18,8 +18,8 @@ neighbourhood would draw them).
 The paper calls BallPlacing's reward "not sparse" (FiGAR fails it for want of precision, not of reward). The same
 rule judges it: sparse where the ball moves in at most 2% of episodes (the interval's upper end), not sparse where
 the lower end is above 2%. A BallPlacing episode runs until the ball hits an edge (it has moved) or the longest limit.
-Records one row per setting in benchmarks/measured.json (docs/robothand.md shows them) and writes
-benchmarks/results/robothand_sparsity.json.
+Records one row per setting in studies/measured.json (docs/robothand.md shows them) and writes
+studies/results/robothand_sparsity.json.
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-from common import RESULTS, command_line, env_kwargs, kwargs_slug, kwargs_text, record, write_result
 from robothand_chance import BALL, MOVED
+from study import RESULTS, command_line, env_kwargs, kwargs_slug, kwargs_text, record, write_result
 
 import famarl_cli  # noqa: F401  (registers the envs)
 from famarl_cli.core.errors import UsageError

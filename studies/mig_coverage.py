@@ -1,7 +1,7 @@
 """How often a MIG interval holds the MIG it estimates: simulated segments of a known law, each interval method and
 number of bins, at the sample sizes our FAVAEs are scored on.
 
-    python benchmarks/mig_coverage.py [--draws 100] [--resamples 500] [--sizes 111,400] [--bins 20,10,5,4]
+    python studies/mig_coverage.py [--draws 100] [--resamples 500] [--sizes 111,400] [--bins 20,10,5,4]
 
 The law is shaped like the Maze's segments: a 4-valued factor (a direction), an integer one of 43 values (a length in
 steps, 4..46) and a continuous one; a code for each with bounded noise (so the histograms' range does not grow with
@@ -18,8 +18,8 @@ import argparse
 import warnings
 
 import numpy as np
-from common import RESULTS, write_result
 from scipy.stats import bootstrap
+from study import RESULTS, write_result
 
 from famarl_cli.method.metrics import factor_scores, mig
 

@@ -1,7 +1,7 @@
 """How soon the C_last pre-run settles: pre-runs as long as the fit, and each ladder's mean over candidate windows
 against its mean over the last 100 epochs, paired over the replicates.
 
-    python benchmarks/prerun_settling.py [--macros data/maze/macros] [--seeds 0-9]
+    python studies/prerun_settling.py [--macros data/maze/macros] [--seeds 0-9]
 
 Fits the pre-runs of replicates ``--seeds`` on the segments of a default-pipeline sweep (``--macros``; the default
 params: 1500 epochs, progressive 0.2, beta 0.1, information), as long as the fit (``--pre-run 1``), in one batch, one
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from common import RESULTS, command_line, record, write_result
+from study import RESULTS, command_line, record, write_result
 
 from famarl_cli.core.statistics import mean_interval
 from famarl_cli.method.favae import FavaeOptions

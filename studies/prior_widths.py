@@ -1,7 +1,7 @@
 """How wide the prior and closed-loop decoder should be: ``famarl prior fit`` at several widths on the FAVAEs of the
 default pipeline (Maze) and of pipelines/pointmaze (UMaze), 10 replicates each, the same seeds and held-out episodes.
 
-    python benchmarks/prior_widths.py [--widths 64 32 16 8] [--seeds 0-9]
+    python studies/prior_widths.py [--widths 64 32 16 8] [--seeds 0-9]
 
 Per width and demos: the held-out cross-entropy of the prior less N(0, I)'s (negative: the prior knows more than
 the standard normal about which latent the expert used where), mean over replicates with its 95% t-interval and
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from common import RESULTS, command_line, record, write_result
+from study import RESULTS, command_line, record, write_result
 
 from famarl_cli.artifacts import read_demos
 from famarl_cli.artifacts.segments import read_segments

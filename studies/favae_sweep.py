@@ -1,6 +1,6 @@
 """FAVAE quality per beta and seed: reconstruction, length accuracy, MIG, and which latents carry information.
 
-    python benchmarks/favae_sweep.py --script down-and-up [--betas 0.1 1 50] [--seeds 0 1 2] [--epochs 1500]
+    python studies/favae_sweep.py --script down-and-up [--betas 0.1 1 50] [--seeds 0 1 2] [--epochs 1500]
 
 Reads data/segments/<script>.h5 and data/favae/<script>.calibration.json (make them with `famarl segment` and
 `famarl favae calibrate`), fits one FAVAE per beta and seed with that C_last, prints a table and writes JSON.

@@ -1,10 +1,10 @@
 """FAVAE designs on the FAVAE authors' own data with known factors: 2D Reaching (../shared/data/favae-2d-reaching).
 
-    python benchmarks/favae_2d_reaching.py [--steps 100] [--designs ladder-info-p20,shared-kl] [--betas 1]
+    python studies/favae_2d_reaching.py [--steps 100] [--designs ladder-info-p20,shared-kl] [--betas 1]
                                            [--seeds 0-9] [--epochs 1500]
 
 The 20 sequences are imported as ``famarl sequences`` does (one macro action each, standardised; ``--raw`` leaves
-them as they are). Per design (benchmarks/favae_designs.py), beta and seed: the C_last pre-run, the fit, MIG and
+them as they are). Per design (studies/favae_designs.py), beta and seed: the C_last pre-run, the fit, MIG and
 each factor's score (goal, curve in/out, curvature) with intervals over the 20 sequences, KL and information per
 ladder, the reconstruction, and each ladder's traversal effect with the sequences drawn as paths (values
 -3,-1,1,3). Printed per design: how often the deepest ladder holds >= 50% (100 steps) or >= 30% (1000 steps) of
@@ -18,8 +18,8 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from common import RESULTS, write_result
 from favae_designs import run_all, summary
+from study import RESULTS, write_result
 
 from famarl_cli.method.sequences import load_arrays, to_segments
 from famarl_cli.sweep.plan import parse_values

@@ -1,7 +1,7 @@
 """How often the report's intervals cover the truth, where replicates differ and evaluation layouts differ: the
 design in which every replicate meets its own layouts, against one set of layouts for every replicate.
 
-    python benchmarks/interval_coverage.py [--simulations 4000] [--seed 0]
+    python studies/interval_coverage.py [--simulations 4000] [--seed 0]
 
 A simulated agent succeeds in an episode with probability sigmoid(theta + s + l): s ~ N(0, sd_seed) is its
 replicate's (training seed's) effect, l ~ N(0, sd_layout) its layout's. n = 10 replicates, K = 100 episodes each;
@@ -33,7 +33,7 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from common import RESULTS, command_line, record, write_result
+from study import RESULTS, command_line, record, write_result
 
 from famarl_cli.core.statistics import (
     LEVEL,

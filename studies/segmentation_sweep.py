@@ -1,6 +1,6 @@
 """Segmentation quality: boundary F1 of `famarl segment` per expert script, margin and segmenter seed.
 
-    python benchmarks/segmentation_sweep.py [--demos-dir data/demos] [--seeds 0 1 2] [--epochs 300]
+    python studies/segmentation_sweep.py [--demos-dir data/demos] [--seeds 0 1 2] [--epochs 300]
 
 Reads the four scripts' demos (make them with `famarl demos --script S`), trains one segmenter per script and
 seed, and scores the boundaries at each margin against the experts' true boundaries. Prints a table (F1 within
