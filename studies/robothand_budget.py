@@ -54,7 +54,7 @@ def main() -> None:
             f"error: no pegging FAVAE of replicate {missing[0]} in {args.data}/robothand/macros: dvc repro "
             "pipelines/robothand/dvc.yaml first"
         )
-    line = command_line("robothand_budget.py", parser, args, shown=("seeds", "settings"), hidden=("out", "data"))
+    line = command_line(__file__, parser, args, shown=("seeds", "settings"), hidden=("out", "data"))
     rows = {}
     for setting in settings:
         favae = str(args.data / "robothand/macros/seed{seed}/favae.pt")

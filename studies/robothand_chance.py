@@ -119,7 +119,7 @@ def main() -> None:
         found = pool.map(chance_of, [(str(run), args.episodes, args.plans) for run in runs.values()])
     counts = dict(zip(runs, found, strict=True))
     line = command_line(
-        "robothand_chance.py",
+        __file__,
         parser,
         args,
         shown=("seeds", "episodes", "plans", "jobs", "starts"),

@@ -92,9 +92,7 @@ def main() -> None:
         medians.append(float(np.median(length)))
         served.append(float(reached[asked_sector].mean()))
         per_replicate[seed] = {"sector_shares": shares.round(4).tolist(), "median_move_m": round(medians[-1], 3)}
-    line = command_line(
-        "robothand_coverage.py", parser, args, shown=("demos", "seeds", "samples", "layouts"), hidden=("out", "data")
-    )
+    line = command_line(__file__, parser, args, shown=("demos", "seeds", "samples", "layouts"), hidden=("out", "data"))
     rows = {
         "sectors": (covered, f"of {SECTORS}", "{:.1f}", (0, SECTORS)),
         "median_move": (medians, "m", "{:.2f}", (0, np.inf)),

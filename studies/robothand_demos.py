@@ -58,20 +58,26 @@ PARAMS = ROOT / "pipelines/robothand/params.yaml"
 EPISODES, EVALUATION_SEED = 100, 100
 
 
-def macros(demos: str, seeds: str, params: dict, data: Path) -> Path:
-    """The folder of the demo set's FAVAEs (seed S in seedS/favae.pt), made where they are not yet."""
-    if demos == "pegging":
-        return data / "robothand/macros"
-    folder = data / "robothand-demos" / demos
+def fit_macros(demos: str, seeds: str, params: dict, folder: Path, plot: bool = True) -> Path:
+    """The FAVAEs of ``famarl demos --script demos`` (seed S in ``folder/macros/seedS/favae.pt``), its demos made
+    and its macros fitted with the pipeline's settings (``params``) where they are not yet."""
     recorded = folder / f"{demos}.h5"
     if not recorded.is_file():
         famarl("demos", "--script", demos, "--episodes", str(params["demos"]["episodes"]),
-               "--seed", str(params["demos"]["seed"]), "--out", str(recorded))  # fmt: skip
+               "--seed", str(params["demos"]["seed"]), *([] if plot else ["--no-plot"]),
+               "--out", str(recorded))  # fmt: skip
     segment, favae = params["segment"], params["favae"]
     famarl("sweep", "macros", "--seeds", seeds, "--out", str(folder / "macros"), "--", "--demos", str(recorded),
            "--margin", str(segment["margin"]), "--segment-epochs", str(segment["epochs"]),
            "--beta", str(favae["beta"]), "--epochs", str(favae["epochs"]))  # fmt: skip
     return folder / "macros"
+
+
+def macros(demos: str, seeds: str, params: dict, data: Path) -> Path:
+    """The folder of the demo set's FAVAEs (seed S in seedS/favae.pt), made where they are not yet."""
+    if demos == "pegging":
+        return data / "robothand/macros"
+    return fit_macros(demos, seeds, params, data / "robothand-demos" / demos)
 
 
 def success(cell: Path, task: str, discount: str, favaes: Path, seeds: str, train: dict, kwargs: dict) -> list[float]:
@@ -132,9 +138,7 @@ def main() -> None:
         except FamarlError as exc:
             raise SystemExit(f"error: {exc}") from None
     setting, slug = kwargs_text(kwargs), kwargs_slug(kwargs)
-    line = command_line(
-        "robothand_demos.py", parser, args, shown=("seeds", "demos", "discounts"), hidden=("out", "data")
-    )
+    line = command_line(__file__, parser, args, shown=("seeds", "demos", "discounts"), hidden=("out", "data"))
     train = {"steps": args.steps or params["train"]["steps"], "lr": args.lr or params["train"]["lr"]}
     budget = f"{train['steps']:,} env steps, lr {train['lr']:g}"
     changed = (f"-{train['steps']}steps" if train["steps"] != params["train"]["steps"] else "") + (

@@ -80,9 +80,7 @@ def main() -> None:
         subprocess.run([*command, *options], check=True, env={**os.environ, "OMP_NUM_THREADS": "1"})
         wall = time.perf_counter() - start
         found = {key: read_oracle(Path(folder) / run.name / ORACLE_FILE) for key, run in runs.items()}
-    line = command_line(
-        "robothand_oracle.py", parser, args, shown=("seeds", "episodes", "jobs"), hidden=("out", "data")
-    )
+    line = command_line(__file__, parser, args, shown=("seeds", "episodes", "jobs"), hidden=("out", "data"))
 
     budget = "" if search == SEARCH else f", {args.candidates} plans x {args.iterations} iterations"
     rows = {}

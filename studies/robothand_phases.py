@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 from robothand_chance import chance_of
+from robothand_demos import fit_macros
 from study import RESULTS, ROOT, command_line, famarl, record, seed_list, write_result
 
 from famarl_cli.artifacts.runs import ORACLE_FILE, read_oracle
@@ -41,19 +42,6 @@ TASKS = ("Reaching-v1", "BallPlacing-v0")
 PARAMS = ROOT / "pipelines/robothand/params.yaml"
 EVALUATION_SEED = 100
 """The development runs' evaluation seed: pipelines/robothand's judged runs draw their layouts from another."""
-
-
-def macros(demos: str, seeds: str, params: dict, folder: Path) -> Path:
-    """The set's FAVAE per replicate (``seedS/favae.pt``), made where it is not yet."""
-    recorded = folder / f"{demos}.h5"
-    if not recorded.is_file():
-        famarl("demos", "--script", demos, "--episodes", str(params["demos"]["episodes"]),
-               "--seed", str(params["demos"]["seed"]), "--no-plot", "--out", str(recorded))  # fmt: skip
-    segment, favae = params["segment"], params["favae"]
-    famarl("sweep", "macros", "--seeds", seeds, "--out", str(folder / "macros"), "--", "--demos", str(recorded),
-           "--margin", str(segment["margin"]), "--segment-epochs", str(segment["epochs"]),
-           "--beta", str(favae["beta"]), "--epochs", str(favae["epochs"]))  # fmt: skip
-    return folder / "macros"
 
 
 def untrained(favaes: Path, task: str, seeds: str, out: Path) -> Path:
@@ -78,12 +66,12 @@ def main() -> None:
         raise SystemExit("error: --layouts, --plans, --chance-layouts and --jobs must be at least 1")
     seeds = seed_list(args.seeds)
     params = yaml.safe_load(PARAMS.read_text(encoding="utf-8"))
-    line = command_line("robothand_phases.py", parser, args, shown=("seeds", "layouts", "plans", "chance_layouts"),
+    line = command_line(__file__, parser, args, shown=("seeds", "layouts", "plans", "chance_layouts"),
                         hidden=("out", "data", "jobs"))  # fmt: skip
     shares: dict[tuple[str, str, str], list[float]] = {}
     for demos in DEMOS:
         folder = args.data / "robothand-phases" / demos
-        favaes = macros(demos, args.seeds, params, folder)
+        favaes = fit_macros(demos, args.seeds, params, folder, plot=False)
         for task in TASKS:
             runs = untrained(favaes, task, args.seeds, folder / f"{task}-untrained")
             searched = folder / f"{task}-oracle"

@@ -101,7 +101,7 @@ def main() -> None:
     if args.episodes < 1 or min(limits) < 1 or not all(r > 0 for r in radii):
         raise SystemExit("error: --episodes and --limits must be at least 1, --radii above 0")
     shown = ("episodes", "limits", "radii", "min_distances", "env")
-    line = command_line("robothand_sparsity.py", parser, args, shown=shown)
+    line = command_line(__file__, parser, args, shown=shown)
     kwargs = env_kwargs(args.env_kwargs)
     if args.env.startswith(BALL_PLACING):
         try:

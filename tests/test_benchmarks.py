@@ -372,3 +372,11 @@ def test_each_record_is_in_its_script_s_folder_and_every_benchmark_s_holds_numbe
                 assert compare.numbers(name, entry), f"{name} holds no numbers"
             else:
                 assert "value" not in entry and "values" not in entry, name
+
+
+def test_robothand_phases_refuses_counts_below_one_before_any_work(tmp_path):
+    out = tmp_path / "result.json"
+    for option in ("--layouts", "--plans", "--chance-layouts", "--jobs"):
+        result = run("robothand_phases.py", option, "0", "--data", tmp_path / "data", "--out", out)
+        one_error_line(result, "must be at least 1")
+    assert not out.exists() and not (tmp_path / "data").exists()

@@ -39,14 +39,9 @@ LIMIT = 10**7
 
 def mean_power(n: int, distance: float, sd: float, level: float = LEVEL) -> float:
     """Power of the one-sample t test at one-sided (1 - level) / 2, with ``n`` replicates of spread ``sd``, to show
-    a mean ``distance`` from the threshold on its side."""
-    if distance <= 0:
-        return (1 - level) / 2
-    if sd <= 0:
-        return 1.0
-    df = n - 1
-    critical = stats.t.ppf(0.5 + level / 2, df)
-    return float(stats.nct.sf(critical, df, distance / (sd / math.sqrt(n))))
+    a mean ``distance`` from the threshold on its side: :func:`difference_power` with a second arm of no spread
+    (its standard error sd / sqrt(n), its degrees of freedom n - 1)."""
+    return difference_power(n, distance, sd, 0.0, level)
 
 
 def difference_power(n: int, distance: float, sd_a: float, sd_b: float, level: float = LEVEL) -> float:

@@ -29,7 +29,6 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -307,8 +306,3 @@ def plan(summaries: list[tuple[str, dict]]) -> list[Needed]:
 def record(found: list[Needed]) -> dict:
     """What ``famarl power --json`` prints."""
     return {"power": POWER, "claims": [needed.record() for needed in found]}
-
-
-def summary_files(root: Path) -> list[Path]:
-    """The committed summaries of the project at ``root``: the default pipeline's, then each of pipelines/."""
-    return [path for path in (root / "summary.json", *sorted(root.glob("pipelines/*/summary.json"))) if path.is_file()]

@@ -53,12 +53,12 @@ def power(summaries: list[Path] | None, root: Path) -> list:
     """``famarl power``: the inconclusive claims of ``summaries`` (without them, the committed summaries of the
     project at ``root``), each with the replicates its rule needs to decide at 80% power
     (:mod:`famarl_cli.report.power`)."""
-    from famarl_cli.report.docs import read_summary
-    from famarl_cli.report.power import plan, summary_files
+    from famarl_cli.report.docs import definitions, read_summary
+    from famarl_cli.report.power import plan
 
     if not summaries:
         _project(root, "power")
-        summaries = summary_files(root)
+        summaries = [summary for _, _, summary in definitions(root) if summary.is_file()]
         if not summaries:
             raise ArtifactError(f"{root}: no summary.json at the root or under pipelines/; pass --summary FILE")
     return plan([(str(path), read_summary(path)) for path in summaries])

@@ -116,7 +116,7 @@ def controls_table(found: dict[str, dict], returns: dict[str, dict[str, float]])
 FIGAR_FAILS = "FiGAR fails BallPlacing (no precise control)"
 
 
-def figar_contrast_claim(ball: dict[str, Group], paper: str = FIGAR_FAILS) -> Claim:
+def figar_contrast_claim(paper: str, ball: dict[str, Group]) -> Claim:
     """FiGAR fails BallPlacing, and below each agent the paper has learn it (of those in ``ball``, by agent): its
     failure alone would hold where no agent learns the task, and then says nothing about FiGAR's precision. Every
     part at the Bonferroni level over the parts; the contrasts paired by replicate where the arms share them."""
@@ -147,8 +147,7 @@ def only_one_completes_both(tasks: dict[str, dict[str, Group]], rivals: list[str
     least one. A rival "completes both" where it completes each task; it does not where on some task its interval's
     upper end is below SOLVED. Not a probability of improvement, which counts a task every agent fails as a tie
     and so rewards nothing the sentence says."""
-    famarl = [completes(tasks[task]["famarl"], task) for task in tasks]
-    parts = list(famarl)
+    parts = [completes(tasks[task]["famarl"], task) for task in tasks]
     for rival in rivals:
         both = all_of([completes(tasks[task][rival], task) for task in tasks], "")
         parts.append(
@@ -186,7 +185,7 @@ def robothand(data: Path, out: Path):
         solves_claim("FaMARL completes Reaching", reaching.get("famarl")),
         fails_claim("PPO with primitive actions fails Reaching (sparse reward)", reaching.get("ppo")),
         solves_claim("FaMARL completes BallPlacing", ball.get("famarl")),
-        figar_contrast_claim(ball),
+        figar_contrast_claim(FIGAR_FAILS, ball),
     ]
     tables, figures = [], []
     found = controls(data / "robothand" / "controls")

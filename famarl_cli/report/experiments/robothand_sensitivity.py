@@ -8,26 +8,33 @@ nothing here.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 from famarl_cli.report.experiments import experiment
 from famarl_cli.report.experiments.common import curves, fails_claim, solves_claim
 from famarl_cli.report.experiments.robothand import BALL_PLACING, FIGAR_FAILS, REACHING, figar_contrast_claim
 from famarl_cli.report.results import Group, RunResult, by_agent, gather, group, results_table
+from famarl_cli.report.verdicts import Claim
+
+
+def of_agent(judge: Callable[[str, Group | None], Claim], agent: str) -> Callable[[str, dict[str, Group]], Claim]:
+    """A claim about one agent's runs of a setting, judged by ``judge`` (None where the setting did not train it)."""
+    return lambda paper, named: judge(paper, named.get(agent))
+
 
 CLAIMS = {
     "reaching": (
-        ("FaMARL completes Reaching", "famarl", solves_claim),
-        ("PPO with primitive actions fails Reaching (sparse reward)", "ppo", fails_claim),
+        ("FaMARL completes Reaching", of_agent(solves_claim, "famarl")),
+        ("PPO with primitive actions fails Reaching (sparse reward)", of_agent(fails_claim, "ppo")),
     ),
     "ball-placing": (
-        ("FaMARL completes BallPlacing", "famarl", solves_claim),
-        (FIGAR_FAILS, "figar", None),
+        ("FaMARL completes BallPlacing", of_agent(solves_claim, "famarl")),
+        (FIGAR_FAILS, figar_contrast_claim),
     ),
 }
-"""pipelines/robothand's claims about each task alone (by the name of the env's task, whatever its variant), with the
-agent each names and its rule; None: FiGAR's contrast with the setting's other agents, as pipelines/robothand judges
-it (:func:`~famarl_cli.report.experiments.robothand.figar_contrast_claim`)."""
+"""pipelines/robothand's claims about each task alone (by the name of the env's task, whatever its variant), each
+judged as there from the setting's runs by agent: FiGAR's with its contrast against the setting's other agents."""
 AS_PIPELINE = "as pipelines/robothand"
 """What the default setting's runs, pipelines/robothand's own, are named by in place of changed keyword arguments."""
 
@@ -71,13 +78,10 @@ def robothand_sensitivity(data: Path, out: Path):
         settings.items(), key=lambda item: (task_of(item[0][0]), item[0][1] != AS_PIPELINE)
     ):
         suffix = f", {changed}" if changed else ""
-        for agent, runs in agents.items():
-            groups.append(Group(f"{agent}{suffix}", runs))
-        where = env.removeprefix("famarl/RobotHand-") + suffix
         named = {agent: Group(f"{agent}{suffix}", runs) for agent, runs in agents.items()}
-        for words, agent, judge in CLAIMS.get(task_of(env), ()):
-            paper = f"{words} [{where}]"
-            claims.append(judge(paper, named.get(agent)) if judge else figar_contrast_claim(named, paper))
+        groups += named.values()
+        where = env.removeprefix("famarl/RobotHand-") + suffix
+        claims += [judge(f"{words} [{where}]", named) for words, judge in CLAIMS.get(task_of(env), ())]
     tables = [
         "Each claim of pipelines/robothand judged again under one constant changed at a time (in brackets: the env "
         "and the keyword arguments its runs were made with; pipelines/robothand's own runs are the default).\n\n"
