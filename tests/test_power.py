@@ -11,7 +11,13 @@ import pytest
 from cli_helpers import famarl, one_line_error
 from scipy import stats
 
-from famarl_cli.core.power import difference_power, replicates_for_difference, replicates_for_mean
+from famarl_cli.core.power import (
+    difference_power,
+    replicates_for_difference,
+    replicates_for_mean,
+    resampled_power,
+)
+from famarl_cli.core.statistics import success_interval
 from famarl_cli.report.power import claims, paired_variance
 from famarl_cli.report.section import Section
 from famarl_cli.report.verdicts import Claim, Verdict, beats, equivalent, faster, solves
@@ -82,6 +88,35 @@ def test_the_paired_spread_is_the_one_the_rule_reads():
     half = stats.t.ppf(0.975, 3) * math.sqrt(paired_variance(a, b, 100) / 4)
     assert interval.high - interval.estimate == pytest.approx(half)
     assert paired_variance(a, b, 100) > paired_variance(a, b)
+
+
+SPLIT_REACHING = [0.53, 0.58, 0.75, 0.68, 0.71, 0.43, 0.93, 0.5, 0.92, 0.3]
+"""Ten replicates' success over 100 episodes, three of them non-learners (at or below 0.5), mean 0.63."""
+
+
+def test_split_replicates_are_planned_on_the_rules_own_interval_by_resampling():
+    """Where replicates split into learners and non-learners the rule reads the mixture interval, wider than the t
+    interval: the need is found by resampling it, is more than the t plan's, and at the need fresh draws from the
+    same values decide about four times in five, one replicate fewer less often."""
+    judged = solves("famarl", SPLIT_REACHING, 0.8, episodes=100)
+    assert judged.verdict == Verdict.INCONCLUSIVE
+    (needed,) = claims(summary_of(judged), "summary.json")
+    part = needed.deciding
+    assert part.basis.startswith("values, resampled") and part.side == "does not"
+    t_plan = replicates_for_mean(np.mean(SPLIT_REACHING) - 0.8, np.std(SPLIT_REACHING, ddof=1))
+    assert math.isfinite(part.needed) and part.needed > t_plan
+
+    def decides(sample):
+        return success_interval(sample, 100).high < 0.8
+
+    fresh = [resampled_power(SPLIT_REACHING, n, decides, draws=2000, seed=7) for n in (part.needed - 1, part.needed)]
+    assert fresh[1] == pytest.approx(0.8, abs=0.04) and fresh[0] < fresh[1]
+
+
+def test_a_sample_that_cannot_split_is_planned_by_t():
+    """Replicates that all learned are judged on the t interval: planned by t, not resampled."""
+    (needed,) = claims(summary_of(solves("c", NEAR, 0.8, episodes=100)), "summary.json")
+    assert needed.deciding.basis == "values"
 
 
 def test_an_estimate_at_its_threshold_needs_unbounded_replicates():

@@ -36,12 +36,14 @@ from famarl_cli.core.errors import ArtifactError
 from famarl_cli.core.power import (
     LIMIT,
     POWER,
+    RESAMPLED_LIMIT,
+    replicates_by_resampling,
     replicates_for_difference,
     replicates_for_mean,
     spread_from_interval,
     times_today,
 )
-from famarl_cli.core.statistics import LEVEL, Interval, floored_variance
+from famarl_cli.core.statistics import LEVEL, SPLIT, Interval, floored_variance, success_interval
 
 INCONCLUSIVE = "inconclusive"
 NUMBER = r"(-?\d+(?:\.\d+)?(?:e-?\d+)?|1/2)"
@@ -189,8 +191,17 @@ def paired_variance(a: np.ndarray, b: np.ndarray, episodes: int | None = None) -
     return variance
 
 
-def _spread(estimate: dict, level: float, distance: float) -> tuple[float | None, float | None, str, str]:
-    """(needed, times_today, basis, why) of an estimate ``distance`` from its threshold."""
+def splits(values: np.ndarray) -> bool:
+    """Whether success rates split into learners and non-learners (some above SPLIT, some not): where they do, the
+    rule's interval is :func:`~famarl_cli.core.statistics.success_interval`'s mixture, not a t interval."""
+    learners = int((values > SPLIT).sum())
+    return 0 < learners < len(values)
+
+
+def _spread(
+    estimate: dict, level: float, threshold: float, distance: float
+) -> tuple[float | None, float | None, str, str]:
+    """(needed, times_today, basis, why) of an estimate ``distance`` from its ``threshold``."""
     episodes = estimate.get("episodes")
     arms = estimate.get("arms") or []
     if not isinstance(arms, list) or not all(isinstance(arm, dict) for arm in arms):
@@ -204,6 +215,14 @@ def _spread(estimate: dict, level: float, distance: float) -> tuple[float | None
             sd_a, sd_b = (math.sqrt(floored_variance(x, episodes)) for x in (a, b))
             return replicates_for_difference(distance, sd_a, sd_b, level), None, "values, Welch", ""
     values = _finite(estimate.get("values", []))
+    if values is not None and episodes and splits(values):
+        above = estimate["estimate"] > threshold
+
+        def decides(sample: np.ndarray) -> bool:
+            interval = success_interval(sample, episodes, level)
+            return interval.low >= threshold if above else interval.high < threshold
+
+        return replicates_by_resampling(values, decides), None, "values, resampled (learners and non-learners)", ""
     if values is not None:
         return replicates_for_mean(distance, math.sqrt(floored_variance(values, episodes)), level), None, "values", ""
     sides = (estimate["estimate"] - estimate["low"], estimate["high"] - estimate["estimate"])
@@ -216,8 +235,9 @@ def _spread(estimate: dict, level: float, distance: float) -> tuple[float | None
     return None, times_today(half, distance, level), "interval (n not recorded)", ""
 
 
-def _beyond(needed: float | None) -> str:
-    return f"more than {LIMIT:,}" if needed is not None and math.isinf(needed) else ""
+def _beyond(needed: float | None, basis: str) -> str:
+    limit = RESAMPLED_LIMIT if "resampled" in basis else LIMIT
+    return f"more than {limit:,}" if needed is not None and math.isinf(needed) else ""
 
 
 def part(estimate: dict, rule: str) -> Part | None:
@@ -256,8 +276,8 @@ def part(estimate: dict, rule: str) -> Part | None:
     if lower_bound and side == DOES_NOT:
         why = "below the threshold; a lower bound never shows less"
         return Part(name, interval, threshold, n, math.inf, side=side, why=why)
-    needed, times, basis, why = _spread(estimate, interval.level, distance)
-    return Part(name, interval, threshold, n, needed, times, basis, side, why or _beyond(needed))
+    needed, times, basis, why = _spread(estimate, interval.level, nearest, distance)
+    return Part(name, interval, threshold, n, needed, times, basis, side, why or _beyond(needed, basis))
 
 
 def deciding(parts: list[Part]) -> Part | None:
