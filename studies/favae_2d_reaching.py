@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 from favae_designs import run_all, summary
-from study import RESULTS, write_result
+from study import RESULTS, fan_out_options, write_result
 
 from famarl_cli.method.sequences import load_arrays, to_segments
 from famarl_cli.sweep.plan import parse_values
@@ -42,6 +42,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=None)
     parser.add_argument("--raw", action="store_true", help="Do not standardise the sequences.")
     parser.add_argument("--pre-run-only", action="store_true", help="Only the C_last pre-runs (the capacities).")
+    fan_out_options(parser)
     args = parser.parse_args()
     source = DATA / f"2d_reaching_{args.steps}.npz"
     segments = to_segments(load_arrays(source), source, None, 8, {}, standardize=not args.raw)
@@ -54,7 +55,7 @@ def main() -> None:
         for beta in ([None] if args.pre_run_only else [float(b) for b in parse_values(args.betas)])
         for seed in parse_values(args.seeds)
     ]
-    fits = run_all(jobs)
+    fits = run_all(jobs, args.jobs, args.ray_address)
     authors, share = AUTHORS[args.steps]
     print(f"\nauthors' capacities {authors}: deepest share {authors[-1] / sum(authors):.0%}; ours >= {share:.0%}?")
     for fit in fits:

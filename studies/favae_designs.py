@@ -5,14 +5,12 @@ capacities constrain, progressive training, the heads, how C_last becomes capaci
 latent sizes. :func:`fit_design` runs the C_last pre-run and the fit of one design on one set of segments, then
 scores it: per ladder the KL, the information and what is left of the KL (the shift), the active latents, the
 reconstruction, the length accuracy, MIG with its interval, each variable's traversal effect and the time per
-optimiser step. :func:`run_all` runs many (design, seed) fits on every core.
+optimiser step. :func:`run_all` runs many (design, seed) fits at once on famarl sweep's executors (study.fan_out).
 """
 
 from __future__ import annotations
 
 import math
-import multiprocessing
-import os
 import time
 from dataclasses import asdict, dataclass, replace
 
@@ -57,15 +55,12 @@ DESIGNS = {
 def fit_design(job: dict) -> dict:
     """One design on one set of segments: pre-run, fit, scores. ``job`` holds ``design`` (a name of
     :data:`DESIGNS`), ``seed``, ``beta``, ``epochs``, ``segments`` (a path or ``padded``, ``lengths``, ``factors``),
-    ``values`` and ``draw`` (traversal)."""
-    import torch
-
+    ``values`` and ``draw`` (traversal). A job of :func:`~study.fan_out`, which puts torch on one thread."""
     from famarl_cli.artifacts.segments import read_segments
     from famarl_cli.method.favae.model import FavaeConfig
     from famarl_cli.method.favae.training import TrainingParams, allocate_capacity, calibrate, evaluate_fit, train_favae
     from famarl_cli.method.traversal import traverse, variables_of
 
-    torch.set_num_threads(1)
     design = DESIGNS[job["design"]]
     if "segments" in job:
         loaded = read_segments(job["segments"])
@@ -128,17 +123,13 @@ SCORES = (
 )
 
 
-def run_all(jobs: list[dict], workers: int | None = None) -> list[dict]:
-    """Every job on its own process, as many at once as there are cores (each torch on one thread); results in
-    the order of ``jobs``, each printed as it finishes."""
-    workers = workers or os.cpu_count() or 1
-    context = multiprocessing.get_context("forkserver")
-    with context.Pool(workers, maxtasksperchild=1) as pool:
-        results = []
-        for result in pool.imap(fit_design, jobs):
-            print(line(result), flush=True)
-            results.append(result)
-    return results
+def run_all(jobs: list[dict], workers: int | None = None, ray_address: str | None = None) -> list[dict]:
+    """Every job, ``workers`` at once on famarl sweep's executors (:func:`study.fan_out`: by default $FAMARL_JOBS,
+    else one per usable core; a Ray cluster at ``ray_address``), each torch on one thread; results in the order of
+    ``jobs``, each printed as it comes."""
+    from study import fan_out
+
+    return fan_out(fit_design, jobs, workers, ray_address, each=lambda fit: print(line(fit), flush=True))
 
 
 def line(fit: dict) -> str:

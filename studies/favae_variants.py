@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 from favae_designs import run_all, summary
-from study import RESULTS, write_result
+from study import RESULTS, fan_out_options, write_result
 
 from famarl_cli.sweep.plan import parse_values
 
@@ -59,6 +59,7 @@ def main() -> None:
     parser.add_argument("--data", type=Path, default=Path("data/maze/macros"))
     parser.add_argument("--pattern", default="seed{seed}", help="Each seed's folder under --data.")
     parser.add_argument("--out", type=Path, default=RESULTS / "favae_variants.json")
+    fan_out_options(parser)
     args = parser.parse_args()
     jobs = [
         {
@@ -73,7 +74,7 @@ def main() -> None:
         for design in parse_values(args.designs)
         for seed in parse_values(args.seeds)
     ]
-    fits = run_all(jobs)
+    fits = run_all(jobs, args.jobs, args.ray_address)
     print()
     for design in parse_values(args.designs):
         print(design_line(design, [f for f in fits if f["design"] == design]))

@@ -12,7 +12,7 @@ demos, open or closed loop) FaMARL's untrained policy is the prior itself, which
 its success on the evaluation's 100 layouts per replicate, as ``famarl evaluate`` draws them, from a run of one
 rollout at learning rate 0 (into data/robothand-chance; finished runs are reused).
 
-    python studies/robothand_chance.py [--seeds 0-9] [--episodes 5] [--plans 64] [--jobs 2] [--data data]
+    python studies/robothand_chance.py [--seeds 0-9] [--episodes 5] [--plans 64] [--jobs N] [--data data]
         [--tasks Reaching-v1,BallPlacing-v0] [--agents famarl,famarl-ours,figar,ppo]
         [--starts famarl+prior,famarl+prior+closed]
 
@@ -20,20 +20,30 @@ It is the rate at which a learner's first rollouts meet the success it has to le
 (studies/robothand_oracle.py) searches thousands of plans per layout from the layout's own reset. Needs
 ``dvc repro pipelines/robothand/dvc.yaml`` first (its runs; only their action spaces are used, not their policies),
 and for --starts ``dvc repro pipelines/skills/dvc.yaml`` (its priors).
-Run it alone (one CPU-heavy job at a time): it uses --jobs cores. Records one row per task and agent in
+Run it alone (one CPU-heavy job at a time): it uses --jobs cores, on famarl sweep's executors (by default
+$FAMARL_JOBS, else every core; --ray-address a Ray cluster). Records one row per task and agent in
 studies/measured.json (docs/robothand.md shows them) and writes studies/results/robothand_chance.json.
 """
 
 from __future__ import annotations
 
 import argparse
-from multiprocessing import Pool
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 from robothand_oracle import RUNS, TASKS, pipeline_runs
-from study import RESULTS, ROOT, command_line, record, seed_list, train_and_evaluate, write_result
+from study import (
+    RESULTS,
+    ROOT,
+    command_line,
+    fan_out,
+    fan_out_options,
+    record,
+    seed_list,
+    train_and_evaluate,
+    write_result,
+)
 
 from famarl_cli.core.statistics import mean_interval
 from famarl_cli.envs.robot_hand import OBSERVATION_NAMES
@@ -72,13 +82,11 @@ class BallWatch(gym.Wrapper):
 
 def chance_of(job: tuple[str, int, int]) -> tuple[int, int, int, int]:
     """(successes, plans that moved the ball, plans that lifted it, plans) of ``plans`` plans drawn by chance on each
-    of ``episodes`` layouts of the run ``job[0]`` (the ball's counts are 0 in a task without one)."""
-    import torch
-
+    of ``episodes`` layouts of the run ``job[0]`` (the ball's counts are 0 in a task without one); a job of
+    :func:`~study.fan_out`, which puts torch on one thread."""
     from famarl_cli.rl.oracle import by_chance, start_of, streams
     from famarl_cli.stages.oracle import searched_space
 
-    torch.set_num_threads(1)
     run, episodes, plans = job
     spec, batch, mode, limit = searched_space(run, plans, EVALUATION_SEED)
     batch.envs = watches = [BallWatch(env) for env in batch.envs]
@@ -96,7 +104,7 @@ def main() -> None:
     parser.add_argument("--seeds", default="0-9", help="Replicates whose runs' action spaces are tried.")
     parser.add_argument("--episodes", type=int, default=5, help="Layouts per run.")
     parser.add_argument("--plans", type=int, default=64, help="Plans drawn per layout.")
-    parser.add_argument("--jobs", type=int, default=2)
+    fan_out_options(parser)
     parser.add_argument("--data", type=Path, default=ROOT / "data")
     parser.add_argument("--out", type=Path, default=RESULTS / "robothand_chance.json")
     parser.add_argument("--tasks", default=",".join(TASKS), help="The pipeline's tasks.")
@@ -104,7 +112,7 @@ def main() -> None:
     parser.add_argument("--starts", default=",".join(STARTS), help=f"Priors' starts, of {', '.join(STARTS)} ('' none).")
     args = parser.parse_args()
     seeds = seed_list(args.seeds)
-    if args.episodes < 1 or args.plans < 1 or args.jobs < 1:
+    if args.episodes < 1 or args.plans < 1 or (args.jobs is not None and args.jobs < 1):
         raise SystemExit("error: --episodes, --plans and --jobs must be at least 1")
     tasks, agents = args.tasks.split(","), args.agents.split(",")
     starts = [start for start in args.starts.split(",") if start]
@@ -115,15 +123,15 @@ def main() -> None:
         raise SystemExit(
             f"error: no prior of replicate {missing[0]} in {args.data}: dvc repro pipelines/skills/dvc.yaml first"
         )
-    with Pool(args.jobs) as pool:
-        found = pool.map(chance_of, [(str(run), args.episodes, args.plans) for run in runs.values()])
+    chances = [(str(run), args.episodes, args.plans) for run in runs.values()]
+    found = fan_out(chance_of, chances, args.jobs, args.ray_address)
     counts = dict(zip(runs, found, strict=True))
     line = command_line(
         __file__,
         parser,
         args,
         shown=("seeds", "episodes", "plans", "jobs", "starts"),
-        hidden=("out", "data"),
+        hidden=("out", "data", "ray_address"),
     )
     rows = {}
     for task in tasks:

@@ -2,7 +2,7 @@
 positive control, ``famarl_cli/experts/robot_hand_tasks.py``) is run with its approach and descent aimed off the
 ball's centre by (dx, dy), everything else as it is: the share of layouts it still solves, over a grid of offsets.
 
-    python studies/robothand_grasp.py [--layouts 20] [--dx=-0.3,...,0.3] [--dy=-0.5,...,0.2] [--jobs 2]
+    python studies/robothand_grasp.py [--layouts 20] [--dx=-0.3,...,0.3] [--dy=-0.5,...,0.2] [--jobs N]
         [--env famarl/RobotHand-BallPlacing-v0]
 
 The grasp window is what a learner's approach has to land in before the ball moves at all, and until it moves the
@@ -10,7 +10,8 @@ reward -|b - g| is the same whatever the hand does (studies/robothand_chance.py 
 there in each agent's action space). An aim the controller cannot reach (below what the cup and the ball let the
 fingers descend to) leaves it pressing there, never closing: a failure of that aim, as it would be of a macro that
 stops there. The layouts are the pipeline's evaluation layouts of replicate 0's controls (reset seeds from --seed).
-Run it alone (one CPU-heavy job at a time): it uses --jobs cores. Records the window's extent in
+Run it alone (one CPU-heavy job at a time): it uses --jobs cores, on famarl sweep's executors (by default
+$FAMARL_JOBS, else every core; --ray-address a Ray cluster). Records the window's extent in
 studies/measured.json (docs/robothand.md shows it), writes studies/results/robothand_grasp.json and its
 picture, docs/img/robothand-grasp.png (--out, --picture elsewhere).
 """
@@ -18,12 +19,11 @@ picture, docs/img/robothand-grasp.png (--out, --picture elsewhere).
 from __future__ import annotations
 
 import argparse
-from multiprocessing import Pool
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-from study import RESULTS, ROOT, command_line, record, write_result
+from study import RESULTS, ROOT, command_line, fan_out, fan_out_options, record, write_result
 
 import famarl_cli  # noqa: F401  (registers the envs)
 from famarl_cli.artifacts import atomic_path
@@ -118,12 +118,12 @@ def main() -> None:
     parser.add_argument("--dx", default="-0.3,-0.25,-0.2,-0.15,-0.1,-0.05,0,0.05,0.1,0.15,0.2,0.25,0.3")
     parser.add_argument("--dy", default="-0.5,-0.45,-0.4,-0.35,-0.3,-0.25,-0.2,-0.15,-0.1,-0.05,0,0.05,0.1,0.15,0.2")
     parser.add_argument("--seed", type=int, default=100, help="First reset seed (the pipeline's controls').")
-    parser.add_argument("--jobs", type=int, default=2)
+    fan_out_options(parser)
     parser.add_argument("--env", default="famarl/RobotHand-BallPlacing-v0")
     parser.add_argument("--out", type=Path, default=RESULTS / "robothand_grasp.json")
     parser.add_argument("--picture", type=Path, default=PICTURE, help="Where the picture of the window goes.")
     args = parser.parse_args()
-    if args.layouts < 1 or args.jobs < 1:
+    if args.layouts < 1 or (args.jobs is not None and args.jobs < 1):
         raise SystemExit("error: --layouts and --jobs must be at least 1")
     dx, dy = offsets(args.dx, "--dx"), offsets(args.dy, "--dy")
     try:
@@ -132,8 +132,7 @@ def main() -> None:
     except gym.error.Error:
         raise SystemExit(f"error: --env {args.env!r}: expected a famarl RobotHand BallPlacing env") from None
     jobs = [(args.env, x, y, args.layouts, args.seed) for y in dy for x in dx]
-    with Pool(args.jobs) as pool:
-        counts = np.array(pool.map(solved, jobs)).reshape(len(dy), len(dx))
+    counts = np.array(fan_out(solved, jobs, args.jobs, args.ray_address)).reshape(len(dy), len(dx))
     share = counts / args.layouts
     holds = share >= HOLDS
     centre_row, centre_column = dy.index(0.0), dx.index(0.0)
@@ -144,7 +143,7 @@ def main() -> None:
     low = f"{0.0 - below:+.2f}" + (" or lower" if below == -dy[0] else "")
     high = f"{above:+.2f}" + (" or higher" if above == dy[-1] else "")
     wide = f"{half_width:.2f}" + (" or more" if half_width in (dx[-1], -dx[0]) else "")
-    line = command_line(__file__, parser, args, shown=("layouts", "jobs"), hidden=("out", "picture"))
+    line = command_line(__file__, parser, args, shown=("layouts", "jobs"), hidden=("out", "picture", "ray_address"))
     task = args.env.split("/")[-1]
     key = "robothand_grasp_" + task.removeprefix("RobotHand-").lower().replace("-", "_")
     where = f"{args.layouts} layouts per aim, an aim holding where at least {HOLDS:.0%} are solved"

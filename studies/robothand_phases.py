@@ -13,24 +13,25 @@ same replicate seeds the FAVAE of both sets. No policy is trained: the runs the 
 rollout at learning rate 0 (their action spaces only).
 
     python studies/robothand_phases.py [--seeds 0-4] [--layouts 10] [--plans 64] [--chance-layouts 5]
-        [--jobs 2] [--data data]
+        [--jobs N] [--data data]
 
 Runs on the development replicates (0-4, evaluation seed 100): pipelines/robothand judges on others. Run it alone
-(one CPU-heavy job at a time): it uses --jobs cores. Records one row per measure, task and set in
-studies/measured.json (docs/robothand.md shows them) and writes studies/results/robothand_phases.json.
+(one CPU-heavy job at a time): its famarl sweeps and oracle use $FAMARL_JOBS or every core, its chance counts
+--jobs cores on famarl sweep's executors (by default the same; --ray-address a Ray cluster). Records one row per
+measure, task and set in studies/measured.json (docs/robothand.md shows them) and writes
+studies/results/robothand_phases.json.
 """
 
 from __future__ import annotations
 
 import argparse
-from multiprocessing import Pool
 from pathlib import Path
 
 import numpy as np
 import yaml
 from robothand_chance import chance_of
 from robothand_demos import fit_macros
-from study import RESULTS, ROOT, command_line, famarl, record, seed_list, write_result
+from study import RESULTS, ROOT, command_line, famarl, fan_out, fan_out_options, record, seed_list, write_result
 
 from famarl_cli.artifacts.runs import ORACLE_FILE, read_oracle
 from famarl_cli.core.statistics import mean_interval, paired_difference_interval
@@ -58,16 +59,16 @@ def main() -> None:
     parser.add_argument("--layouts", type=int, default=10, help="Layouts the oracle searches per replicate.")
     parser.add_argument("--plans", type=int, default=64, help="Plans drawn by chance per layout.")
     parser.add_argument("--chance-layouts", type=int, default=5, help="Layouts per replicate for chance.")
-    parser.add_argument("--jobs", type=int, default=2)
+    fan_out_options(parser)
     parser.add_argument("--data", type=Path, default=ROOT / "data")
     parser.add_argument("--out", type=Path, default=RESULTS / "robothand_phases.json")
     args = parser.parse_args()
-    if min(args.layouts, args.plans, args.chance_layouts, args.jobs) < 1:
+    if min(args.layouts, args.plans, args.chance_layouts, 1 if args.jobs is None else args.jobs) < 1:
         raise SystemExit("error: --layouts, --plans, --chance-layouts and --jobs must be at least 1")
     seeds = seed_list(args.seeds)
     params = yaml.safe_load(PARAMS.read_text(encoding="utf-8"))
     line = command_line(__file__, parser, args, shown=("seeds", "layouts", "plans", "chance_layouts"),
-                        hidden=("out", "data", "jobs"))  # fmt: skip
+                        hidden=("out", "data", "jobs", "ray_address"))  # fmt: skip
     shares: dict[tuple[str, str, str], list[float]] = {}
     for demos in DEMOS:
         folder = args.data / "robothand-phases" / demos
@@ -80,10 +81,8 @@ def main() -> None:
             shares[(demos, task, "oracle")] = [
                 float(read_oracle(searched / f"seed{s}" / ORACLE_FILE)["success_rate"]) for s in seeds
             ]
-            with Pool(args.jobs) as pool:
-                found = np.array(
-                    pool.map(chance_of, [(str(runs / f"seed{s}"), args.chance_layouts, args.plans) for s in seeds])
-                )
+            chances = [(str(runs / f"seed{s}"), args.chance_layouts, args.plans) for s in seeds]
+            found = np.array(fan_out(chance_of, chances, args.jobs, args.ray_address))
             for column, name in enumerate(("chance", "moved", "lifted")):
                 if column and not task.startswith("BallPlacing"):
                     continue
