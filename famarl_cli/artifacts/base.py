@@ -14,7 +14,7 @@ import hashlib
 import json
 import os
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -130,28 +130,34 @@ ZIP_SIGNATURE = b"PK\x03\x04"
 """How a torch file (``torch.save``'s zip archive) begins."""
 
 
-def describe_file(path: str | os.PathLike) -> str | None:
-    """What a file that failed to load is, in words ("an HDF5 file of schema famarl.segments"), so that an error
-    can say it was given the wrong kind of file; None where famarl cannot tell (truncated, or foreign bytes)."""
+def file_kind(path: str | os.PathLike) -> str | None:
+    """``hdf5``, ``torch``, ``json`` or ``empty`` by a file's first bytes; None for other bytes or no readable file."""
     try:
         with open(path, "rb") as handle:
             head = handle.read(8)
     except OSError:
         return None
     if not head:
-        return "an empty file"
+        return "empty"
     if head == HDF5_SIGNATURE:
+        return "hdf5"
+    if head.startswith(ZIP_SIGNATURE):
+        return "torch"
+    return "json" if head.lstrip()[:1] in (b"{", b"[") else None
+
+
+def describe_file(path: str | os.PathLike) -> str | None:
+    """What a file that failed to load is, in words ("an HDF5 file of schema famarl.segments"), so that an error
+    can say it was given the wrong kind of file; None where famarl cannot tell (truncated, or foreign bytes)."""
+    kind = file_kind(path)
+    if kind == "hdf5":
         try:
             with h5py.File(path, "r") as handle:
                 schema = handle.attrs.get("schema")
         except OSError:
             return None
         return "an HDF5 file without a famarl schema" if schema is None else f"an HDF5 file of schema {schema}"
-    if head.startswith(ZIP_SIGNATURE):
-        return "a torch checkpoint (.pt)"
-    if head.lstrip()[:1] in (b"{", b"["):
-        return "a JSON file"
-    return None
+    return {"empty": "an empty file", "torch": "a torch checkpoint (.pt)", "json": "a JSON file"}.get(kind)
 
 
 def _open_hdf5(path: Path, expected: str) -> h5py.File:
@@ -207,6 +213,13 @@ def check(condition: bool, path: str | os.PathLike, message: str) -> None:
     """Raise an ArtifactError naming ``path`` unless ``condition`` holds."""
     if not condition:
         raise ArtifactError(f"{path}: {message}")
+
+
+def require(found: Any, keys: Iterable[str], path: str | os.PathLike, message: str = "has no {!r}") -> None:
+    """Raise an ArtifactError naming ``path`` and the first of ``keys`` that ``found`` (a dict, an HDF5 group or its
+    attributes) lacks, in ``message``."""
+    missing = next((key for key in keys if key not in found), None)
+    check(missing is None, path, message.format(missing))
 
 
 def write_json(path: str | os.PathLike, data: dict) -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import os
 import pickle
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -27,24 +28,19 @@ def arrays_to_tensors(tree: Any) -> Any:
     ``weights_only`` loading accepts."""
     if isinstance(tree, np.ndarray):
         return torch.from_numpy(np.ascontiguousarray(tree))
-    if isinstance(tree, np.generic):
-        return tree.item()
-    if isinstance(tree, dict):
-        return {k: arrays_to_tensors(v) for k, v in tree.items()}
-    if isinstance(tree, list):
-        return [arrays_to_tensors(v) for v in tree]
-    return tree
+    return tree.item() if isinstance(tree, np.generic) else _nested(tree, arrays_to_tensors)
 
 
 def tensors_to_arrays(tree: Any) -> Any:
     """The inverse of :func:`arrays_to_tensors`."""
-    if isinstance(tree, torch.Tensor):
-        return tree.numpy()
+    return tree.numpy() if isinstance(tree, torch.Tensor) else _nested(tree, tensors_to_arrays)
+
+
+def _nested(tree: Any, convert: Callable[[Any], Any]) -> Any:
+    """``convert`` applied inside a dict or list; anything else as it is."""
     if isinstance(tree, dict):
-        return {k: tensors_to_arrays(v) for k, v in tree.items()}
-    if isinstance(tree, list):
-        return [tensors_to_arrays(v) for v in tree]
-    return tree
+        return {k: convert(v) for k, v in tree.items()}
+    return [convert(v) for v in tree] if isinstance(tree, list) else tree
 
 
 def save_checkpoint(

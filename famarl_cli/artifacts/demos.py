@@ -30,11 +30,21 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from famarl_cli.artifacts.base import atomic_path, check, open_artifact, write_header
+from famarl_cli.artifacts.base import atomic_path, check, open_artifact, require, write_header
 from famarl_cli.envs.success import rate
 
 SCHEMA = "famarl.demos"
 SCHEMA_VERSION = 1
+STEPS = {
+    "observations": np.float32,
+    "actions": np.float32,
+    "rewards": np.float64,
+    "terminations": bool,
+    "truncations": bool,
+}
+"""Each episode's per-step arrays and their stored dtypes."""
+TRUTH = {"segment_starts": np.int64, "factors": np.float64}
+"""Each episode's ground truth (``ground_truth/``) and its stored dtypes."""
 OLD_SUCCESS_RULE = "termination (a file written before famarl judged success by its rules)"
 """Files written before ``success_rule`` existed stored success as the last step's termination."""
 
@@ -115,14 +125,11 @@ def write_demos(path: str | os.PathLike, demos: Demos) -> None:
             group.attrs.update(id=i, seed=episode.seed, total_steps=episode.length)
             if episode.success is not None:  # no attribute: success is not defined
                 group.attrs["success"] = episode.success
-            group.create_dataset("observations", data=episode.observations.astype(np.float32))
-            group.create_dataset("actions", data=episode.actions.astype(np.float32))
-            group.create_dataset("rewards", data=episode.rewards.astype(np.float64))
-            group.create_dataset("terminations", data=episode.terminations.astype(bool))
-            group.create_dataset("truncations", data=episode.truncations.astype(bool))
+            for key, dtype in STEPS.items():
+                group.create_dataset(key, data=getattr(episode, key).astype(dtype))
             truth = group.create_group("ground_truth")
-            truth.create_dataset("segment_starts", data=episode.segment_starts.astype(np.int64))
-            truth.create_dataset("factors", data=episode.factors.astype(np.float64))
+            for key, dtype in TRUTH.items():
+                truth.create_dataset(key, data=getattr(episode, key).astype(dtype))
 
 
 def read_demos(path: str | os.PathLike) -> Demos:
@@ -130,8 +137,7 @@ def read_demos(path: str | os.PathLike) -> Demos:
     path = Path(path)
     with open_artifact(path, SCHEMA, SCHEMA_VERSION) as handle:
         attrs = handle.attrs
-        for key in ("env_id", "script", "seed", "n_episodes", "factor_names"):
-            check(key in attrs, path, f"missing attribute {key!r}")
+        require(attrs, ("env_id", "script", "seed", "n_episodes", "factor_names"), path, "missing attribute {!r}")
         n_episodes = int(attrs["n_episodes"])
         factor_names = tuple(json.loads(attrs["factor_names"]))
         check(n_episodes > 0, path, "holds no episodes")
@@ -159,17 +165,11 @@ def _read_episode(handle: h5py.File, i: int, n_factors: int, path: Path) -> Epis
     name = f"episode_{i}"
     check(name in handle, path, f"missing group {name!r} (file says it holds more episodes)")
     group = handle[name]
-    for key in ("observations", "actions", "rewards", "terminations", "truncations", "ground_truth"):
-        check(key in group, path, f"{name} has no {key!r}")
+    require(group, (*STEPS, "ground_truth"), path, f"{name} has no {{!r}}")
     episode = Episode(
-        observations=group["observations"][()],
-        actions=group["actions"][()],
-        rewards=group["rewards"][()],
-        terminations=group["terminations"][()],
-        truncations=group["truncations"][()],
+        **{key: group[key][()] for key in STEPS},
+        **{key: group[f"ground_truth/{key}"][()] for key in TRUTH},
         seed=int(group.attrs.get("seed", -1)),
-        segment_starts=group["ground_truth/segment_starts"][()],
-        factors=group["ground_truth/factors"][()],
         success=bool(group.attrs["success"]) if "success" in group.attrs else None,
     )
     steps = episode.actions.shape[0] if episode.actions.ndim == 2 else -1

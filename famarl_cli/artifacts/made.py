@@ -37,7 +37,7 @@ from typing import Any
 import h5py
 
 from famarl_cli import __version__
-from famarl_cli.artifacts.base import HDF5_SIGNATURE, ZIP_SIGNATURE, sha256
+from famarl_cli.artifacts.base import file_kind, sha256
 from famarl_cli.core.declare import affecting, declared, option
 from famarl_cli.core.errors import UsageError
 from famarl_cli.core.reproducibility import platform_facts
@@ -118,12 +118,11 @@ def read_provenance(path: Path) -> dict:
     """The provenance an artifact records (HDF5, JSON or torch checkpoint); empty where it records none or cannot
     be read."""
     try:
-        with open(path, "rb") as handle:
-            head = handle.read(8)
-        if head == HDF5_SIGNATURE:
+        kind = file_kind(path)
+        if kind == "hdf5":
             with h5py.File(path, "r") as handle:
                 prov = json.loads(handle.attrs.get("provenance", "{}"))
-        elif head.startswith(ZIP_SIGNATURE):
+        elif kind == "torch":
             import torch
 
             prov = torch.load(path, map_location="cpu", weights_only=True).get("provenance", {})

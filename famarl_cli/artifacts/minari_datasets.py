@@ -53,7 +53,7 @@ import gymnasium as gym
 import numpy as np
 
 from famarl_cli.artifacts.base import TEMP_MARKER
-from famarl_cli.artifacts.demos import SCHEMA, SCHEMA_VERSION, Demos, Episode, content_fault
+from famarl_cli.artifacts.demos import SCHEMA, SCHEMA_VERSION, TRUTH, Demos, Episode, content_fault
 from famarl_cli.artifacts.made import provenance
 from famarl_cli.core.errors import ArtifactError, FamarlError, UsageError
 from famarl_cli.envs.success import SuccessRule, as_bool, reported, success_rule
@@ -109,26 +109,18 @@ def import_minari(dataset: str, success_return: float | None = None) -> Demos:
     params = {"from_minari": dataset, **({} if success_return is None else {"success_return": success_return})}
     made = provenance("famarl demos", params, None, inputs)
     described = "; ".join(sorted(rules))
-    if facts is not None:
-        return Demos(
-            episodes=episodes,
-            env_id=facts["env_id"],
-            script=facts["script"],
-            seed=facts["seed"],
-            factor_names=tuple(facts["factor_names"]),
-            env_kwargs=facts["env_kwargs"],
-            provenance=made,
-            attempts=facts.get("attempts"),
-            success_rule=facts.get("success_rule", described) if success_return is None else described,
-        )
+    if facts is None:  # a dataset famarl did not write: its env's, and no ground truth
+        env_id = spec.id if spec is not None else loaded.id
+        facts = {"env_id": env_id, "env_kwargs": _env_kwargs(spec), "script": f"minari:{loaded.id}", "seed": -1}
+        facts["factor_names"] = []
+    elif success_return is None:
+        described = facts.get("success_rule", described)
     return Demos(
         episodes=episodes,
-        env_id=spec.id if spec is not None else loaded.id,
-        script=f"minari:{loaded.id}",
-        seed=-1,
-        factor_names=(),
-        env_kwargs=_env_kwargs(spec),
+        **{key: facts[key] for key in _KEPT},
+        factor_names=tuple(facts["factor_names"]),
         provenance=made,
+        attempts=facts.get("attempts"),
         success_rule=described,
     )
 
@@ -138,7 +130,11 @@ def _env_kwargs(spec: Any) -> dict:
     where it differs from the id's registered one (a dataset recorded under its own ``TimeLimit``)."""
     if spec is None:
         return {}
-    kwargs = _json_or_empty(spec.kwargs)
+    try:
+        json.dumps(spec.kwargs)  # kwargs JSON cannot hold (a callable) cannot be recorded: none are
+        kwargs = dict(spec.kwargs)
+    except TypeError:
+        kwargs = {}
     registered = _registered_spec(spec.id)
     if registered is not None and spec.max_episode_steps != registered.max_episode_steps:
         kwargs["max_episode_steps"] = spec.max_episode_steps
@@ -222,8 +218,7 @@ def export_minari(
         )
         storage.update_episode_metadata(
             {
-                f"{FAMARL_KEY}/segment_starts": episode.segment_starts.astype(np.int64),
-                f"{FAMARL_KEY}/factors": episode.factors.astype(np.float64),
+                **{f"{FAMARL_KEY}/{key}": getattr(episode, key).astype(dtype) for key, dtype in TRUTH.items()},
                 **({} if episode.success is None else {f"{FAMARL_KEY}/success": episode.success}),
             }
             for episode in demos.episodes
@@ -270,15 +265,9 @@ def _data_path(dataset: str, minari: ModuleType) -> Path:
     )
 
 
-_FACT_TYPES = {
-    "schema": str,
-    "schema_version": int,
-    "env_id": str,
-    "env_kwargs": dict,
-    "script": str,
-    "seed": int,
-    "factor_names": list,
-}
+_KEPT = ("env_id", "env_kwargs", "script", "seed")
+"""The demos' facts an export keeps as they are (beside its schema, factor names and the optional ones)."""
+_FACT_TYPES = dict(schema=str, schema_version=int, env_id=str, env_kwargs=dict, script=str, seed=int, factor_names=list)
 """The dataset-level facts of a famarl export and their JSON types."""
 
 
@@ -391,14 +380,6 @@ def _lengths(tree: Any) -> set[int]:
     return {len(tree)}
 
 
-def _json_or_empty(kwargs: dict) -> dict:
-    try:
-        json.dumps(kwargs)
-    except TypeError:
-        return {}
-    return dict(kwargs)
-
-
 @dataclass
 class _Spaces:
     """What an export writes about its env: its spaces, the observations in the observation space's shape, its spec
@@ -472,14 +453,8 @@ def _dataset_metadata(demos: Demos, dataset_id: str, minari_version: str) -> dic
         FAMARL_KEY: {
             "schema": SCHEMA,
             "schema_version": SCHEMA_VERSION,
-            "env_id": demos.env_id,
-            "env_kwargs": demos.env_kwargs,
-            "script": demos.script,
-            "seed": demos.seed,
+            **{key: getattr(demos, key) for key in (*_KEPT, "attempts", "success_rule", "provenance")},
             "factor_names": list(demos.factor_names),
-            "attempts": demos.attempts,
-            "success_rule": demos.success_rule,
-            "provenance": demos.provenance,
         },
     }
 

@@ -24,11 +24,12 @@ from __future__ import annotations
 import csv
 import json
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
-from famarl_cli.artifacts.base import check, write_csv, write_json
+from famarl_cli.artifacts.base import check, require, write_csv, write_json
 from famarl_cli.artifacts.checkpoints import arrays_to_tensors, load_checkpoint, save_checkpoint, tensors_to_arrays
 from famarl_cli.core.errors import ArtifactError
 
@@ -38,18 +39,8 @@ CHECKPOINT_SCHEMA = "famarl.agent"
 CHECKPOINT_SCHEMA_VERSION = 2  # 2: the policy is one flat parameter tensor (famarl_cli/rl/policy.py)
 TRAINER_STATE = ("policy", "optimizer", "torch_rng", "sampling_rng", "obs_norm", "reward_scaler", "episodes", "env")
 """What a run checkpoint's trainer state must hold to resume or evaluate (famarl_cli.rl.ppo.PPOTrainer)."""
-RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE, FILM_FILE, STILLS_FILE = (
-    "run.json",
-    "checkpoint.pt",
-    "train.csv",
-    "eval.json",
-    "rollouts.png",
-    "episode.gif",
-    "episode.png",
-)
-
-
-TIMING_FILE = "timing.json"
+RUN_FILE, CHECKPOINT_FILE, LOG_FILE, TIMING_FILE = "run.json", "checkpoint.pt", "train.csv", "timing.json"
+EVAL_FILE, ROLLOUTS_FILE, FILM_FILE, STILLS_FILE = "eval.json", "rollouts.png", "episode.gif", "episode.png"
 
 
 def write_timing(run_dir: str | os.PathLike, wall_s: float) -> None:
@@ -87,14 +78,10 @@ def write_run(
 
 
 def read_run_file(run_dir: str | os.PathLike) -> dict:
-    path = Path(run_dir) / RUN_FILE
     if not Path(run_dir).is_dir():
         raise ArtifactError(f"{run_dir}: no such run folder")
-    values = _read_json(path, f"{run_dir}: not a run folder (no {RUN_FILE}; was it made by famarl train?)")
-    check(isinstance(values, dict) and values.get("schema") == RUN_SCHEMA, path, f"is not a {RUN_SCHEMA!r} file")
-    found = int(values.get("schema_version", -1))
-    check(found <= RUN_SCHEMA_VERSION, path, f"schema version {found} is newer than this famarl reads")
-    return values
+    missing = f"{run_dir}: not a run folder (no {RUN_FILE}; was it made by famarl train?)"
+    return _read_record(Path(run_dir) / RUN_FILE, RUN_SCHEMA, RUN_SCHEMA_VERSION, missing)
 
 
 def expand_run_folders(folders: list[Path]) -> list[Path]:
@@ -118,11 +105,10 @@ ORACLE_SCHEMA, ORACLE_SCHEMA_VERSION = "famarl.oracle", 1
 def read_oracle(path: str | os.PathLike) -> dict:
     """An ``oracle.json`` written by ``famarl oracle``: its env, agent, label, seed, share solved and layouts."""
     path = Path(path)
-    values = _read_json(path, f"{path}: no such oracle result (has famarl oracle run?)")
-    check(isinstance(values, dict) and values.get("schema") == ORACLE_SCHEMA, path, f"is not a {ORACLE_SCHEMA} file")
-    check(int(values.get("schema_version", 0)) <= ORACLE_SCHEMA_VERSION, path, "is newer than this famarl reads")
-    for key in ("env", "agent", "label", "seed", "success_rate", "episodes"):
-        check(key in values, path, f"has no {key!r}")
+    values = _read_record(
+        path, ORACLE_SCHEMA, ORACLE_SCHEMA_VERSION, f"{path}: no such oracle result (has famarl oracle run?)"
+    )
+    require(values, ("env", "agent", "label", "seed", "success_rate", "episodes"), path)
     check(_finite(values["success_rate"]) and 0 <= values["success_rate"] <= 1, path, "has no share in [0, 1]")
     check(isinstance(values["episodes"], list) and values["episodes"], path, "has no searched layouts")
     return values
@@ -152,14 +138,10 @@ def read_evaluation(path: str | os.PathLike) -> dict:
     """An ``eval.json`` written by ``famarl evaluate``, with the fields the report groups and compares by; one of
     version 1 is read in version 2's layout (:data:`EVAL_SCHEMA_VERSION`)."""
     path = Path(path)
-    values = _read_json(path, f"{path}: no such evaluation (has famarl evaluate run?)")
-    check(isinstance(values, dict), path, "is not an evaluation")
-    if "schema" not in values and isinstance(values.get("sampled"), dict):
-        values = evaluation_from_version_1(values)
-    check(values.get("schema") == EVAL_SCHEMA, path, f"is not a {EVAL_SCHEMA} file")
-    check(int(values.get("schema_version", 0)) <= EVAL_SCHEMA_VERSION, path, "is newer than this famarl reads")
-    for key in ("label", "agent", "env", "seed", "run", "episodes", "success_rate", "return_mean", "macro_length"):
-        check(key in values, path, f"has no {key!r} (written by an older famarl evaluate? run it again)")
+    missing = f"{path}: no such evaluation (has famarl evaluate run?)"
+    values = _read_record(path, EVAL_SCHEMA, EVAL_SCHEMA_VERSION, missing, older=evaluation_from_version_1)
+    keys = ("label", "agent", "env", "seed", "run", "episodes", "success_rate", "return_mean", "macro_length")
+    require(values, keys, path, "has no {!r} (written by an older famarl evaluate? run it again)")
     mode = values.get("deterministic")
     check(isinstance(mode, dict) and "success_rate" in mode, path, "has no deterministic success")
     for key in ("success_rate", "return_mean", "macro_length"):
@@ -171,8 +153,10 @@ def read_evaluation(path: str | os.PathLike) -> dict:
 
 
 def evaluation_from_version_1(values: dict) -> dict:
-    """An eval.json of version 1 (the deterministic policy at the top level, the sampled one under ``sampled``) in
-    version 2's layout."""
+    """An eval.json of version 1 (no schema; the deterministic policy at the top level, the sampled one under
+    ``sampled``) in version 2's layout; any other record as it is."""
+    if "schema" in values or not isinstance(values.get("sampled"), dict):
+        return values
     rest = {key: value for key, value in values.items() if key not in EVAL_METRICS and key != "sampled"}
     deterministic = {key: values[key] for key in EVAL_METRICS if key in values}
     return {"schema": EVAL_SCHEMA, "schema_version": 1, **rest, **values["sampled"], "deterministic": deterministic}
@@ -182,13 +166,23 @@ def _finite(value: object) -> bool:
     return isinstance(value, int | float) and bool(np.isfinite(value))
 
 
-def _read_json(path: Path, missing: str) -> object:
+def _read_record(
+    path: Path, schema: str, version: int, missing: str, older: Callable[[dict], dict] | None = None
+) -> dict:
+    """The JSON record at ``path`` of ``schema`` at most ``version`` (``older`` brings one of an older layout to the
+    current one); ``missing`` says what is wrong where there is no file."""
     try:
-        return json.loads(path.read_text())
+        values = json.loads(path.read_text())
     except FileNotFoundError as exc:
         raise ArtifactError(missing) from exc
     except (OSError, json.JSONDecodeError) as exc:
         raise ArtifactError(f"{path}: not readable JSON ({exc})") from exc
+    if older is not None and isinstance(values, dict):
+        values = older(values)
+    check(isinstance(values, dict) and values.get("schema") == schema, path, f"is not a {schema} file")
+    found = int(values.get("schema_version", 0))
+    check(found <= version, path, f"schema version {found} is newer than this famarl reads ({version})")
+    return values
 
 
 def read_run_checkpoint(run_dir: str | os.PathLike) -> dict:

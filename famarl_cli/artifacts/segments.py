@@ -33,13 +33,15 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from famarl_cli.artifacts.base import atomic_path, check, open_artifact, write_header
+from famarl_cli.artifacts.base import atomic_path, check, open_artifact, require, write_header
 from famarl_cli.core.macro_actions import OFF, ON
 
 REPLICATE_FILE = "segments.h5"
 """The segments' name in a replicate's folder (famarl macros), beside the FAVAE fitted on them."""
 SCHEMA = "famarl.segments"
 SCHEMA_VERSION = 1
+ARRAYS = {"episode": np.int64, "start": np.int64, "length": np.int64, "actions": np.float32, "padded": np.float32}
+"""The datasets of ``/segments`` and their stored dtypes."""
 
 
 @dataclass
@@ -104,11 +106,8 @@ def write_segments(path: str | os.PathLike, segments: Segments) -> None:
             factor_names=list(segments.factor_names),
         )
         group = handle.create_group("segments")
-        group.create_dataset("episode", data=segments.episode.astype(np.int64))
-        group.create_dataset("start", data=segments.start.astype(np.int64))
-        group.create_dataset("length", data=segments.length.astype(np.int64))
-        group.create_dataset("actions", data=segments.actions.astype(np.float32))
-        group.create_dataset("padded", data=segments.padded.astype(np.float32))
+        for key, dtype in ARRAYS.items():
+            group.create_dataset(key, data=getattr(segments, key).astype(dtype))
         episodes = handle.create_group("episodes")
         episodes.create_dataset("boundaries", data=boundaries)
         episodes.create_dataset("boundary_offsets", data=boundary_offsets)
@@ -121,16 +120,10 @@ def read_segments(path: str | os.PathLike) -> Segments:
     """Read and validate a segments file; every problem is an ArtifactError naming the file and the fault."""
     path = Path(path)
     with open_artifact(path, SCHEMA, SCHEMA_VERSION) as handle:
-        for key in ("segments/episode", "segments/start", "segments/length", "segments/actions", "segments/padded"):
-            check(key in handle, path, f"missing dataset {key!r}")
-        seg = handle["segments"]
+        require(handle, [f"segments/{key}" for key in ARRAYS], path, "missing dataset {!r}")
         episodes = handle["episodes"]
         segments = Segments(
-            episode=seg["episode"][()],
-            start=seg["start"][()],
-            length=seg["length"][()],
-            actions=seg["actions"][()],
-            padded=seg["padded"][()],
+            **{key: handle[f"segments/{key}"][()] for key in ARRAYS},
             boundaries=_unflatten(episodes["boundaries"][()], episodes["boundary_offsets"][()]),
             distance=_unflatten(episodes["distance"][()], episodes["distance_offsets"][()]),
             factors=handle["ground_truth/factors"][()],

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import h5py
 import numpy as np
 
-from famarl_cli.artifacts.base import atomic_path, check, open_artifact, write_header
+from famarl_cli.artifacts.base import atomic_path, check, open_artifact, require, write_header
 from famarl_cli.envs.continuous_world import TRAVERSAL_MAP_SIZE
 
 SCHEMA = "famarl.traversal"
@@ -55,8 +55,7 @@ def write_traversal(path: str | os.PathLike, traversal: Traversal, provenance: d
 
 def read_traversal(path: str | os.PathLike) -> Traversal:
     with open_artifact(path, SCHEMA, SCHEMA_VERSION) as handle:
-        for key in FIELDS:
-            check(key in handle, path, f"missing dataset {key!r}")
+        require(handle, FIELDS, path, "missing dataset {!r}")
         traversal = Traversal(**{key: handle[key][()] for key in FIELDS})
     shape = traversal.lengths.shape
     check(traversal.variables.shape == (shape[0], 2), path, "variables do not match lengths")

@@ -17,6 +17,7 @@ import functools
 import importlib
 import sys
 from collections.abc import Collection, Iterable, Sequence
+from pathlib import Path
 from typing import Annotated, Any
 
 import typer
@@ -144,6 +145,15 @@ def _help_hint(exc: FamarlError) -> str:
     return f" (see `{context.command_path} --help`)"
 
 
+def note(text: str) -> None:
+    """``note: ...`` on stderr: what a user should know that is not an error."""
+    typer.echo(f"note: {text}", err=True)
+
+
+ROOT = Annotated[Path, typer.Option(help="The project's root (its dvc.yaml).", file_okay=False)]
+"""``--root``, of the commands that read a project's committed results."""
+
+
 def already_made(command: str, options: Any, outputs: list, inputs: tuple = ()) -> bool:
     """Whether ``outputs`` are there, complete and made by ``command`` from the same inputs and options (then a
     note says so and the command does nothing); a usage error where they were made otherwise, unless
@@ -157,16 +167,8 @@ def already_made(command: str, options: Any, outputs: list, inputs: tuple = ()) 
         for output in outputs:  # before any work: the writes would be refused at the end
             refuse_tracked(output)
         return False
-    typer.echo(f"note: {outputs[0]} {ALREADY_MADE} (--overwrite makes it afresh)", err=True)
+    note(f"{outputs[0]} {ALREADY_MADE} (--overwrite makes it afresh)")
     return True
-
-
-def torch_on_one_thread() -> None:
-    """Small networks train fastest on one thread (measured: a second adds nothing on a 2-core laptop); the
-    portable profile's backends when it is on (famarl_cli.core.reproducibility)."""
-    from famarl_cli.core.reproducibility import one_thread
-
-    one_thread()
 
 
 def progress_bar() -> Progress:

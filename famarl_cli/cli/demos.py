@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
-import typer
 from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.artifacts import Demos
-from famarl_cli.cli import already_made, app, progress_bar
+from famarl_cli.cli import already_made, app, note, progress_bar
 from famarl_cli.cli.derived import command
 from famarl_cli.stages.demos import DemosOptions, demos_job
 from famarl_cli.sweep.registry import sweepable
@@ -77,7 +76,7 @@ def _record_expert(progress, options: DemosOptions):
         advance,
         o.success_return,
         on_step=step,
-        on_note=lambda note: typer.echo(f"note: {note}", err=True),
+        on_note=note,
     )
 
 

@@ -20,19 +20,25 @@ _ALIAS = "renamed__"
 
 
 def _take_old_spelling(option: Declared, given: dict) -> None:
-    """Move the value given under ``option``'s old flag to the option, with a note that names the new flag; a usage
-    error where both are given."""
+    """Move the value given under ``option``'s old flag to the option (:func:`old_spelling`)."""
+    default = option.text if option.parse is not None else option.default
+    value = old_spelling(option.renamed[0], option.flag, given.pop(_ALIAS + option.name), given[option.name] != default)
+    if value is not None:
+        given[option.name] = value
+
+
+def old_spelling(old: str, flag: str, value: Any, flag_given: bool) -> Any:
+    """``value``, given under ``flag``'s old spelling ``old`` (None: not given), with a note that names the new
+    flag; a usage error where both are given."""
+    from famarl_cli.cli import note
     from famarl_cli.core.errors import UsageError
 
-    value = given.pop(_ALIAS + option.name)
     if value is None:
-        return
-    old = option.renamed[0]
-    default = option.text if option.parse is not None else option.default
-    if given[option.name] != default:
-        raise UsageError(f"{old} is the old spelling of {option.flag}: give one of them")
-    typer.echo(f"note: {old} is now {option.flag}; the old spelling goes in the next release", err=True)
-    given[option.name] = value
+        return None
+    if flag_given:
+        raise UsageError(f"{old} is the old spelling of {flag}: give one of them")
+    note(f"{old} is now {flag}; the old spelling goes in the next release")
+    return value
 
 
 def _settings(option: Declared) -> dict[str, Any]:

@@ -7,13 +7,13 @@ from typing import Annotated
 
 import typer
 
-from famarl_cli.cli import app, reports_errors
+from famarl_cli.cli import ROOT, app, reports_errors
 
 
 @app.command()
 @reports_errors
 def docs(
-    root: Annotated[Path, typer.Option(help="The project's root (its dvc.yaml).", file_okay=False)] = Path("."),
+    root: ROOT = Path("."),
     check: Annotated[
         bool, typer.Option("--check", help="Write nothing; exit 1 when a table differs from the metrics.")
     ] = False,

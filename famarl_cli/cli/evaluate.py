@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import typer
-
-from famarl_cli.cli import app, named_rows, progress_bar, results_console, torch_on_one_thread
+from famarl_cli.cli import app, named_rows, note, progress_bar, results_console
 from famarl_cli.cli.derived import command
+from famarl_cli.core.reproducibility import one_thread
 from famarl_cli.stages.evaluate import EvaluateOptions
 
 
@@ -19,11 +18,11 @@ def evaluate(options: EvaluateOptions) -> None:
     from famarl_cli.artifacts.runs import EVAL_FILE, FILM_FILE, ROLLOUTS_FILE, STILLS_FILE
     from famarl_cli.stages.evaluate import evaluate_runs, shown
 
-    torch_on_one_thread()
+    one_thread()
     o = options
     with progress_bar() as progress:
         task = progress.add_task("evaluate", total=None)
-        done = evaluate_runs(o, _note, lambda finished, total: progress.update(task, completed=finished, total=total))
+        done = evaluate_runs(o, note, lambda finished, total: progress.update(task, completed=finished, total=total))
     table = named_rows(
         f"evaluation: {o.episodes} episodes per run, seed {o.seed}; the policy sampling its actions as in training "
         "(the one judged), in parentheses acting with its mode",
@@ -66,18 +65,18 @@ def evaluate(options: EvaluateOptions) -> None:
     reused = [folder for folder, state in zip(done.runs, done.states, strict=True) if state == "reuse"]
     remade = [folder for folder, state in zip(done.runs, done.states, strict=True) if state == "remake"]
     if reused:
-        _note(
+        note(
             f"{len(reused)} of {runs} runs ({reused[0]}, ...) already hold this evaluation, made from the same "
             "checkpoint and options; read, not made again (--overwrite makes them afresh)"
         )
     if remade:
-        _note(
+        note(
             f"{len(remade)} of {runs} runs ({remade[0]}, ...) held an evaluation made with these options that was out "
             "of date (the run was trained further since, or an older famarl wrote it); made again"
         )
     unfilmed = sorted({e["not_filmed"] for e in done.evaluations if "not_filmed" in e})
-    for note in unfilmed:
-        _note(f"not filmed: {note}")
+    for why in unfilmed:
+        note(f"not filmed: {why}")
     filmed = o.film and not unfilmed
     curves = done.curves
     console.print(
@@ -85,10 +84,6 @@ def evaluate(options: EvaluateOptions) -> None:
         f"{f', {FILM_FILE}, {STILLS_FILE}' if filmed else ''} in {done.out or 'each run folder'}, {curves}, "
         f"{curves.with_suffix('.json')}"
     )
-
-
-def _note(text: str) -> None:
-    typer.echo(f"note: {text}", err=True)
 
 
 def _spread(values: dict, fmt: str) -> str:

@@ -6,8 +6,9 @@ import typer
 from rich.progress import Progress
 from rich.table import Table
 
-from famarl_cli.cli import already_made, app, print_written, progress_bar, results_console, torch_on_one_thread
+from famarl_cli.cli import already_made, app, print_written, progress_bar, results_console
 from famarl_cli.cli.derived import command
+from famarl_cli.core.reproducibility import one_thread
 from famarl_cli.stages.method import CalibrateOptions, FitOptions
 
 favae_app = typer.Typer(
@@ -42,7 +43,7 @@ def favae_calibrate(options: CalibrateOptions) -> None:
     options = stages.given_segments(options)
     if already_made("famarl favae calibrate", options, [options.destination]):
         return
-    torch_on_one_thread()
+    one_thread()
     with progress_bar() as progress:
         task = progress.add_task("calibrate", total=options.pre_run_window().stop)
         c_last, _ = stages.calibrate(options, _epoch_reporter(progress, task, "C_last pre-run"))
@@ -60,7 +61,7 @@ def favae_fit(options: FitOptions) -> None:
     options = stages.given_segments(options)
     if already_made("famarl favae fit", options, options.outputs()):
         return
-    torch_on_one_thread()
+    one_thread()
     epochs = options.epochs
     with progress_bar() as progress:
         pre_run = options.pre_run_window().stop

@@ -31,22 +31,19 @@ def inspect(
     ] = False,
 ) -> None:
     """Check that a file or folder is a valid famarl artifact, and print what it holds and what made it."""
-    from famarl_cli.artifacts.base import HDF5_SIGNATURE, ZIP_SIGNATURE
+    from famarl_cli.artifacts.base import file_kind
     from famarl_cli.core.errors import ArtifactError
 
     if not path.exists():
         raise ArtifactError(f"{path}: no such file or folder")
-    head = b""
-    if path.is_file():
-        with open(path, "rb") as handle:
-            head = handle.read(8)
-    if plot and head != HDF5_SIGNATURE:  # a demos file's trajectories: _hdf5 checks the schema
+    kind = file_kind(path) if path.is_file() else None
+    if plot and kind != "hdf5":  # a demos file's trajectories: _hdf5 checks the schema
         raise ArtifactError(f"{path}: --plot draws demos files; this is not one")
     if path.is_dir():
         table, made = _run_folder(path)
-    elif head == HDF5_SIGNATURE:
+    elif kind == "hdf5":
         table, made = _hdf5(path, plot)
-    elif head.startswith(ZIP_SIGNATURE):
+    elif kind == "torch":
         table, made = _checkpoint(path)
     else:
         table, made = _record(path)

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import json
 
-import typer
 from rich.table import Table
 
-from famarl_cli.cli import app, print_written, progress_bar, results_console, torch_on_one_thread
+from famarl_cli.cli import app, note, print_written, progress_bar, results_console
 from famarl_cli.cli.derived import command
+from famarl_cli.core.reproducibility import one_thread
 from famarl_cli.stages.macros import FAVAE, MacrosOptions, macros_job
 from famarl_cli.sweep.registry import sweepable
 
@@ -28,7 +28,7 @@ def macros(options: MacrosOptions) -> None:
     """
     from famarl_cli.stages.macros import make_macros
 
-    torch_on_one_thread()
+    one_thread()
     out = options.destination
     with progress_bar() as progress:
         tasks: dict[str, int] = {}
@@ -40,7 +40,7 @@ def macros(options: MacrosOptions) -> None:
 
         made = make_macros(options, show)
     if not made:
-        typer.echo(f"note: {out} already holds these macros, complete; nothing to do", err=True)
+        note(f"{out} already holds these macros, complete; nothing to do")
     metrics = json.loads((out / FAVAE).with_suffix(".metrics.json").read_text())
     table = Table(title=f"macro actions of {options.demos or options.segments}, seed {options.seed}", show_header=False)
     table.add_row("KL per ladder", ", ".join(f"{k:.3f}" for k in metrics["kl_per_ladder"]))

@@ -9,7 +9,8 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import app, reports_errors
+from famarl_cli.cli import app, note, reports_errors
+from famarl_cli.cli.derived import old_spelling
 
 
 @app.command("export-minari")
@@ -33,19 +34,11 @@ def export_minari(
     famarl_cli.artifacts.minari_datasets), so that importing it gives back the same demos."""
     from famarl_cli.artifacts import read_demos
     from famarl_cli.artifacts.minari_datasets import export_minari as write_dataset
-    from famarl_cli.core.errors import UsageError
 
-    if root is not None:  # the old spelling (famarl docs --root is the project's root)
-        if datasets_path is not None:
-            raise UsageError("--root is the old spelling of --datasets-path: give one of them")
-        typer.echo("note: --root is now --datasets-path; the old spelling goes in the next release", err=True)
-        datasets_path = root
-    root = datasets_path
-
+    # famarl docs --root is the project's root
+    root = old_spelling("--root", "--datasets-path", root, datasets_path is not None) or datasets_path
     recorded = read_demos(demos)
-    folder = write_dataset(
-        recorded, dataset_id, root, overwrite=overwrite, on_note=lambda note: typer.echo(f"note: {note}", err=True)
-    )
+    folder = write_dataset(recorded, dataset_id, root, overwrite=overwrite, on_note=note)
     table = Table(title=f"Minari dataset: {dataset_id}", show_header=False)
     table.add_row("dataset id", dataset_id)
     table.add_row("folder", str(folder))

@@ -3,12 +3,12 @@
 
 from __future__ import annotations
 
-import typer
 from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import app, progress_bar, torch_on_one_thread
+from famarl_cli.cli import app, note, progress_bar
 from famarl_cli.cli.derived import command
+from famarl_cli.core.reproducibility import one_thread
 from famarl_cli.stages.oracle import OracleStageOptions
 
 
@@ -26,7 +26,7 @@ def oracle(options: OracleStageOptions) -> None:
     from famarl_cli.artifacts.runs import ORACLE_FILE
     from famarl_cli.stages.oracle import oracle_runs
 
-    torch_on_one_thread()
+    one_thread()
     o = options
     with progress_bar() as progress:
         task = progress.add_task("oracle", total=None)
@@ -46,9 +46,8 @@ def oracle(options: OracleStageOptions) -> None:
     Console().print(table)
     reused = sum(result.get("reused", False) for result in found)
     if reused:
-        typer.echo(
-            f"note: {reused} of {len(runs)} runs already held this search, made from the same checkpoint and "
-            "options; read, not made again (--overwrite makes them afresh)",
-            err=True,
+        note(
+            f"{reused} of {len(runs)} runs already held this search, made from the same checkpoint and "
+            "options; read, not made again (--overwrite makes them afresh)"
         )
     Console().print(f"written {ORACLE_FILE} in {o.out}/<run>")

@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 from rich.text import Text
 
-from famarl_cli.cli import app, named_rows, reports_errors, results_console
+from famarl_cli.cli import ROOT, app, named_rows, reports_errors, results_console
 
 
 @app.command()
@@ -25,7 +25,7 @@ def power(
             dir_okay=False,
         ),
     ] = None,
-    root: Annotated[Path, typer.Option(help="The project's root (its dvc.yaml).", file_okay=False)] = Path("."),
+    root: ROOT = Path("."),
     as_json: Annotated[bool, typer.Option("--json", help="Print the plan as JSON instead of a table.")] = False,
 ) -> None:
     """For each inconclusive claim, the replicates per arm its rule needs to decide at 80% power (Colas, Sigaud &
@@ -51,10 +51,11 @@ def power(
             shown = needed.text() if part is None else part.text()
             if part is not None and part is needed.deciding and len(parts) > 1:
                 shown = f"the claim's: {shown}"
+            threshold = "?" if part is None or part.threshold is None else f"{part.threshold:g}"
             cells = (
                 _pipeline(needed.summary) if index == 0 else "",
                 needed.claim if index == 0 else "",
-                "" if part is None else f"{part.name}: {part.interval.text()} vs {_threshold(part.threshold)}",
+                "" if part is None else f"{part.name}: {part.interval.text()} vs {threshold}",
                 "" if part is None else str(part.n or "?"),
                 shown,
             )
@@ -74,7 +75,3 @@ def _pipeline(summary: str) -> str:
     if path.name == "summary.json" and path.parent.parent.name == "pipelines":
         return path.parent.name
     return "default" if path == Path("summary.json") else summary
-
-
-def _threshold(value: float | None) -> str:
-    return "?" if value is None else f"{value:g}"

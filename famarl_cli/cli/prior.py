@@ -5,8 +5,9 @@ from __future__ import annotations
 import typer
 from rich.table import Table
 
-from famarl_cli.cli import already_made, app, print_written, progress_bar, results_console, torch_on_one_thread
+from famarl_cli.cli import already_made, app, print_written, progress_bar, results_console
 from famarl_cli.cli.derived import command
+from famarl_cli.core.reproducibility import one_thread
 from famarl_cli.stages.prior import PriorFitOptions, prior_job
 from famarl_cli.sweep.registry import sweepable
 
@@ -27,7 +28,7 @@ def prior_fit(options: PriorFitOptions) -> None:
     options = options.given()
     if already_made("famarl prior fit", options, options.outputs()):
         return
-    torch_on_one_thread()
+    one_thread()
     with progress_bar() as progress:
         task = progress.add_task("fit", total=options.epochs)
 

@@ -47,11 +47,6 @@ def report(
     table = named_rows(f"{out / 'report.md'}", ("experiment", "claims", "reproduce", "do not", "inconclusive"))
     for name, section in sections.items():
         counts = section.summary()
-        table.add_row(
-            name,
-            str(counts["claims"]),
-            str(counts["claims_reproduced"]),
-            str(counts["claims_not_reproduced"]),
-            str(counts["claims_inconclusive"]),
-        )
+        keys = ("claims", "claims_reproduced", "claims_not_reproduced", "claims_inconclusive")
+        table.add_row(name, *(str(counts[key]) for key in keys))
     results_console().print(table)

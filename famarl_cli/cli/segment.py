@@ -6,8 +6,9 @@ from rich.console import Console
 from rich.table import Table
 
 from famarl_cli.artifacts.segments import Segments
-from famarl_cli.cli import already_made, app, progress_bar, torch_on_one_thread
+from famarl_cli.cli import already_made, app, progress_bar
 from famarl_cli.cli.derived import command
+from famarl_cli.core.reproducibility import one_thread
 from famarl_cli.stages.method import SegmentOptions
 
 
@@ -19,7 +20,7 @@ def segment(options: SegmentOptions) -> None:
 
     if already_made("famarl segment", options, options.outputs()):
         return
-    torch_on_one_thread()
+    one_thread()
     with progress_bar() as progress:
         task = progress.add_task("segmenter", total=options.segment_epochs)
         result = stages.segment(

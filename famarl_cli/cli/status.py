@@ -4,20 +4,16 @@ run: what ``dvc status`` cannot say on a fresh clone, where every stage never ru
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
 
-import typer
 from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import app, reports_errors
+from famarl_cli.cli import ROOT, app, reports_errors
 
 
 @app.command()
 @reports_errors
-def status(
-    root: Annotated[Path, typer.Option(help="The project's root (its dvc.yaml).", file_okay=False)] = Path("."),
-) -> None:
+def status(root: ROOT = Path(".")) -> None:
     """Per pipeline: its committed verdicts, whether its code, parameters and commands are those its dvc.lock
     records (current) or have changed since (stale), whether its outputs are in this working copy and, where they
     are, whether they are the committed results or were made here otherwise, and the command that makes them with
@@ -33,7 +29,8 @@ def status(
         committed = "none yet" if claims is None else f"{claims} claim{'' if claims == 1 else 's'}"
         current = f"stale ({len(p.stale)} stages)" if p.stale else "current"
         wall = f"{p.timed['total_s'] / 60:.0f} min" if p.timed else "not timed"
-        table.add_row(p.name, committed, current, _here(p), wall)
+        here = "yes, differ" if p.differs else "yes" if p.here else "no"
+        table.add_row(p.name, committed, current, here, wall)
         if not p.here or p.stale:
             todo.append("dvc repro" + ("" if p.definition == "dvc.yaml" else f" {p.definition}"))
         differing += p.differs
@@ -51,11 +48,3 @@ def status(
     )
     for command in todo:
         console.print(f"  {command}", soft_wrap=True)
-
-
-def _here(pipeline) -> str:
-    """Whether a pipeline's outputs are in this working copy and, where they are, whether they are the committed
-    results or were made here otherwise."""
-    if pipeline.differs:
-        return "yes, differ"
-    return "yes" if pipeline.here else "no"

@@ -156,14 +156,13 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
         raise UsageError(f"cannot sweep {command!r}; sweepable commands: {', '.join(sorted(SWEEPABLE))}")
     sweepable = SWEEPABLE[command]
     fields = {option.name: option for option in declared(sweepable.options)}
-    for flag in sweepable.owned:
-        if _given(flag, options) and flag == "--overwrite":
-            raise UsageError(
-                f"--overwrite is the sweep's own option: give it before --, e.g. famarl sweep {command} --overwrite "
-                "--out DIR -- ..."
-            )
-        if _given(flag, options):
-            raise UsageError(f"{flag} is set by the sweep (its --out holds every run); leave it out of the options")
+    for flag in (flag for flag in sweepable.owned if _given(flag, options)):
+        raise UsageError(
+            f"--overwrite is the sweep's own option: give it before --, e.g. famarl sweep {command} --overwrite "
+            "--out DIR -- ..."
+            if flag == "--overwrite"
+            else f"{flag} is set by the sweep (its --out holds every run); leave it out of the options"
+        )
     for flag, why in sweepable.refused.items():
         if _given(flag, options):
             raise UsageError(f"{flag} is not available in a sweep: {why}")

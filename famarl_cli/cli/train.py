@@ -5,11 +5,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import typer
 from rich.table import Table
 
-from famarl_cli.cli import app, console, print_written, progress_bar, results_console, torch_on_one_thread
+from famarl_cli.cli import app, console, note, print_written, progress_bar, results_console
 from famarl_cli.cli.derived import command
+from famarl_cli.core.reproducibility import one_thread
 from famarl_cli.stages.evaluate import shown
 from famarl_cli.stages.train import TrainOptions, board, claimed_run, new_run, train_job
 from famarl_cli.sweep.registry import sweepable
@@ -20,18 +20,17 @@ def train(options: TrainOptions) -> None:
     """Train an agent with PPO; writes run.json, checkpoint.pt and train.csv into the run folder. The default 1M
     env steps on the Maze take, on one core of a 2-core AMD EPYC VM, about 25 s for famarl, 30 s for figar and
     60 s for ppo (their env steps per second in docs/performance.md)."""
-    torch_on_one_thread()
+    one_thread()
     out = options.destination
     # A new run is built (its options and files checked) before the folder is claimed, so bad input writes nothing.
     with console.status(f"making {options.env} and the agent"):  # a user's env may take long to construct
         fresh = new_run(options)
     with claimed_run(options, fresh) as run:
         if run is not fresh and run.complete:
-            typer.echo(
-                f"note: {out} holds this run, complete ({run.own.env_steps:,} of "
+            note(
+                f"{out} holds this run, complete ({run.own.env_steps:,} of "
                 f"{run.trainer.config.total_steps:,} env steps); nothing to do (--resume --steps with a larger budget "
-                "continues it, --overwrite starts afresh)",
-                err=True,
+                "continues it, --overwrite starts afresh)"
             )
             return
         log = board(options.tensorboard)

@@ -6,8 +6,9 @@ from dataclasses import replace
 
 from rich.table import Table
 
-from famarl_cli.cli import already_made, app, print_written, results_console, torch_on_one_thread
+from famarl_cli.cli import already_made, app, print_written, results_console
 from famarl_cli.cli.derived import command
+from famarl_cli.core.reproducibility import one_thread
 from famarl_cli.stages.method import TraverseOptions
 
 
@@ -18,7 +19,7 @@ def traverse(options: TraverseOptions) -> None:
     from famarl_cli.stages import defaults
     from famarl_cli.stages import method as stages
 
-    torch_on_one_thread()
+    one_thread()
     # The default FAVAE is looked up once: the output's name and the traversal take it from the options.
     options = replace(options, favae=options.favae or defaults.favae("--favae"))
     model = options.favae
