@@ -457,7 +457,7 @@ def test_hybrid_goals_are_met_missed_or_inconclusive_from_intervals_over_seeds(t
         for agent, success, learned_at, wall in (
             ("famarl", 0.9, -0.1, 10.0),
             ("ppo", 1.0, 0.6, 10.0),
-            ("hybrid", 1.0, -0.1, 15.0 + jitter),  # 1.5x PPO's wall time: the cost goal is missed
+            ("hybrid", 1.0, -0.1, 15.0 + jitter),  # 1.5x PPO's wall time: shown, judged by no goal
         ):
             value = float(np.clip(success + jitter, 0, 1))
             make_run(
@@ -480,14 +480,14 @@ def test_hybrid_goals_are_met_missed_or_inconclusive_from_intervals_over_seeds(t
         "Maze, start": "met",  # both succeed from the first update; the hybrid more often
         "Maze, speed": "met",  # it reaches 0.8 at once, PPO after 60% of the budget
         "Maze, end": "met",  # the same return
-        "cost": "missed",
         "Maze, overall": "met",
         "Reaching with pegging macros": "missed",  # 0.5 < 0.9
     }
     text = (tmp_path / "report/report.md").read_text().split("## Beyond the paper")[1]
     assert "| goal | per seed we measure |" in text and "| met? |" in text and "reproduces" not in text
+    assert "| hybrid | " in text.split("Training wall time per 1M env steps")[1]  # a measurement, not a goal
     assert (
-        json.loads((tmp_path / "report/summary.json").read_text())["hybrid"]["verdict"] == "4 of 6 met, 2 of 6 missed"
+        json.loads((tmp_path / "report/summary.json").read_text())["hybrid"]["verdict"] == "4 of 5 met, 1 of 5 missed"
     )
     assert (tmp_path / "report/hybrid-maze-shares.png").stat().st_size > 1000
 
@@ -505,21 +505,22 @@ def make_skills(data: Path, learned_at: float, success: float, wall: float = 10.
 
 
 @pytest.mark.parametrize(
-    ("learned_at", "wall", "expected"),
-    [(0.1, 10.0, (Verdict.REPRODUCES, Verdict.REPRODUCES)), (0.9, 30.0, (Verdict.DOES_NOT, Verdict.DOES_NOT))],
+    ("learned_at", "wall", "expected"), [(0.1, 10.0, Verdict.REPRODUCES), (0.9, 30.0, Verdict.DOES_NOT)]
 )
 def test_skills_goals_judge_the_best_skill_agent_at_a_bonferroni_level(tmp_path, learned_at, wall, expected):
     make_skills(tmp_path / "data", learned_at, 0.995, wall)
     section = write_report(["skills"], tmp_path / "data", tmp_path / "report", "test")["skills"]
     found = verdicts(section)
-    maze = next(verdict for goal, verdict in found.items() if goal.startswith("Maze:"))
-    cost = next(verdict for goal, verdict in found.items() if goal.startswith("cost:"))
-    assert (maze, cost) == expected
+    assert next(verdict for goal, verdict in found.items() if goal.startswith("Maze:")) == expected
     # the envs without runs are inconclusive, not met
     assert sum(verdict == Verdict.INCONCLUSIVE for verdict in found.values()) == 3
     text = (tmp_path / "report/report.md").read_text()
     assert "at 97.5% (Bonferroni)" in text  # the best of 2 skill agents
     assert "| famarl+prior+closed |" in text and "| ppo |" in text
+    # wall time is shown as a measurement, never judged: timing.json is outside DVC's hashes
+    assert not any(goal.startswith("cost:") for goal in found)
+    assert "Training wall time per 1M env steps" in text
+    assert f"{wall / 10:.2f} [" in text  # each skill agent's wall over PPO's (10 s a run)
 
 
 def test_the_plots_csv_keeps_a_few_evenly_spaced_points_per_run_and_the_last(tmp_path):

@@ -4,8 +4,20 @@ its threshold, where a decisive verdict is as likely wrong as right."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
-from famarl_cli.report.verdicts import WRONG_PER_CLAIM, Verdict, beats, fails, family, near_threshold, solves
+from famarl_cli.core.errors import ArtifactError
+from famarl_cli.core.statistics import LEVEL
+from famarl_cli.report.verdicts import (
+    WRONG_PER_CLAIM,
+    Looks,
+    Verdict,
+    beats,
+    fails,
+    family,
+    near_threshold,
+    solves,
+)
 
 TAU, DELTA, N, FAMILIES = 0.8, 0.05, 10, 400
 
@@ -76,3 +88,37 @@ def test_claims_that_rejudge_the_same_runs_count_once_and_near_verdicts_are_list
     assert near_threshold({"estimate": 0.1, "low": 0.06, "high": 0.14, "reference": 0.15})
     assert not near_threshold({"estimate": 0.1, "low": 0.0, "high": 0.2, "reference": 0.15})  # straddles
     assert not near_threshold({"estimate": 0.9, "low": 0.86, "high": 0.94, "reference": None})
+
+
+def sequential_errors(levels, rng, runs: int = 4000) -> float:
+    """The share of runs of a sequential claim ("solves", truth at its threshold, so only "does not" is wrong) that
+    end wrong, replicates added 5 at a time from 5 to 20 and judged at each look at ``levels(n)`` until decided."""
+    wrong = 0
+    for _ in range(runs):
+        values = rng.normal(TAU, 0.1, 20)
+        for n in (5, 10, 15, 20):
+            verdict = solves("a", values[:n], TAU, level=levels(n)).verdict
+            if verdict != Verdict.INCONCLUSIVE:
+                wrong += verdict == Verdict.DOES_NOT
+                break
+    return wrong / runs
+
+
+def test_replicates_added_in_blocks_err_at_most_twice_one_look_and_count_twice():
+    """The blocks' levels (docs/verdicts.md, "Replicates added in blocks") keep a claim's error, truth at its
+    threshold, within twice one look's; every look at the first look's level would not."""
+    looks = Looks(first=5)
+    assert (looks.count, [looks.look(n) for n in (5, 6, 10, 11, 20)]) == (4, [1, 2, 2, 3, 4])
+    assert looks.level(5) == LEVEL and looks.level(10) == looks.level(20) == 1 - (1 - LEVEL) / 3
+    assert looks.of(5) is None and looks.of(15) == (3, 4)
+    with pytest.raises(ArtifactError, match="more than the 20"):
+        looks.look(21)
+    rng = np.random.default_rng(1)
+    planned, naive = sequential_errors(looks.level, rng), sequential_errors(lambda n: LEVEL, rng)
+    se = np.sqrt(2 * WRONG_PER_CLAIM / 4000)
+    assert planned <= 2 * WRONG_PER_CLAIM + 3 * se, planned
+    assert naive > planned
+    late = {**judged(solves("a", np.full(10, 0.9), TAU), "late"), "look": [2, 4]}
+    first = judged(solves("b", np.full(5, 0.95), TAU), "first")
+    stated = family([late, first])
+    assert stated.late == 1 and stated.expected_wrong == WRONG_PER_CLAIM * 3 and "counted twice" in stated.text()

@@ -36,7 +36,7 @@ from famarl_cli.artifacts.runs import (
     read_training_log,
 )
 from famarl_cli.core.errors import ArtifactError
-from famarl_cli.core.statistics import RATE, THRESHOLD, mean_interval, normalised_auc, steps_to_threshold
+from famarl_cli.core.statistics import RATE, THRESHOLD, Interval, mean_interval, normalised_auc, steps_to_threshold
 
 EDGE_FRACTION = 0.1
 """Share of a run's logged updates averaged for the 'start' and the 'end' of its learning curve."""
@@ -138,8 +138,31 @@ def group(results: list[RunResult], env: str | None = None, agent: str | None = 
     return groups
 
 
+def in_order(groups: dict[str, Group], order: list[str]) -> dict[str, Group]:
+    """``groups`` with the labels of ``order`` first, in its order, then the others as they came."""
+    return dict(sorted(groups.items(), key=lambda item: order.index(item[0]) if item[0] in order else len(order)))
+
+
 def by_agent(groups: dict[str, Group]) -> dict[str, Group]:
     return {g.agent: g for g in groups.values()}
+
+
+def head(columns: str) -> list[str]:
+    """A markdown table's header lines, its ``columns`` separated by " | "."""
+    return [f"| {columns} |", "|---" * (columns.count(" | ") + 1) + "|"]
+
+
+def bounds(key: str, interval: Interval, digits: int) -> dict[str, float]:
+    """An interval as summary.json records it under ``key``: ``key``, ``key_low`` and ``key_high``, rounded."""
+    return {
+        key: round(interval.estimate, digits),
+        **{f"{key}_{end}": round(getattr(interval, end), digits) for end in ("low", "high")},
+    }
+
+
+def recorded(entry: dict, key: str) -> Interval:
+    """The interval :func:`bounds` recorded under ``key``."""
+    return Interval(entry[key], entry[f"{key}_low"], entry[f"{key}_high"])
 
 
 def _cell(values: np.ndarray, episodes: int | None = None, fmt: str = "{:.2f}") -> str:
@@ -165,7 +188,8 @@ def results_table(groups: list[Group], extra: dict | None = None) -> str:
     say nothing). Wall times are measurements, not results: docs/pipelines.md has each stage's, and a run's is in
     its timing.json."""
     extra = extra or {}
-    head = [
+    columns = [
+        "label",
         "n",
         "env steps",
         "success [95% CI]",
@@ -176,7 +200,7 @@ def results_table(groups: list[Group], extra: dict | None = None) -> str:
         "macro length",
         *extra,
     ]
-    lines = ["| label | " + " | ".join(head) + " |", "|---" * (len(head) + 1) + "|"]
+    lines = head(" | ".join(columns))
     for g in groups:
         cells = [
             str(len(g.runs)),
@@ -236,12 +260,9 @@ def headline(groups: list[Group]) -> dict[str, dict[str, float]]:
     """Per series, the numbers ``dvc exp show`` lists: n, success (sampled) with its 95% interval, AUC, return."""
     numbers = {}
     for series, g in zip(series_names(groups), groups, strict=True):
-        success = mean_interval(g.values("success"), g.episodes)
         numbers[series] = {
             "n": len(g.runs),
-            "success": round(success.estimate, 3),
-            "success_low": round(success.low, 3),
-            "success_high": round(success.high, 3),
+            **bounds("success", mean_interval(g.values("success"), g.episodes), 3),
             "auc": round(float(g.values("auc").mean()), 3),
             "return": round(float(g.values("return_mean").mean()), 1),
         }

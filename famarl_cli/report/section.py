@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
 
-from famarl_cli.report.results import Group, headline, scores
+from famarl_cli.report.results import Group, head, headline, scores
 from famarl_cli.report.verdicts import Claim, Estimate, Verdict, family
 
 GOAL_WORDS = {
@@ -25,8 +25,9 @@ class Section:
 
     title: str
     claims: list[Claim]
-    tables: list[str] = field(default_factory=list)
-    figures: list[str] = field(default_factory=list)
+    tables: list[str | None] = field(default_factory=list)
+    """Tables and figures (file names in the report's folder); None for one there is nothing to make of."""
+    figures: list[str | None] = field(default_factory=list)
     groups: list[Group] = field(default_factory=list)
     """The runs behind it: their learning curves go to ``<name>-curves.csv``, their numbers to summary.json."""
     goals: bool = False
@@ -36,6 +37,10 @@ class Section:
     reaches there: the task can be solved in its own physics and time limit), ``oracle`` (per task and agent, the
     share of layouts a search in the agent's action space solved). No verdicts; summary.json keeps each beside the
     claims."""
+
+    def __post_init__(self) -> None:
+        self.tables = [t for t in self.tables if t]
+        self.figures = [f for f in self.figures if f]
 
     def word(self, verdict: Verdict) -> str:
         return GOAL_WORDS[verdict] if self.goals else verdict.value
@@ -63,8 +68,7 @@ class Section:
         lines = [
             f"## {self.title}: {self.verdict}",
             "",
-            f"| {first} | per seed we measure | rule | per-seed values; estimate [95% CI unless marked] | {last} |",
-            "|---|---|---|---|---|",
+            *head(f"{first} | per seed we measure | rule | per-seed values; estimate [95% CI unless marked] | {last}"),
         ]
         for c in self.claims:
             word = self.word(c.verdict)
@@ -85,6 +89,7 @@ class Section:
                 "verdict": self.word(c.verdict),
                 "rule": c.judgement.rule,
                 **({"reason": c.judgement.reason} if c.judgement.reason else {}),
+                **({"look": list(c.look)} if c.look else {}),
                 "estimates": [estimate_record(e) for e in c.judgement.estimates],
             }
             for c in self.claims
@@ -108,6 +113,8 @@ class Section:
         }
 
 
+COUNTS = ("claims", "claims_reproduced", "claims_not_reproduced", "claims_inconclusive")
+"""What every experiment's part of a summary holds (:meth:`Section.summary`), in the verdicts table's order."""
 VALUE_DIGITS = 6
 """Per-replicate values are kept to this many decimals in summary.json (the interval to 4, as shown)."""
 

@@ -36,12 +36,13 @@ family").
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import StrEnum
 from itertools import combinations
 
 import numpy as np
 
+from famarl_cli.core.errors import ArtifactError
 from famarl_cli.core.statistics import (
     LEVEL,
     Interval,
@@ -146,15 +147,30 @@ def combine(verdicts: Sequence[Verdict]) -> Verdict:
     return verdict
 
 
+def at_least(interval: Interval, tau: float) -> Verdict:
+    return three_way(interval.low >= tau, interval.high < tau)
+
+
+def at_most(interval: Interval, tau: float) -> Verdict:
+    return three_way(interval.high <= tau, interval.low > tau)
+
+
+def _mean(name: str, values: Sequence[float], tau: float, episodes: int | None, level: float, above: bool) -> Judgement:
+    """The mean of ``values`` at least (``above``) or at most ``tau``, judged on its interval."""
+    interval = mean_interval(values, episodes, level)
+    rule = (
+        f"mean >= {tau:g}: lower end >= {tau:g} reproduces, upper end < {tau:g} does not"
+        if above
+        else f"mean <= {tau:g}: upper end <= {tau:g} reproduces, lower end > {tau:g} does not"
+    )
+    verdict = (at_least if above else at_most)(interval, tau)
+    return Judgement(verdict, rule, (Estimate(name, interval, _floats(values), tau, episodes=episodes),))
+
+
 def solves(
     name: str, values: Sequence[float], tau: float, episodes: int | None = None, level: float = LEVEL
 ) -> Judgement:
-    interval = mean_interval(values, episodes, level)
-    return Judgement(
-        three_way(interval.low >= tau, interval.high < tau),
-        f"mean >= {tau:g}: lower end >= {tau:g} reproduces, upper end < {tau:g} does not",
-        (Estimate(name, interval, _floats(values), tau, episodes=episodes),),
-    )
+    return _mean(name, values, tau, episodes, level, above=True)
 
 
 def reaches(
@@ -173,12 +189,7 @@ def reaches(
 def fails(
     name: str, values: Sequence[float], tau: float, episodes: int | None = None, level: float = LEVEL
 ) -> Judgement:
-    interval = mean_interval(values, episodes, level)
-    return Judgement(
-        three_way(interval.high <= tau, interval.low > tau),
-        f"mean <= {tau:g}: upper end <= {tau:g} reproduces, lower end > {tau:g} does not",
-        (Estimate(name, interval, _floats(values), tau, episodes=episodes),),
-    )
+    return _mean(name, values, tau, episodes, level, above=False)
 
 
 def beats(
@@ -197,7 +208,7 @@ def beats(
     else:
         interval, how = difference_interval(a, b, episodes, level), "Welch"
     return Judgement(
-        three_way(interval.low >= delta, interval.high < delta),
+        at_least(interval, delta),
         f"{a_name} - {b_name} ({how}, {level:.1%}): lower end >= {delta:g} reproduces, upper end < {delta:g} does not",
         (difference(f"{a_name} - {b_name}", interval, (a_name, a), (b_name, b), delta, paired, episodes),),
     )
@@ -244,7 +255,7 @@ def faster(
         reason = "the censored runs leave every difference possible"
         return Judgement(Verdict.UNDEFINED, rule, (), reason)
     return Judgement(
-        three_way(interval.low >= delta, interval.high < delta),
+        at_least(interval, delta),
         rule,
         (difference(f"{b_name} - {a_name}", interval, (b_name, b), (a_name, a), delta, paired),),
     )
@@ -267,16 +278,18 @@ def best(name: str, rivals: Pairs, delta: float, episodes: int | None = None) ->
     level = bonferroni_level(len(rivals))
     parts = [beats(name, mine, rival, theirs, delta, episodes, level, paired) for rival, (mine, theirs, paired) in
              rivals.items()]  # fmt: skip
-    return all_of(parts, f"{name} beats each of {len(rivals)} rivals at {level:.1%} (Bonferroni), delta {delta:g}")
+    return all_of(parts, _each_rival(name, "beats", rivals, level, delta))
 
 
 def fastest(name: str, rivals: Pairs, delta: float) -> Judgement:
     level = bonferroni_level(len(rivals))
     parts = [faster(name, mine, rival, theirs, delta, level, paired) for rival, (mine, theirs, paired) in
              rivals.items()]  # fmt: skip
-    return all_of(
-        parts, f"{name} learns faster than each of {len(rivals)} rivals at {level:.1%} (Bonferroni), delta {delta:g}"
-    )
+    return all_of(parts, _each_rival(name, "learns faster than", rivals, level, delta))
+
+
+def _each_rival(name: str, how: str, rivals: Pairs, level: float, delta: float) -> str:
+    return f"{name} {how} each of {len(rivals)} rivals at {level:.1%} (Bonferroni), delta {delta:g}"
 
 
 def equivalent(groups: dict[str, Sequence[float]], margin: float, episodes: int | None = None) -> Judgement:
@@ -326,7 +339,8 @@ class Claim:
     measure: str
     """What each seed contributes (e.g. "success of the sampled policy over 100 evaluation episodes")."""
     judgement: Judgement
-    notes: list[str] = field(default_factory=list)
+    look: tuple[int, int] | None = None
+    """(look, looks) where replicates were added in blocks and this is a later look (:class:`Looks`)."""
 
     @property
     def verdict(self) -> Verdict:
@@ -343,6 +357,36 @@ class Claim:
         if self.judgement.reason:
             parts.append(f"undefined: {self.judgement.reason}")
         return "<br>".join(parts)
+
+
+@dataclass(frozen=True)
+class Looks:
+    """Replicates added in blocks (docs/verdicts.md, "Replicates added in blocks"): the pipeline's ``first`` replicates
+    are look 1, judged at LEVEL; each block adds ``block``, up to ``most`` in all; looks 2 to :attr:`count` share
+    another one-sided (1 - LEVEL) / 2 equally, so a claim decided late errs with probability at most 1 - LEVEL."""
+
+    first: int
+    block: int = 5
+    most: int = 20
+
+    @property
+    def count(self) -> int:
+        return 1 + -(-(self.most - self.first) // self.block)
+
+    def look(self, n: int) -> int:
+        """The look that ``n`` replicates make; more than :attr:`most` is no planned look."""
+        if n > self.most:
+            raise ArtifactError(f"{n} replicates, more than the {self.most} the blocks allow (docs/verdicts.md)")
+        return 1 if n <= self.first else 1 + -(-(n - self.first) // self.block)
+
+    def level(self, n: int) -> float:
+        """The level at which ``n`` replicates are judged."""
+        return LEVEL if self.look(n) == 1 else 1 - (1 - LEVEL) / (self.count - 1)
+
+    def of(self, n: int) -> tuple[int, int] | None:
+        """:attr:`Claim.look` of a claim judged on ``n`` replicates (None at look 1)."""
+        look = self.look(n)
+        return None if look == 1 else (look, self.count)
 
 
 def not_run(paper: str, measure: str) -> Claim:
@@ -373,16 +417,21 @@ class Family:
     """Of the distinct claims, those that reproduce or do not (met or missed)."""
     near: tuple[str, ...]
     """The decisive claims whose verdict sits near its threshold (:func:`near_threshold`)."""
+    late: int = 0
+    """Of the distinct claims, those judged at a later look of replicates added in blocks: each errs with probability
+    at most twice :data:`WRONG_PER_CLAIM` (its first look's share and the later looks' together), so counts twice."""
 
     @property
     def expected_wrong(self) -> float:
-        return WRONG_PER_CLAIM * self.claims
+        return WRONG_PER_CLAIM * (self.claims + self.late)
 
     def text(self) -> str:
         """The statement, with its assumption, in one paragraph."""
         twice = ""
         if self.duplicates:
             twice = f" ({self.duplicates} re-judging the same runs by the same rule counted once)"
+        if self.late:
+            twice += f" ({self.late} judged at a later look of replicates added in blocks counted twice)"
         near = (
             f" Decisive near their thresholds (the threshold within one half-width of the interval's near end), the "
             f"verdicts a replication would most likely not repeat: {'; '.join(self.near)}."
@@ -418,7 +467,7 @@ def near_threshold(estimate: dict) -> bool:
 def family(judged: Sequence[dict]) -> Family:
     """:class:`Family` of claims as summary.json's ``judged`` records them (claim, verdict, rule, estimates)."""
     seen: set = set()
-    claims = duplicates = decisive = 0
+    claims = duplicates = decisive = late = 0
     near = []
     for claim in judged:
         estimates = claim.get("estimates", [])
@@ -433,8 +482,9 @@ def family(judged: Sequence[dict]) -> Family:
             continue
         seen.add(key)
         claims += 1
+        late += bool(claim.get("look"))
         if claim["verdict"] in DECISIVE:
             decisive += 1
             if any(near_threshold(e) for e in estimates):
                 near.append(claim["claim"])
-    return Family(claims, duplicates, decisive, tuple(near))
+    return Family(claims, duplicates, decisive, tuple(near), late)

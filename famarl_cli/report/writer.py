@@ -13,7 +13,7 @@ from famarl_cli.core.reproducibility import machine
 from famarl_cli.report.experiments import experiments
 from famarl_cli.report.plots import plot_intervals
 from famarl_cli.report.results import write_curves
-from famarl_cli.report.section import Section
+from famarl_cli.report.section import COUNTS, Section
 from famarl_cli.report.verdicts import Verdict, family
 
 
@@ -93,15 +93,8 @@ def compared(sections: list[Section]) -> dict:
     agents where it runs them. The same keys in every pipeline, so ``dvc metrics show`` of all of them is one
     narrow table; everything else is in the summary."""
     counts = [section.summary() for section in sections]
-    metrics = {
-        key: sum(count[name] for count in counts)
-        for key, name in (
-            ("claims", "claims"),
-            ("reproduce", "claims_reproduced"),
-            ("do_not", "claims_not_reproduced"),
-            ("inconclusive", "claims_inconclusive"),
-        )
-    }
+    keys = ("claims", "reproduce", "do_not", "inconclusive")
+    metrics = {key: sum(count[name] for count in counts) for key, name in zip(keys, COUNTS, strict=True)}
     headline = counts[0].get("headline", {}) if len(counts) == 1 else {}
     success = {agent: headline[agent]["success"] for agent in COMPARED_AGENTS if agent in headline}
     return {**metrics, **({"success": success} if success else {})}

@@ -72,10 +72,11 @@ def bipedal(data: Path, out: Path):
         ),
     ]
     extra = {"return, sampled [95% CI]": lambda g: mean_interval(per_seed(g, sampled_return)).text("{:.0f}")}
-    tables = [line for line in (demos_line(data / "demos" / "bipedalwalker.h5"),) if line]
-    tables.append(results_table(list(agents.values()), extra))
-    replicates = favae_table(data / "bipedal" / "macros")
-    tables += [replicates] if replicates else []
+    tables = [
+        demos_line(data / "demos" / "bipedalwalker.h5"),
+        results_table(list(agents.values()), extra),
+        favae_table(data / "bipedal" / "macros"),
+    ]
     figures = [curves(list(agents.values()), out / "bipedal-curves.png", "BipedalWalker-v3")]
     figures += demos_and_traversal(data, out, "bipedal", "bipedalwalker")
     title = "BipedalWalker: the paper's stated failure (limitations, lack of feedback control)"

@@ -21,24 +21,26 @@ from famarl_cli.core.statistics import (
     THRESHOLD,
     Interval,
     censored_ratio,
+    difference_interval,
     mean_interval,
     paired_difference_interval,
     ratio_interval,
     steps_to_threshold,
 )
-from famarl_cli.report.results import Group, RunResult, gather, group, macros_folders, read_json
+from famarl_cli.report.results import Group, RunResult, bounds, gather, group, head, macros_folders, read_json, recorded
 from famarl_cli.report.verdicts import (
     Claim,
     Estimate,
     Judgement,
     Verdict,
+    at_least,
+    at_most,
     best,
     fails,
     fastest,
     not_run,
     solves,
     speed_undefined,
-    three_way,
 )
 
 MAZE = "famarl/ContinuousWorld-Maze-v0"
@@ -111,6 +113,19 @@ def aligned(a: dict[int, float], b: dict[int, float]) -> tuple[np.ndarray, np.nd
         seeds = sorted(a)
         return np.array([a[s] for s in seeds]), np.array([b[s] for s in seeds]), True
     return np.array(list(a.values())), np.array(list(b.values())), False
+
+
+def contrast(
+    a: Group, b: Group, measure: Callable[[RunResult], float], episodes: int | None = None, level: float = LEVEL
+) -> tuple[Interval, bool, np.ndarray]:
+    """The interval of ``a``'s mean ``measure`` minus ``b``'s, paired by replicate where they share them (else
+    Welch's); whether it pairs, and ``b``'s values."""
+    mine, theirs, paired = aligned(by_seed(a, measure), by_seed(b, measure))
+    return (
+        (paired_difference_interval if paired else difference_interval)(mine, theirs, episodes, level),
+        paired,
+        theirs,
+    )
 
 
 def success_of(run: RunResult) -> float:
@@ -201,8 +216,7 @@ def favae_table(folder: Path) -> str | None:
     lines = [
         f"FAVAE replicates ({folder}), n = {len(next(iter(rows.values())))}:",
         "",
-        "| score | mean [95% CI] | per seed |",
-        "|---|---|---|",
+        *head("score | mean [95% CI] | per seed"),
     ]
     for name, values in rows.items():
         fmt, interval = _score_interval(name, values)
@@ -226,8 +240,7 @@ def favae_comparison(folders: dict[str, Path], extra: dict[str, dict[str, list[f
     lines = [
         f"The FAVAEs side by side, mean [95% CI] over seeds ({counts}):",
         "",
-        "| score | " + " | ".join(heads) + " |",
-        "|---|" + "---|" * len(heads),
+        *head(" | ".join(["score", *heads])),
     ]
     for name in names:
         cells = []
@@ -305,32 +318,46 @@ def curves(groups: list[Group], path: Path, title: str, panels: tuple[str, ...] 
 
 
 def wall_per_million(run: RunResult) -> float:
-    """The run's training wall per million env steps (from its timing.json)."""
+    """The run's training wall per million env steps (from its timing.json); nan where it records none."""
     if run.train_wall_s is None:
-        raise ArtifactError(f"{run.folder}: its run records no wall time (timing.json); the speed goals need it")
+        return float("nan")
     return run.train_wall_s / float(run.evaluation["env_steps"]) * 1e6
 
 
-def at_least(interval: Interval, goal: float) -> Verdict:
-    return three_way(interval.low >= goal, interval.high < goal)
-
-
-def at_most(interval: Interval, goal: float) -> Verdict:
-    return three_way(interval.high <= goal, interval.low > goal)
+def cost_table(groups: list[Group], baseline: str = "ppo") -> str | None:
+    """Each agent's training wall time per 1M env steps and its ratio to ``baseline``'s, mean [95% bootstrap CI]:
+    a measurement of the machine the runs were made on, shown beside the results and judged by no goal, since a
+    run's wall time (timing.json) is kept out of DVC's hashes (.dvcignore) and so out of what a verdict may read.
+    None where no run recorded its wall time."""
+    walls = {g.label: per_seed(g, wall_per_million) for g in groups}
+    walls = {label: w[np.isfinite(w)] for label, w in walls.items() if np.isfinite(w).any()}
+    if not walls:
+        return None
+    theirs = walls.get(baseline)
+    lines = [
+        "Training wall time per 1M env steps (each run's timing.json, two runs at a time on two cores: a measurement "
+        "of that machine, not a result; benchmarks/ measure speed):",
+        "",
+        *head(f"label | seconds per 1M env steps | / {baseline}'s [95% CI]"),
+    ]
+    for label, mine in walls.items():
+        ratio = ratio_interval(mine, theirs).text() if theirs is not None and label != baseline else "-"
+        lines.append(f"| {label} | {mine.mean():.0f} | {ratio} |")
+    return "\n".join(lines)
 
 
 def speed_ratio_goal(
     goal: str,
     measure: str,
     name: str,
-    mine: dict[int, float],
-    theirs: dict[int, float],
+    mine: Group,
+    theirs: Group,
     bound: float,
     level: float = LEVEL,
 ) -> Claim:
-    """A goal on the typical time to the speed level of one arm over another's (:func:`speed` values by
-    seed): median over median, paired by replicate where they share them, at most ``bound``."""
-    a, b, paired = aligned(mine, theirs)
+    """A goal on the typical time to the speed level (:func:`speed`) of ``mine`` over ``theirs``: median over
+    median, paired by replicate where they share them, at most ``bound``."""
+    a, b, paired = aligned(by_seed(mine, speed), by_seed(theirs, speed))
     reason = speed_undefined({"the first arm": a, "the second arm": b})
     if reason:
         rule = f"median over median at most {bound:g}; undefined where half or more of an arm's runs never hold it"
@@ -388,19 +415,18 @@ def oracle(shares: dict[str, dict[str, tuple[dict[int, float], int]]]) -> dict[s
     result: dict[str, dict] = {}
     for task, labels in shares.items():
         for label, (by_seed, layouts) in labels.items():
-            interval = mean_interval(list(by_seed.values()), layouts)
             result.setdefault(task, {})[label] = {
                 "n": len(by_seed),
                 "layouts": layouts,
-                "share": round(interval.estimate, 4),
-                "share_low": round(interval.low, 4),
-                "share_high": round(interval.high, 4),
+                **bounds("share", mean_interval(list(by_seed.values()), layouts), 4),
                 "per_replicate": {str(seed): round(share, 4) for seed, share in sorted(by_seed.items())},
             }
     return result
 
 
-def oracle_table(found: dict[str, dict]) -> str:
+def oracle_table(found: dict[str, dict]) -> str | None:
+    if not found:
+        return None
     rows = [
         "The action-space oracle (`famarl oracle`, stage `oracle`): per run, the share of its evaluation layouts an "
         "open-loop plan in the agent's own action space solved (the cross-entropy method with the env's resets; a "
@@ -408,11 +434,9 @@ def oracle_table(found: dict[str, dict]) -> str:
         "learner that did not find the solution; a low share says only that this search found no plan in its "
         "budget (plans x iterations), which long plans of primitive actions outgrow first.",
         "",
-        "| task | action space | n | layouts per run | share solved [95% CI over replicates] |",
-        "|---|---|---|---|---|",
+        *head("task | action space | n | layouts per run | share solved [95% CI over replicates]"),
     ]
     for task, labels in found.items():
         for label, o in sorted(labels.items()):
-            interval = f"{o['share']:.2f} [{o['share_low']:.2f}, {o['share_high']:.2f}]"
-            rows.append(f"| {task} | {label} | {o['n']} | {o['layouts']} | {interval} |")
+            rows.append(f"| {task} | {label} | {o['n']} | {o['layouts']} | {recorded(o, 'share').text()} |")
     return "\n".join(rows)

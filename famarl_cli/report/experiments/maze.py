@@ -42,11 +42,8 @@ def maze(data: Path, out: Path):
         best_claim("FaMARL performs best", famarl, rivals),
         fastest_claim("FaMARL learns fastest (the learning curves of Fig. 4a)", famarl, rivals),
     ]
-    tables = [results_table(present)]
-    favae = favae_table(data / "maze" / "macros")
-    tables += [favae] if favae else []
     searched = oracle(oracle_shares([data / "maze" / "oracle"], {"maze": MAZE}))
-    tables += [oracle_table(searched)] if searched else []
+    tables = [results_table(present), favae_table(data / "maze" / "macros"), oracle_table(searched)]
     figures = [curves(present, out / "maze-curves.png", "Maze")]
     if famarl is not None:
         figures.append(copy_figure(famarl.runs[0].folder / ROLLOUTS_FILE, out / "maze-rollouts-famarl.png"))
@@ -57,7 +54,7 @@ def maze(data: Path, out: Path):
         "Maze: FaMARL vs PPO vs FiGAR (paper Fig. 4a, 4b)",
         claims,
         tables,
-        [f for f in figures if f is not None],
+        figures,
         present,
         instruments={"oracle": searched} if searched else {},
     )

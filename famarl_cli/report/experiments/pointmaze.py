@@ -83,8 +83,7 @@ def pointmaze(data: Path, out: Path):
             tables.append(f"PointMaze {name}, sparse reward:\n\n{results_table(groups)}")
             figures.append(curves(groups, out / f"pointmaze-{name.lower()}-curves.png", f"PointMaze {name} (sparse)"))
             every += groups
-    replicates = favae_table(data / "pointmaze" / "macros")
-    tables += [replicates] if replicates else []
+    tables.append(favae_table(data / "pointmaze" / "macros"))
     figures += demos_and_traversal(data, out, "pointmaze", "pointmaze")
     title = "Beyond the paper: PointMaze, macro actions from a small maze in bigger ones"
     return Section(title, claims, tables, figures, every, goals=True)

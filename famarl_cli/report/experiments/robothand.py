@@ -22,7 +22,7 @@ from famarl_cli.report.experiments.common import (
     success_measure,
     success_of,
 )
-from famarl_cli.report.results import Group, copy_figure, gather, group, results_table
+from famarl_cli.report.results import Group, bounds, copy_figure, gather, group, head, recorded, results_table
 from famarl_cli.report.verdicts import (
     Claim,
     Judgement,
@@ -75,14 +75,11 @@ def controls(folder: Path) -> dict[str, dict]:
             continue
         episodes = read_demos(folder / name).episodes
         interval = proportion_interval(sum(bool(e.success) for e in episodes), len(episodes))
-        returns = mean_interval([float(e.rewards.sum()) for e in episodes])
         found[task] = {
             "success": interval.estimate,
             "success_low": round(interval.low, 4),
             "success_high": round(interval.high, 4),
-            "return": round(returns.estimate, 1),
-            "return_low": round(returns.low, 1),
-            "return_high": round(returns.high, 1),
+            **bounds("return", mean_interval([float(e.rewards.sum()) for e in episodes]), 1),
             "episodes": len(episodes),
             "steps": round(sum(e.length for e in episodes) / len(episodes), 1),
         }
@@ -99,14 +96,14 @@ def controls_table(found: dict[str, dict], returns: dict[str, dict[str, float]])
         f"A task whose controller succeeds in less than {CONTROL_BAR:.0%} of them is no test of the agents; one "
         "where agents that do not solve it earn more than the controller rewards something other than solving it.",
         "",
-        "| task | controller's success [95% Wilson CI over episodes] | episodes | mean steps | a test of the agents "
-        "| controller's return [95% CI over episodes] | agents whose mean return is above it |",
-        "|---|---|---|---|---|---|---|",
+        *head(
+            "task | controller's success [95% Wilson CI over episodes] | episodes | mean steps | a test of the agents "
+            "| controller's return [95% CI over episodes] | agents whose mean return is above it"
+        ),
     ]
     for task, c in found.items():
         test = "yes" if c["success"] >= CONTROL_BAR else "**no**: no controller solves it here"
-        interval = f"{c['success']:.2f} [{c['success_low']:.2f}, {c['success_high']:.2f}]"
-        earned = f"{c['return']:.0f} [{c['return_low']:.0f}, {c['return_high']:.0f}]"
+        interval, earned = recorded(c, "success").text(), recorded(c, "return").text("{:.0f}")
         above = [f"{label} ({r:.0f})" for label, r in returns.get(task, {}).items() if r > c["return_high"]]
         row = f"| {task} | {interval} | {c['episodes']} | {c['steps']:.0f} | {test} | {earned} "
         rows.append(row + f"| {', '.join(above) or 'none'} |")
@@ -196,8 +193,7 @@ def robothand(data: Path, out: Path):
         }
         tables.append(controls_table(found, returns))
     searched = oracle(shares)
-    if searched:
-        tables.append(oracle_table(searched))
+    tables.append(oracle_table(searched))
     order = [*PAPER, PER_DECISION]
     labels = sorted(
         {label for by in tasks.values() for label in by},
@@ -208,7 +204,7 @@ def robothand(data: Path, out: Path):
     if "famarl" in paper and len(paper) > 1:
         scores = {label: [tasks[t][label].values("success") for t in tasks] for label in complete}
         claims.append(only_one_completes_both(tasks, [a for a in paper if a != "famarl"]))
-        rows = ["| agent | IQM of success over both tasks [95% CI, stratified bootstrap] |", "|---|---|"]
+        rows = head("agent | IQM of success over both tasks [95% CI, stratified bootstrap]")
         rows += [f"| {label} | {aggregate_interval(scores[label]).text()} |" for label in complete]
         tables.append("Aggregate over Reaching and BallPlacing:\n\n" + "\n".join(rows))
         path = out / "robothand-profile.png"
@@ -233,8 +229,7 @@ def robothand(data: Path, out: Path):
         figures.append(curves(groups, out / f"robothand-{task}-curves.png", f"RobotHand {task}"))
         for g in groups:
             name = f"robothand-{task}-{g.label}"
-            still = copy_figure(g.runs[0].folder / STILLS_FILE, out / f"{name}.png")
-            figures += [still] if still else []
+            figures.append(copy_figure(g.runs[0].folder / STILLS_FILE, out / f"{name}.png"))
             copy_figure(g.runs[0].folder / FILM_FILE, out / f"{name}.gif")
     every = [g for by in tasks.values() for g in by.values()]
     instruments = {"controls": found, "oracle": searched}

@@ -13,7 +13,7 @@ import numpy as np
 
 from famarl_cli.core.statistics import mean_interval
 from famarl_cli.report.experiments import experiment
-from famarl_cli.report.results import copy_figure, macros_folders, read_json
+from famarl_cli.report.results import copy_figure, head, macros_folders, read_json
 from famarl_cli.report.verdicts import Claim, bonferroni_level, fails, solves
 
 MOVES = 0.5
@@ -79,8 +79,7 @@ def _effects_table(names: list[str], matrix: np.ndarray, title: str) -> str:
         f"{title}: effect of each variable (ladder, index) over {len(matrix)} FAVAE seeds: mean [95% CI] (m), and in\n"
         "how many seeds it is the strongest.",
         "",
-        "| variable | effect (m) | strongest in |",
-        "|---|---|---|",
+        *head("variable | effect (m) | strongest in"),
     ]
     for i, name in enumerate(names):
         effect = mean_interval(matrix[:, i], bounds=(0.0, np.inf)).text()
@@ -119,10 +118,8 @@ def traversal(data: Path, out: Path):
         claims += _claims(names, matrix, level, "" if label != PAPER else "with the paper's FAVAE procedure: ")
         tables.append(_effects_table(names, matrix, label))
         extra[label] = _deepest_effects(names, matrix)
-    side_by_side = favae_comparison({label: sources[label] for label in runs}, extra)
-    if side_by_side is not None:
-        tables.append(side_by_side)
+    tables.append(favae_comparison({label: sources[label] for label in runs}, extra))
     figures = [copy_figure(runs[OURS][0] / "traverse.png", out / "traversal.png")]
     if PAPER in runs:
         figures.append(copy_figure(runs[PAPER][0] / "traverse.png", out / "traversal-paper.png"))
-    return Section("Latent traversal, down-and-up (paper Fig. 5)", claims, tables, [f for f in figures if f])
+    return Section("Latent traversal, down-and-up (paper Fig. 5)", claims, tables, figures)
