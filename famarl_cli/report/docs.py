@@ -229,11 +229,14 @@ def verdicts_table(found: list[Pipeline]) -> str:
 
 
 def _estimates(claim: dict) -> str:
+    """A claim's estimates as the tables show them, and where its measure is undefined, why; "(no runs)" where it
+    has neither."""
     parts = []
     for e in claim["estimates"]:
         n = f"n={e['n']}: " if e["n"] else ""
         interval = Interval(e["estimate"], e["low"], e["high"], e.get("level", LEVEL))
         parts.append(f"{e['name']}: {n}{interval.text()}")
+    parts += [f"undefined: {claim['reason']}"] if claim.get("reason") else []
     return "<br>".join(parts) or "(no runs)"
 
 
@@ -274,9 +277,7 @@ def every_claim_table(found: list[Pipeline]) -> str:
         "| rule | verdict | kind"
     )
     for pipeline, name, claim, kind in rows:
-        parts = [_estimates(claim)] if claim.get("estimates") else []
-        parts += [f"undefined: {claim['reason']}"] if claim.get("reason") else []
-        read = "<br>".join(parts) or "(no runs)"
+        read = _estimates(claim)
         measure = f"{claim['measure']}:<br>{read}" if claim.get("measure") else read
         verdict = claim["verdict"] + (" (stale)" if pipeline.stale else "")
         lines.append(f"| {name} | {claim['claim']} | {measure} | {claim['rule']} | {verdict} | {kind.text()} |")
