@@ -22,14 +22,14 @@ from famarl_cli.envs.batched import ContinuousWorldBatch
 ROBOT_HANDS = ("robot-hand-base", "robot-hand-reaching", "robot-hand-ball-placing")
 
 
-def single_env(task: str, seconds: float, unwrapped: bool) -> float:
-    env = gym.make(ENV_IDS[task])
+def single_env(env_id: str, seconds: float, unwrapped: bool) -> float:
+    env = gym.make(env_id)
     if unwrapped:
         env = env.unwrapped
     env.reset(seed=0)
     actions = np.random.default_rng(0).uniform(-1, 1, (1024, *env.action_space.shape)).astype(np.float32)
     counter = iter(range(1 << 62))
-    limit = gym.spec(ENV_IDS[task]).max_episode_steps
+    limit = gym.spec(env_id).max_episode_steps
     elapsed = [0]
 
     def step():
@@ -86,12 +86,12 @@ def main() -> None:
 
     rows = []
     for task in () if args.robot_hand_only else ("base", "maze"):
-        rows.append((task, "single (gym.make)", 1, single_env(task, args.seconds, unwrapped=False)))
-        rows.append((task, "single (unwrapped)", 1, single_env(task, args.seconds, unwrapped=True)))
+        rows.append((task, "single (gym.make)", 1, single_env(ENV_IDS[task], args.seconds, unwrapped=False)))
+        rows.append((task, "single (unwrapped)", 1, single_env(ENV_IDS[task], args.seconds, unwrapped=True)))
         for n_envs in (1, 64, 1024):
             rows.append((task, "batched", n_envs, batched_env(task, n_envs, args.seconds)))
     for task in ROBOT_HANDS:
-        rows.append((task, "single (gym.make)", 1, single_env(task, args.seconds, unwrapped=False)))
+        rows.append((task, "single (gym.make)", 1, single_env(ENV_IDS[task], args.seconds, unwrapped=False)))
 
     print(f"{'task':<24} {'env':<20} {'worlds':>7} {'env steps/s':>14}")
     for task, kind, n_envs, per_s in rows:

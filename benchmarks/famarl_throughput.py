@@ -1,15 +1,19 @@
 """FaMARL's decision throughput: FAVAE decoding alone, and training with the decoder in the loop against PPO
 and FiGAR on the same environment.
 
-    python benchmarks/famarl_throughput.py [--favae data/favae/pushed-down-only.pt] [--steps 200000]
+    python benchmarks/famarl_throughput.py [--favae data/favae/pushed-down-only.pt] [--steps 200000] [--env ID]
 
 1. Decoding: ``Favae.decode_macro_actions`` on batches of 1 to 256 latents (one batch per rollout step of that
    many environments): macro decisions per second.
 2. Training: each agent with `famarl train`'s defaults (16 environments; 16, 32, 128 decisions per environment
-   per rollout for famarl, figar, ppo) for ``--steps`` environment steps on the Maze: env steps and decisions per
-   second, and where the time goes (decoding, the rest of the rollout, PPO updates).
+   per rollout for famarl, figar, ppo) for ``--steps`` environment steps on ``--env`` (the Maze unless named): env
+   steps and decisions per second, and where the time goes (decoding, the rest of the rollout, PPO updates), with
+   the share the env's own steps take (as many steps of one ``gym.make`` env, clocked alone): what a faster env
+   could give the run at most.
 
-The FAVAE is the default pipeline's (`dvc repro` makes it). Prints tables and writes JSON.
+The FAVAE is the default pipeline's (`dvc repro` makes it) or, for another env, one fitted on its demos
+(``--env famarl/RobotHand-Reaching-v1 --favae data/robothand/macros/seed10/favae.pt``). Prints tables and writes
+JSON; the Maze's entries in measured.json are ``famarl_throughput_*``, another env's carry its name.
 """
 
 from __future__ import annotations
@@ -21,11 +25,12 @@ from pathlib import Path
 import numpy as np
 import torch
 from common import RESULTS, command_line, peak_rss_mib, rate, record, rounded, timed, verdict, write_result
+from env_throughput import single_env
 
 from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.rl import Agent
 from famarl_cli.rl.training import Run
-from famarl_cli.stages.train import TrainOptions, run_spec
+from famarl_cli.stages.train import DEFAULT_ENV, TrainOptions, run_spec
 
 BATCHES = (1, 16, 64, 256)
 
@@ -40,9 +45,10 @@ def decoding(favae, seconds: float) -> list[dict]:
     return rows
 
 
-def training(agent: Agent, favae_path: Path, steps: int) -> dict:
-    """The run ``famarl train --agent AGENT --favae FAVAE_PATH --steps STEPS`` makes, trained and clocked."""
-    trainer = Run.start(run_spec(TrainOptions(agent=agent, favae=favae_path, steps=steps))).trainer
+def training(agent: Agent, favae_path: Path, steps: int, env_id: str, env_rate: float) -> dict:
+    """The run ``famarl train --agent AGENT --favae FAVAE_PATH --steps STEPS --env ENV_ID`` makes, trained and
+    clocked; ``env_rate`` is the env's own steps per second, alone."""
+    trainer = Run.start(run_spec(TrainOptions(agent=agent, favae=favae_path, steps=steps, env=env_id))).trainer
     spent = {"decoding": 0.0, "update": 0.0}
 
     def clocked(name, function):
@@ -66,22 +72,37 @@ def training(agent: Agent, favae_path: Path, steps: int) -> dict:
         "decoding_s": spent["decoding"],
         "rollout_other_s": seconds - spent["decoding"] - spent["update"],
         "update_s": spent["update"],
+        "env_share": trainer.members[0].env_steps / env_rate / seconds,
     }
 
 
-def records(decode_rows: list[dict], train_rows: list[dict], command: str) -> dict[str, dict]:
-    """measured.json's entries: training with the decoder in the loop against PPO and FiGAR, and decoding."""
+def records(
+    decode_rows: list[dict], train_rows: list[dict], command: str, env_id: str, env_rate: float
+) -> dict[str, dict]:
+    """measured.json's entries: training with the decoder in the loop against PPO and FiGAR, and decoding; named
+    ``famarl_throughput_*`` on the Maze, with the env's name added on another."""
     trained = {row["agent"]: row for row in train_rows}
     decoded = {row["batch"]: row["decisions_per_s"] for row in decode_rows}
     ratio = trained["famarl"]["env_steps_per_s"] / trained["ppo"]["env_steps_per_s"]
+    suffix, where = ("", "") if env_id == DEFAULT_ENV else (f"_{slug(env_id)}", f" on {env_id}")
+    shares = [row["env_share"] for row in trained.values()]
+    # What is left to make faster once the env is as fast as it is: microseconds per env step outside its steps.
+    outside = {
+        f"{agent}_outside_env": 1e6 * row["seconds"] * (1 - row["env_share"]) / row["env_steps"]
+        for agent, row in trained.items()
+    }
     return {
-        "famarl_throughput_training": {
-            "what": "FaMARL training with the FAVAE decoder in the loop (`famarl train` defaults)",
+        f"famarl_throughput_training{suffix}": {
+            "what": f"FaMARL training with the FAVAE decoder in the loop (`famarl train` defaults){where}",
             "command": command,
             "measured": f"{rounded(trained['famarl']['env_steps_per_s'])} env steps/s, "
             f"{rounded(trained['famarl']['decisions_per_s'])} decisions/s; PPO "
             f"{rounded(trained['ppo']['env_steps_per_s'])}, FiGAR {rounded(trained['figar']['env_steps_per_s'])}: "
-            f"FaMARL **{ratio:.1f}x** PPO's" + verdict(ratio >= 0.5),
+            f"FaMARL **{ratio:.1f}x** PPO's"
+            + verdict(ratio >= 0.5)
+            + "; the env's own steps "
+            + " / ".join(f"{share:.0%}" for share in shares)
+            + " of each run",
             "target": ">= 0.5x PPO's",
             "values": {
                 "famarl": trained["famarl"]["env_steps_per_s"],
@@ -89,6 +110,8 @@ def records(decode_rows: list[dict], train_rows: list[dict], command: str) -> di
                 "ppo": trained["ppo"]["env_steps_per_s"],
                 "figar": trained["figar"]["env_steps_per_s"],
                 "famarl_over_ppo": ratio,
+                "env_alone": env_rate,
+                **outside,
             },
             "unit": {
                 "famarl": "env steps/s",
@@ -96,10 +119,12 @@ def records(decode_rows: list[dict], train_rows: list[dict], command: str) -> di
                 "ppo": "env steps/s",
                 "figar": "env steps/s",
                 "famarl_over_ppo": "x",
+                "env_alone": "env steps/s",
+                **dict.fromkeys(outside, "us"),
             },
             "better": {"famarl_over_ppo": "higher"},
         },
-        "famarl_throughput_decoding": {
+        f"famarl_throughput_decoding{suffix}": {
             "what": "FAVAE decoding, batched",
             "command": command,
             "measured": f"{rounded(decoded[16])} decisions/s at 16 latents per call, {rounded(decoded[64])} at 64",
@@ -109,15 +134,23 @@ def records(decode_rows: list[dict], train_rows: list[dict], command: str) -> di
     }
 
 
+def slug(env_id: str) -> str:
+    """``famarl/RobotHand-Reaching-v1`` -> ``robothand_reaching_v1``: a measured.json name part."""
+    return "".join(c if c.isalnum() else "_" for c in env_id.rsplit("/", 1)[-1].lower())
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--favae", type=Path, default=Path("data/favae/pushed-down-only.pt"))
     parser.add_argument("--steps", type=int, default=200_000)
+    parser.add_argument("--env", default=DEFAULT_ENV, help="Env id to train on (default: the Maze)")
     parser.add_argument("--seconds", type=float, default=2.0, help="per decoding measurement")
-    parser.add_argument("--out", type=Path, default=RESULTS / "famarl_throughput.json")
+    parser.add_argument("--out", type=Path, help="JSON to write (default: results/famarl_throughput[_<env>].json)")
     args = parser.parse_args()
     if not args.favae.is_file():
         parser.error(f"{args.favae} not found: make it with `dvc repro favae_fit` (or pass --favae)")
+    name = "famarl_throughput" if args.env == DEFAULT_ENV else f"famarl_throughput_{slug(args.env)}"
+    out = args.out or RESULTS / f"{name}.json"
     torch.set_num_threads(1)
     favae = load_favae(args.favae)[0]
 
@@ -126,18 +159,24 @@ def main() -> None:
     for row in decode_rows:
         print(f"{row['batch']:>16} {row['decisions_per_s']:>12,.0f} {row['ms_per_call']:>12.3f}")
 
-    train_rows = [training(agent, args.favae, args.steps) for agent in (Agent.FAMARL, Agent.PPO, Agent.FIGAR)]
-    print(f"\n{'agent':<8} {'env steps/s':>12} {'decisions/s':>12} {'decoding':>9} {'rollout':>9} {'update':>9}")
+    env_rate = single_env(args.env, args.seconds, unwrapped=False)
+    agents = (Agent.FAMARL, Agent.PPO, Agent.FIGAR)
+    train_rows = [training(agent, args.favae, args.steps, args.env, env_rate) for agent in agents]
+    print(f"\n{args.env}: {env_rate:,.0f} env steps/s alone")
+    columns = ("decoding", "rollout", "update", "(env)")
+    print(f"{'agent':<8} {'env steps/s':>12} {'decisions/s':>12} " + " ".join(f"{c:>9}" for c in columns))
     for row in train_rows:
-        shares = [row[k] / row["seconds"] for k in ("decoding_s", "rollout_other_s", "update_s")]
+        shares = [row[k] / row["seconds"] for k in ("decoding_s", "rollout_other_s", "update_s")] + [row["env_share"]]
         cells = " ".join(f"{share:>9.0%}" for share in shares)
         print(f"{row['agent']:<8} {row['env_steps_per_s']:>12,.0f} {row['decisions_per_s']:>12,.0f} {cells}")
     rates = {row["agent"]: row["env_steps_per_s"] for row in train_rows}
     ratio = rates["famarl"] / rates["ppo"]
     print(f"famarl / ppo env steps per second: {ratio:.2f}x   peak RSS {peak_rss_mib():.0f} MiB")
-    result = {"favae": str(args.favae), "steps": args.steps, "ratio": ratio}
-    write_result(args.out, {**result, "decoding": decode_rows, "training": train_rows})
-    for name, entry in records(decode_rows, train_rows, command_line(__file__, parser, args)).items():
+    result = {"favae": str(args.favae), "env": args.env, "env_steps_per_s_alone": env_rate, "steps": args.steps}
+    write_result(out, {**result, "ratio": ratio, "decoding": decode_rows, "training": train_rows})
+    for name, entry in records(
+        decode_rows, train_rows, command_line(__file__, parser, args), args.env, env_rate
+    ).items():
         record(name, **entry)
 
 

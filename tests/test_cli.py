@@ -642,8 +642,8 @@ def test_a_wrong_file_is_exit_1_and_the_commands_are_listed_in_workflow_order(tm
 def test_inspect_and_status_refuse_what_they_cannot_read_in_one_line(tmp_path, segments_file):
     foreign = tmp_path / "notes.json"
     foreign.write_text('{"a": 1}')
-    one_line_error(famarl("inspect", foreign), 1, "no famarl command recorded")
+    one_line_error(famarl("inspect", foreign), 1, "no famarl command wrote")
     one_line_error(famarl("inspect", tmp_path / "garbage.bin", "--plot"), 1, "no such file or folder")
-    one_line_error(famarl("inspect", segments_file, "--plot"), 1, "--plot draws demos files")
+    one_line_error(famarl("inspect", segments_file, "--plot"), 2, "--plot draws demos files")
     assert not segments_file.with_suffix(".png").exists()
     one_line_error(famarl("status", "--root", tmp_path), 1, "no dvc.yaml here")

@@ -5,6 +5,7 @@ afresh."""
 
 from __future__ import annotations
 
+import re
 import shutil
 from pathlib import Path
 
@@ -96,6 +97,7 @@ def test_the_same_command_again_does_nothing_and_other_inputs_or_options_are_ref
     again = famarl(*args)
     assert again.exit_code == 0 and ("nothing to do" in again.output or "not made again" in again.output)
     assert {p: p.stat().st_mtime_ns for p in out.rglob("*") if p.is_file()} == written, "nothing may be rewritten"
+    assert not re.search(r"^written ", again.stdout, re.M), "nor said to be"
 
     one_line_error(famarl(*args, flag, value), 2, f"{flag} ")
     if changed_input is not None and command in DERIVED:  # a result of a run trained further is out of date
@@ -115,6 +117,17 @@ def test_a_file_that_records_no_making_is_refused_unless_overwrite(tmp_path):
     out.write_bytes(b"made by hand")
     one_line_error(famarl("demos", "--episodes", 2, "--out", out, "--no-plot"), 2, "does not record what it was made")
     assert out.read_bytes() == b"made by hand"
+    assert famarl("demos", "--episodes", 2, "--out", out, "--no-plot", "--overwrite").exit_code == 0
+
+
+@pytest.mark.parametrize("cut", [0, 40])
+def test_a_truncated_output_is_refused_as_unreadable_not_as_made_by_hand(tmp_path, cut):
+    out = tmp_path / "d.h5"
+    assert famarl("demos", "--episodes", 2, "--out", out, "--no-plot").exit_code == 0
+    out.write_bytes(out.read_bytes()[:cut])
+    result = famarl("demos", "--episodes", 2, "--out", out, "--no-plot")
+    one_line_error(result, 2, "cannot be read (truncated or corrupt?")
+    assert "made by hand" not in result.output and out.stat().st_size == cut
     assert famarl("demos", "--episodes", 2, "--out", out, "--no-plot", "--overwrite").exit_code == 0
 
 

@@ -205,3 +205,20 @@ def test_famarl_power_without_summaries_needs_a_project(tmp_path):
     one_line_error(famarl("power", "--root", tmp_path), 1, "no dvc.yaml here")
     (tmp_path / "dvc.yaml").write_text("stages: {}\n")
     one_line_error(famarl("power", "--root", tmp_path), 1, "no summary.json")
+
+
+def test_an_undefined_claim_is_listed_with_its_reason_and_no_number(tmp_path, monkeypatch):
+    never = [math.inf] * 5
+    path = tmp_path / "summary.json"
+    path.write_text(
+        json.dumps(summary_of(faster("f", never, "p", [0.2, 0.3, 0.2, 0.4, 0.3], 0.05), solves("c", NEAR, 0.8)))
+    )
+    monkeypatch.setenv("COLUMNS", "200")
+    result = famarl("power", "--summary", path, "--json")
+    assert result.exit_code == 0, result.output
+    undefined, inconclusive = json.loads(result.stdout)["claims"]
+    assert undefined["verdict"] == "undefined" and undefined["needed"] is None and "never" in undefined["why"]
+    assert inconclusive["verdict"] == "inconclusive" and inconclusive["needed"] > 5
+    table = famarl("power", "--summary", path)
+    words = " ".join(table.stdout.replace("│", " ").split())  # the table and its footer wrap at the terminal's width
+    assert "1 inconclusive claim and 1 undefined" in words and "more replicates alone do not" in words

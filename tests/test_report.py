@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import re
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -451,6 +452,39 @@ def test_cli_refuses_unknown_experiments_and_bad_evaluations(tmp_path):
     assert not (tmp_path / "r/report.md").exists()
 
 
+def test_a_data_folder_elsewhere_is_read_whole_and_a_run_left_unevaluated_is_an_error(tmp_path, monkeypatch):
+    # a pipeline records its runs as data/...; --data names a copy of that folder, which is read and never mixed
+    # with the data folder of the current directory
+    checkout, copy = tmp_path / "checkout", tmp_path / "copy"
+    make_maze(checkout / "data", famarl=0.9, ppo=0.1, figar=0.2)
+    for evaluation in (checkout / "data/maze/eval").glob("*/eval.json"):
+        values = json.loads(evaluation.read_text())
+        values["run"] = f"data/maze/runs/{evaluation.parent.name}"
+        evaluation.write_text(json.dumps(values))
+    shutil.copytree(checkout / "data", copy)
+    log = copy / "maze/runs/famarl-seed0/train.csv"
+    rows = list(csv.DictReader(log.open()))
+    with log.open("w", newline="") as handle:  # in the copy, this replicate never learned
+        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows({**row, "episode_success": 0.0} for row in rows)
+    monkeypatch.chdir(checkout)
+    runner = CliRunner()
+
+    def auc(data: str) -> float:
+        result = runner.invoke(app, ["report", "-e", "maze", "--data", data, "--out", str(tmp_path / "r" / data[-4:])])
+        assert result.exit_code == 0, result.output
+        return json.loads((tmp_path / "r" / data[-4:] / "summary.json").read_text())["maze"]["headline"]["famarl"][
+            "auc"
+        ]
+
+    assert auc(str(copy)) < auc("data")
+    shutil.rmtree(copy / "maze/eval/ppo-seed4")
+    result = runner.invoke(app, ["report", "-e", "maze", "--data", str(copy), "--out", str(tmp_path / "gap")])
+    assert result.exit_code == 1 and not (tmp_path / "gap/report.md").exists()
+    assert "maze/runs/ppo-seed4: a run with no evaluation" in result.output.replace("\n", "")
+
+
 def test_hybrid_goals_are_met_missed_or_inconclusive_from_intervals_over_seeds(tmp_path):
     data = tmp_path / "data"
     for seed, jitter in zip(SEEDS, JITTER, strict=True):
@@ -486,9 +520,12 @@ def test_hybrid_goals_are_met_missed_or_inconclusive_from_intervals_over_seeds(t
     text = (tmp_path / "report/report.md").read_text().split("## Beyond the paper")[1]
     assert "| goal | per seed we measure |" in text and "| met? |" in text and "reproduces" not in text
     assert "| hybrid | " in text.split("Training wall time per 1M env steps")[1]  # a measurement, not a goal
-    assert (
-        json.loads((tmp_path / "report/summary.json").read_text())["hybrid"]["verdict"] == "4 of 5 met, 1 of 5 missed"
-    )
+    summary = json.loads((tmp_path / "report/summary.json").read_text())["hybrid"]
+    assert summary["verdict"] == "4 of 5 met, 1 of 5 missed"
+    # every estimate, ratios and differences too, carries its replicates and a difference its two arms' values
+    estimates = [e for claim in summary["judged"] for e in claim["estimates"]]
+    assert all(e["n"] == len(SEEDS) for e in estimates)
+    assert all(len(arm["values"]) == len(SEEDS) for e in estimates for arm in e.get("arms", []))
     assert (tmp_path / "report/hybrid-maze-shares.png").stat().st_size > 1000
 
 
@@ -533,7 +570,8 @@ def test_the_plots_csv_keeps_a_few_evenly_spaced_points_per_run_and_the_last(tmp
         "episode_return": np.zeros(updates),
         "macro_length": np.ones(updates),
     }
-    run = RunResult({"run": "runs/a-seed0", "seed": 0, "label": "a", "env": "e"}, log, updates * 64, tmp_path)
+    evaluation = {"run": "runs/a-seed0", "seed": 0, "label": "a", "env": "e"}
+    run = RunResult(evaluation, log, updates * 64, tmp_path, Path("runs/a-seed0"), {})
     write_curves([Group("a", [run])], tmp_path / "a-curves.csv")
     with open(tmp_path / "a-curves.csv", newline="") as handle:
         rows = list(csv.DictReader(handle))

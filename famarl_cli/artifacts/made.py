@@ -15,6 +15,7 @@ there and complete, made from the same inputs and options  "already complete; no
 there but not complete (a file of it missing)              makes it again
 made from other inputs or options                          refused, naming what changed (by its option)
 a file that records no making (by hand, or older famarl)   refused
+a file that cannot be read (truncated, corrupt)            refused, saying so
 =========================================================  ===========================================
 
 A *derived* output, a result computed from a run (``famarl evaluate``'s, ``famarl oracle``'s), made by the same
@@ -114,23 +115,32 @@ def provenance(
     return prov
 
 
-def read_provenance(path: Path) -> dict:
-    """The provenance an artifact records (HDF5, JSON or torch checkpoint); empty where it records none or cannot
-    be read."""
-    try:
-        kind = file_kind(path)
-        if kind == "hdf5":
-            with h5py.File(path, "r") as handle:
-                prov = json.loads(handle.attrs.get("provenance", "{}"))
-        elif kind == "torch":
-            import torch
+def _provenance(path: Path) -> dict:
+    """The provenance an artifact records (HDF5, JSON or torch checkpoint), empty where it records none (other
+    bytes: a file made by hand); the reader's exception where a file of those kinds cannot be read."""
+    kind = file_kind(path)
+    if kind == "empty":
+        raise ValueError("the file is empty")
+    if kind is None:
+        return {}
+    if kind == "hdf5":
+        with h5py.File(path, "r") as handle:
+            prov = json.loads(handle.attrs.get("provenance", "{}"))
+    elif kind == "torch":
+        import torch
 
-            prov = torch.load(path, map_location="cpu", weights_only=True).get("provenance", {})
-        else:
-            prov = json.loads(path.read_text()).get("provenance", {})
+        prov = torch.load(path, map_location="cpu", weights_only=True).get("provenance", {})
+    else:
+        prov = json.loads(path.read_text()).get("provenance", {})
+    return prov if isinstance(prov, dict) else {}
+
+
+def read_provenance(path: Path) -> dict:
+    """The provenance an artifact records; empty where it records none or cannot be read."""
+    try:
+        return _provenance(path)
     except Exception:  # an unreadable file records nothing
         return {}
-    return prov if isinstance(prov, dict) else {}
 
 
 def recorded_making(path: Path) -> dict | None:
@@ -139,12 +149,12 @@ def recorded_making(path: Path) -> dict | None:
     return made if isinstance(made, dict) else None
 
 
-def _flat(options: dict, prefix: str = "") -> dict:
+def flat_settings(options: dict, prefix: str = "") -> dict:
     """Nested settings by dotted name (``ppo.total_steps``), so that a change names the one that changed."""
     flat = {}
     for name, value in options.items():
         if isinstance(value, dict) and value:
-            flat.update(_flat(value, f"{prefix}{name}."))
+            flat.update(flat_settings(value, f"{prefix}{name}."))
         else:
             flat[f"{prefix}{name}"] = value
     return flat
@@ -173,7 +183,7 @@ def what_changed(before: dict, now: dict, names: dict[str, str] | None = None) -
 def _changed_options(before: dict, now: dict, names: dict[str, str]) -> list[str]:
     """Each option whose value differs, once under the name the user types (two settings of one option, as
     ``--normalize`` sets both of its, read as one change)."""
-    was_options, options = _flat(before.get("options") or {}), _flat(now["options"])
+    was_options, options = flat_settings(before.get("options") or {}), flat_settings(now["options"])
     # a setting recorded under an option's former name (named, like the option, by its flag) is that option
     for old in set(was_options) - set(options):
         new = [name for name in set(options) - set(was_options) if names.get(name, name) == names.get(old)]
@@ -213,8 +223,15 @@ def claim_output(
     primary = outputs[0]
     if overwrite or not primary.exists():
         return True
-    recorded = recorded_making(primary)
-    if recorded is None:
+    try:
+        recorded = _provenance(primary).get("made_from")
+    except Exception as exc:
+        why = " ".join(f"{type(exc).__name__}: {exc}".split())
+        raise UsageError(
+            f"{primary} exists and cannot be read (truncated or corrupt? {why}); add --overwrite to replace it, or "
+            f"{instead}"
+        ) from None
+    if not isinstance(recorded, dict):
         raise UsageError(
             f"{primary} exists and does not record what it was made from (made by hand or by an older famarl); "
             f"add --overwrite to replace it, or {instead}"

@@ -222,3 +222,29 @@ def read_training_log(run_dir: str | os.PathLike) -> dict[str, np.ndarray]:
     for key in ("env_steps", "episode_success", "episode_return"):
         check(key in columns, path, f"has no {key!r} column")
     return columns
+
+
+def check_run_folder(run_dir: str | os.PathLike) -> dict:
+    """The run file of a run folder whose checkpoint loads and whose training log agrees with both: what ``famarl
+    inspect`` vouches for. The checkpoint is written first and the run file last (:func:`write_run`), so a run
+    stopped while it saved may have a checkpoint and log ahead of its run file, never behind it."""
+    run = read_run_file(run_dir)
+    checkpoint, log = Path(run_dir) / CHECKPOINT_FILE, Path(run_dir) / LOG_FILE
+    if not checkpoint.exists():
+        raise ArtifactError(f"{checkpoint}: missing; the run can be neither evaluated nor continued")
+    saved, claimed = int(read_run_checkpoint(run_dir)["status"].get("updates", -1)), int(run.get("updates", 0))
+    check(saved >= claimed, checkpoint, f"holds {saved} updates where {RUN_FILE} says {claimed}: an older save")
+    if claimed == 0:  # no update yet, so no log
+        return run
+    steps = read_training_log(run_dir)["env_steps"]
+    check(
+        claimed <= len(steps) <= saved,
+        log,
+        f"has {len(steps)} updates where {RUN_FILE} says {claimed} and {CHECKPOINT_FILE} {saved} (truncated?)",
+    )
+    check(
+        steps[claimed - 1] == run.get("env_steps"),
+        log,
+        f"has {steps[claimed - 1]:.0f} env steps at update {claimed} where {RUN_FILE} says {run.get('env_steps')}",
+    )
+    return run

@@ -77,12 +77,15 @@ def evaluate(options: EvaluateOptions) -> None:
     unfilmed = sorted({e["not_filmed"] for e in done.evaluations if "not_filmed" in e})
     for why in unfilmed:
         note(f"not filmed: {why}")
-    filmed = o.film and not unfilmed
     curves = done.curves
+    if len(reused) == runs:
+        console.print(f"nothing written (every evaluation was there); learning curves in {curves}")
+        return
+    files = [EVAL_FILE, *([f"{ROLLOUTS_FILE} (ContinuousWorld runs only)"] if o.rollouts else [])]
+    files += [FILM_FILE, STILLS_FILE] if o.film and not unfilmed else []
     console.print(
-        f"written {EVAL_FILE}, {ROLLOUTS_FILE} (ContinuousWorld runs only)"
-        f"{f', {FILM_FILE}, {STILLS_FILE}' if filmed else ''} in {done.out or 'each run folder'}, {curves}, "
-        f"{curves.with_suffix('.json')}"
+        f"written {', '.join(files)} for {runs - len(reused)} of {runs} runs in {done.out or 'each run folder'}, "
+        f"{curves}, {curves.with_suffix('.json')}"
     )
 
 

@@ -7,12 +7,12 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
 from rich.table import Table
 
-from famarl_cli.cli import app, reports_errors
+from famarl_cli.cli import app, reports_errors, results_console
 from famarl_cli.cli.demos import demos_table
 from famarl_cli.cli.segment import segments_table
+from famarl_cli.core.errors import UsageError
 
 
 @app.command()
@@ -22,8 +22,9 @@ def inspect(
         Path,
         typer.Argument(
             help="Artifact to check: demos, segments or traversal HDF5; a FAVAE, prior or segmenter checkpoint "
-            "(.pt); a run folder (famarl train) or its checkpoint; a famarl JSON record (eval.json, oracle.json, a "
-            "calibration, job.json)."
+            "(.pt); a run folder (famarl train) or its checkpoint; a JSON file famarl writes (eval.json, oracle.json, "
+            "a calibration, a .metrics.json, timing.json, job.json, sweep.json, curves.json, a report's summary.json "
+            "and metrics.json)."
         ),
     ],
     plot: Annotated[
@@ -32,13 +33,17 @@ def inspect(
 ) -> None:
     """Check that a file or folder is a valid famarl artifact, and print what it holds and what made it."""
     from famarl_cli.artifacts.base import file_kind
+    from famarl_cli.artifacts.tracked import refuse_tracked
     from famarl_cli.core.errors import ArtifactError
 
     if not path.exists():
         raise ArtifactError(f"{path}: no such file or folder")
     kind = file_kind(path) if path.is_file() else None
-    if plot and kind != "hdf5":  # a demos file's trajectories: _hdf5 checks the schema
-        raise ArtifactError(f"{path}: --plot draws demos files; this is not one")
+    if plot:
+        if kind != "hdf5":  # a demos file's trajectories: _hdf5 checks the schema
+            raise UsageError(f"{path}: --plot draws demos files; this is not one")
+        # before reading: the picture of a stage's demos is that stage's output, which only dvc repro writes
+        refuse_tracked(path.with_suffix(".png"), "copy the demos file elsewhere to draw it there")
     if path.is_dir():
         table, made = _run_folder(path)
     elif kind == "hdf5":
@@ -48,7 +53,9 @@ def inspect(
     else:
         table, made = _record(path)
     _provenance_rows(table, made)
-    Console().print(table)
+    for column in table.columns:  # a path longer than its column is folded onto the next line, never cut
+        column.overflow = "fold"
+    results_console().print(table)
 
 
 def _hdf5(path: Path, plot: bool) -> tuple[Table, dict]:
@@ -63,7 +70,7 @@ def _hdf5(path: Path, plot: bool) -> tuple[Table, dict]:
 
     schema = peek_schema(path)
     if plot and schema != DEMOS:
-        raise ArtifactError(f"{path}: --plot draws demos files; this is not one")
+        raise UsageError(f"{path}: --plot draws demos files; this is not one")
     if schema == DEMOS:
         loaded = read_demos(path)
         table = demos_table(loaded, str(path))
@@ -114,10 +121,10 @@ def _checkpoint(path: Path) -> tuple[Table, dict]:
 
 
 def _run_folder(folder: Path) -> tuple[Table, dict]:
-    from famarl_cli.artifacts.runs import EVAL_FILE, read_evaluation, read_run_file
+    from famarl_cli.artifacts.runs import EVAL_FILE, check_run_folder, read_evaluation
     from famarl_cli.stages.evaluate import judged_success
 
-    run = read_run_file(folder)
+    run = check_run_folder(folder)
     spec, ppo = run["spec"], run["spec"]["ppo"]
     table = Table(title=f"run {folder}", show_header=False)
     table.add_row("agent", f"{spec['agent']} ({spec['label']}), seed {spec['seed']}")
@@ -154,37 +161,175 @@ def _evaluation(path: Path) -> tuple[Table, dict]:
 
 
 def _record(path: Path) -> tuple[Table, dict]:
-    from famarl_cli.artifacts.runs import EVAL_SCHEMA
+    from famarl_cli.artifacts.base import file_kind
+    from famarl_cli.artifacts.runs import EVAL_SCHEMA, RUN_SCHEMA
     from famarl_cli.core.errors import ArtifactError
+    from famarl_cli.sweep.plan import JOB_FILE, JOB_SCHEMA
 
+    kind = file_kind(path)
+    if kind == "empty":
+        raise ArtifactError(f"{path}: an empty file (truncated?)")
+    if kind != "json":
+        raise ArtifactError(f"{path}: not an HDF5 file, a torch checkpoint or a JSON record")
     try:
         record = json.loads(path.read_text())
     except (ValueError, UnicodeDecodeError) as exc:
-        raise ArtifactError(f"{path}: not an HDF5 file, a torch checkpoint or a JSON record") from exc
-    made = record.get("provenance") if isinstance(record, dict) else None
-    schema = record.get("schema") if isinstance(record, dict) else None
-    if schema == EVAL_SCHEMA or (schema is None and (made or {}).get("command") == "famarl evaluate"):
+        raise ArtifactError(f"{path}: not valid JSON (truncated or corrupt: {exc})") from exc
+    if not isinstance(record, dict):
+        raise ArtifactError(f"{path}: a JSON file that no famarl command wrote (not an object)")
+    made = record.get("provenance") if isinstance(record.get("provenance"), dict) else {}
+    schema = record.get("schema")
+    if schema == EVAL_SCHEMA or (schema is None and made.get("command") == "famarl evaluate"):
         return _evaluation(path)
-    if not str(schema).startswith("famarl.") and not str((made or {}).get("command", "")).startswith("famarl "):
-        raise ArtifactError(f"{path}: a JSON file that no famarl command recorded (no famarl schema or provenance)")
+    if schema == RUN_SCHEMA:
+        return _run_folder(path.parent)
+    if schema == JOB_SCHEMA:
+        return _job(path, record)
     table = Table(title=str(path), show_header=False)
-    if schema:
+    if schema is not None:
         table.add_row("schema", f"{schema} (version {record.get('schema_version')})")
+    if schema == "famarl.sweep":  # a sweep's plan (famarl_cli.sweep.driver): each job's folder records its making
+        for name, job in (record.get("jobs") or {}).items():
+            point = ", ".join(f"{k}={v}" for k, v in job.items() if k != "key")
+            table.add_row("job", f"{name} ({point}): its making in {name}/{JOB_FILE}")
+        return table, {"command": "famarl sweep"}
+    if not str(schema).startswith("famarl.") and not str(made.get("command", "")).startswith("famarl "):
+        what, record, made = _unschemed(path, record)
+        table.add_row("what", what)
     for key, value in record.items():
-        if key not in ("schema", "schema_version", "provenance") and not isinstance(value, dict | list):
-            table.add_row(key.replace("_", " "), str(value))
-    return table, made or {}
+        shown = _shown(value)
+        if key not in ("schema", "schema_version", "provenance") and shown is not None:
+            table.add_row(key.replace("_", " "), shown)
+    return table, made
+
+
+def _shown(value: object) -> str | None:
+    """A record's value on one row: a number or text as it is, a list or mapping of them as a list, a mapping of
+    anything else by its keys; None where a row cannot hold it (a list of records)."""
+    if not isinstance(value, dict | list):
+        return str(value)
+    items = value.values() if isinstance(value, dict) else value
+    if not all(isinstance(item, str | int | float | bool) or item is None for item in items):
+        return ", ".join(value) if isinstance(value, dict) else None
+    if isinstance(value, dict):
+        return ", ".join(f"{key} {_number(item)}" for key, item in value.items())
+    return ", ".join(map(_number, value))
+
+
+def _number(value: object) -> str:
+    return f"{value:.4g}" if isinstance(value, float) else str(value)
+
+
+def _job(path: Path, record: dict) -> tuple[Table, dict]:
+    """A sweep's job record (or a famarl macros folder's): the job, and its making as its key hashes it."""
+    table = Table(title=str(path), show_header=False)
+    table.add_row("schema", f"{record['schema']} (version {record.get('schema_version')})")
+    point = ", ".join(f"{k}={v}" for k, v in (record.get("point") or {}).items())
+    state = "complete" if record.get("complete") else "not complete"
+    table.add_row("job", f"{record.get('name')} ({point}), {state}; key {str(record.get('key'))[:12]}")
+    config = record.get("config") or {}
+    # famarl train's job holds the run's spec, as run.json does; the others hold the command's own options
+    runner = str(record.get("runner"))
+    command = "famarl train" if "spec" in config else _swept_command(runner) or runner
+    table.add_row("runner", runner)
+    made = {
+        "command": command,
+        "famarl_version": record.get("famarl_version"),
+        "made_from": {"options": config.get("spec", config)},
+        "inputs": record.get("inputs") or {},
+    }
+    return table, made
+
+
+def _swept_command(runner: str) -> str | None:
+    """The command a job's runner (``module:function``) runs a point of: the sweepable command whose options are
+    declared beside it."""
+    from famarl_cli.sweep.registry import SWEEPABLE
+
+    module = runner.split(":")[0]
+    return next((f"famarl {s.command}" for s in SWEEPABLE.values() if s.options.__module__ == module), None)
+
+
+def _unschemed(path: Path, record: dict) -> tuple[str, dict, dict]:
+    """What a JSON file that famarl writes without a schema is, in words, what of it to show, and the provenance of
+    what made it (that of the artifact it belongs to, beside it, where there is one); an error for a JSON that no
+    famarl command writes."""
+    from famarl_cli.artifacts.made import read_provenance
+    from famarl_cli.artifacts.runs import RUN_FILE, TIMING_FILE
+    from famarl_cli.core.errors import ArtifactError
+
+    if path.name.endswith(".metrics.json"):
+        stem = path.name.removesuffix(".metrics.json")
+        measured = [path.with_name(f"{stem}{suffix}") for suffix in (".h5", ".pt")]
+        found = next((artifact for artifact in measured if artifact.is_file()), None)
+        if found is None:
+            raise ArtifactError(
+                f"{path}: famarl writes a .metrics.json beside the artifact it measures, and neither "
+                f"{measured[0].name} nor {measured[1].name} is here"
+            )
+        return f"the metrics of {found}, made with it", record, read_provenance(found)
+    if path.name == TIMING_FILE and set(record) == {"wall_s"}:
+        what = f"the wall time famarl train took to make the run in {path.parent}"
+        return what, record, read_provenance(path.parent / RUN_FILE)
+    if {"effects_m", "values"} <= set(record):
+        traversal = path.with_suffix(".h5")
+        what = f"the effect of each latent variable famarl traverse measured in {traversal}"
+        return what, record, read_provenance(traversal)
+    if set(record) == {"episodes", "seed", "labels"}:
+        what = f"famarl evaluate's summary per label of the runs {path.with_suffix('.png')} draws"
+        return what, record, {"command": "famarl evaluate"}
+    if {"claims", "reproduce", "do_not", "inconclusive"} <= set(record):
+        return "famarl report's count of verdicts (a pipeline's DVC metric)", record, {"command": "famarl report"}
+    sections = [value for value in record.values() if isinstance(value, dict)]
+    if sections and len(sections) == len(record) and all({"verdict", "made"} <= set(s) for s in sections):
+        made = sections[0]["made"]
+        return (
+            "famarl report's summary: each experiment's verdicts and the estimates behind them",
+            {name: section["verdict"] for name, section in record.items()},
+            {"command": "famarl report", "famarl_version": made.get("famarl"), "machine": made.get("machine")},
+        )
+    raise ArtifactError(f"{path}: a JSON file that no famarl command wrote (no famarl schema or provenance)")
 
 
 def _provenance_rows(table: Table, made: dict) -> None:
-    """What made the artifact: the command and its settings, its inputs, famarl's version."""
-    if not made:
+    """What made the artifact: the command and its settings, under the options that set them, its inputs,
+    famarl's version."""
+    if not made.get("command"):
         table.add_row("made by", "not recorded")
         return
     seed = "" if made.get("seed") is None else f", seed {made['seed']}"
-    table.add_row("made by", f"{made.get('command')} (famarl {made.get('famarl_version')}){seed}")
+    version = "" if made.get("famarl_version") is None else f" (famarl {made['famarl_version']})"
+    where = "" if made.get("machine") is None else f", on {made['machine']}"
+    table.add_row("made by", f"{made['command']}{version}{seed}{where}")
     making = made.get("made_from") or {}
     if making.get("options"):
-        table.add_row("options", ", ".join(f"{k}={json.dumps(v)}" for k, v in making["options"].items()))
+        table.add_row("options", ", ".join(_options_shown(made["command"], making["options"])))
     for name, digest in (made.get("inputs") or {}).items():
         table.add_row("input", f"{name} (sha256 {digest[:12]})")
+
+
+def _options_shown(command: str, options: dict) -> list[str]:
+    """Each recorded setting of ``command`` as its option is typed (``--prior-steps 400``), once per option; a
+    setting no option sets (``ppo.vf_coef``) under its own dotted name."""
+    from famarl_cli.artifacts.made import flat_settings
+
+    names = _option_names(command)
+    shown = [f"{names.get(name, name)} {json.dumps(value)}" for name, value in flat_settings(options).items()]
+    return list(dict.fromkeys(shown))
+
+
+def _option_names(command: str) -> dict[str, str]:
+    """The settings a making of ``command`` records, to the options that set them; empty for a command famarl no
+    longer has."""
+    from famarl_cli.artifacts.made import option_names
+    from famarl_cli.cli.derived import click_command
+
+    if command == "famarl train":  # a run records its spec, whose settings the options set under other names
+        from famarl_cli.stages.train import setting_options
+
+        return setting_options()
+    found = click_command(app)
+    for word in command.split()[1:]:
+        found = getattr(found, "commands", {}).get(word)
+    declaration = getattr(getattr(found, "callback", None), "declaration", None)
+    return {} if declaration is None else option_names(declaration)

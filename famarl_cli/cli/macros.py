@@ -50,7 +50,8 @@ def macros(options: MacrosOptions) -> None:
     )
     table.add_row("MIG", metrics["mig_note"] if metrics["mig"] is None else f"{metrics['mig']:.3f}")
     results_console().print(table)
-    print_written([out])
+    if made:
+        print_written([out])
 
 
 sweepable("macros", MacrosOptions, owned=("--out", "--overwrite"))(macros_job)

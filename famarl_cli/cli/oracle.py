@@ -50,4 +50,5 @@ def oracle(options: OracleStageOptions) -> None:
             f"{reused} of {len(runs)} runs already held this search, made from the same checkpoint and "
             "options; read, not made again (--overwrite makes them afresh)"
         )
-    Console().print(f"written {ORACLE_FILE} in {o.out}/<run>")
+    if reused < len(runs):
+        Console().print(f"written {ORACLE_FILE} for {len(runs) - reused} of {len(runs)} runs in {o.out}/<run>")

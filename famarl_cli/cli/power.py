@@ -32,7 +32,8 @@ def power(
     Oudeyer 2018: the t test of one arm or of paired differences, Welch's of two arms, one-sided at the interval's
     level, from the observed estimate's distance to its threshold and the spread of the per-replicate values where
     the summary keeps them, else of the interval's half-width and n). An estimate at its threshold needs unbounded
-    n. Takes about two seconds on a 2-core Intel Xeon VM (docs/verdicts.md, "How many replicates")."""
+    n. Undefined claims (their measure has no value) are listed with their reason and no number. Takes about two
+    seconds on a 2-core Intel Xeon VM (docs/verdicts.md, "How many replicates")."""
     from famarl_cli.stages.report import power as plan
     from famarl_cli.stages.report import power_record
 
@@ -41,7 +42,7 @@ def power(
         typer.echo(json.dumps(power_record(found), indent=2))
         return
     table = named_rows(
-        "inconclusive claims: replicates per arm to decide at 80% power",
+        "inconclusive and undefined claims: replicates per arm to decide at 80% power",
         ("pipeline", "claim", "undecided part: estimate [CI] vs threshold", "n", "needed"),
         left=("claim", "undecided part: estimate [CI] vs threshold", "needed"),
     )
@@ -62,11 +63,17 @@ def power(
             table.add_row(*(Text(cell) for cell in cells))  # a claim's "[setting]" is words, not rich markup
     console = results_console()
     console.print(table)
+    undefined = sum(needed.undefined for needed in found)
     console.print(
-        f"{len(found)} inconclusive claim{'' if len(found) == 1 else 's'}; each part one-sided at its interval's "
+        f"{_count(len(found) - undefined, 'inconclusive claim')} and {undefined} undefined; each part one-sided at "
+        "its interval's "
         "level; n ?: not recorded in the summary (the need is then a multiple of today's); a claim of several "
         'parts needs what its part marked "the claim\'s" needs'
     )
+
+
+def _count(n: int, what: str) -> str:
+    return f"{n} {what}{'' if n == 1 else 's'}"
 
 
 def _pipeline(summary: str) -> str:

@@ -5,10 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rich.console import Console
-from rich.table import Table
-
-from famarl_cli.cli import ROOT, app, reports_errors
+from famarl_cli.cli import ROOT, app, named_rows, reports_errors, results_console
 
 
 @app.command()
@@ -21,9 +18,8 @@ def status(root: ROOT = Path(".")) -> None:
     the outputs of none: `dvc repro` makes the main job's. Takes a few seconds (it asks DVC)."""
     from famarl_cli.stages.report import pipelines
 
-    table = Table(title="pipelines: what is committed, whether it is current, what ran here")
-    for column in ("pipeline", "committed verdicts", "code since its lock", "outputs here", "its wall"):
-        table.add_column(column)
+    columns = ("pipeline", "committed verdicts", "code since its lock", "outputs here", "its wall")
+    table = named_rows("pipelines: what is committed, whether it is current, what ran here", columns, columns[:-1])
     todo, differing = [], ()
     for p, claims in pipelines(root):
         committed = "none yet" if claims is None else f"{claims} claim{'' if claims == 1 else 's'}"
@@ -34,17 +30,16 @@ def status(root: ROOT = Path(".")) -> None:
         if not p.here or p.stale:
             todo.append("dvc repro" + ("" if p.definition == "dvc.yaml" else f" {p.definition}"))
         differing += p.differs
-    console = Console()
+    console = results_console()
     console.print(table)
     console.print("walls on 2 cores (docs/pipelines.md); dvc status lists every stage not run here as changed")
     if differing:
         console.print(
             f"made here, differing from the committed results (their dvc.lock): {', '.join(differing)}; the "
-            "committed verdicts were not made from them",
-            soft_wrap=True,
+            "committed verdicts were not made from them"
         )
     console.print(
         "to make what is missing or stale here:" if todo else "nothing to run: every pipeline is here and current"
     )
     for command in todo:
-        console.print(f"  {command}", soft_wrap=True)
+        console.print(f"  {command}")

@@ -45,7 +45,7 @@ from famarl_cli.core.power import (
 )
 from famarl_cli.core.statistics import LEVEL, SPLIT, Interval, floored_variance, success_interval
 
-INCONCLUSIVE = "inconclusive"
+INCONCLUSIVE, UNDEFINED = "inconclusive", "undefined"
 NUMBER = r"(-?\d+(?:\.\d+)?(?:e-?\d+)?|1/2)"
 THRESHOLD_WORDS = (
     rf"(?:lower|upper) end (?:>=|>|<=|<) {NUMBER}",
@@ -122,7 +122,8 @@ class Part:
 
 @dataclass(frozen=True)
 class Needed:
-    """An inconclusive claim of one summary, its undecided parts and what the claim needs."""
+    """An inconclusive claim of one summary, its undecided parts and what the claim needs; or an undefined one
+    (``undefined``), whose measure has no value, so that no number of replicates is named for it."""
 
     summary: str
     experiment: str
@@ -132,8 +133,11 @@ class Needed:
     deciding: Part | None
     """The part whose need is the claim's (None where no part's need is known)."""
     why: str = ""
+    undefined: bool = False
 
     def text(self) -> str:
+        if self.undefined:
+            return f"undefined ({self.why}): more replicates alone do not give its measure a value"
         if self.deciding is None:
             return f"unknown ({self.why})"
         return self.deciding.text()
@@ -144,6 +148,7 @@ class Needed:
             "summary": self.summary,
             "experiment": self.experiment,
             "claim": self.claim,
+            "verdict": UNDEFINED if self.undefined else INCONCLUSIVE,
             "rule": self.rule,
             "needed": deciding["needed"] if deciding else None,
             "times_today": deciding["times_today"] if deciding else None,
@@ -293,7 +298,7 @@ def deciding(parts: list[Part]) -> Part | None:
 
 def claims(summary: dict, source: str) -> list[Needed]:
     """The inconclusive claims of one summary (``famarl report``'s, :func:`famarl_cli.report.docs.read_summary`),
-    each with what it needs; ``source`` names the file in errors."""
+    each with what it needs, and its undefined ones with their reason; ``source`` names the file in errors."""
     found = []
     for experiment, section in summary.items():
         judged = section.get("judged", [])
@@ -302,6 +307,10 @@ def claims(summary: dict, source: str) -> list[Needed]:
         for claim in judged:
             if not isinstance(claim, dict) or not {"claim", "verdict", "rule"} <= set(claim):
                 raise ArtifactError(f"{source}: experiment {experiment!r}: a judged claim lacks claim, verdict or rule")
+            if claim["verdict"] == UNDEFINED:
+                reason = str(claim.get("reason") or "no reason recorded")
+                found.append(Needed(source, experiment, claim["claim"], claim["rule"], (), None, reason, True))
+                continue
             if claim["verdict"] != INCONCLUSIVE:
                 continue
             estimates = claim.get("estimates", [])

@@ -9,10 +9,15 @@ A pipeline leaves, per run, a run folder (``run.json``, ``train.csv``) and an ev
 - **deterministic success**: the same episodes with the policy acting with its mode, shown beside it.
 - **AUC**: the area under the training success curve (mean over the last 100 episodes, from ``train.csv``) on a
   common grid of env steps up to the budget, normalised to [0, 1]: sample efficiency.
-- **steps to 0.8**: env steps from which the training success, smoothed over 5 updates, stays at or above 0.8 to
-  the end (:func:`famarl_cli.core.statistics.steps_to_threshold`). Runs that end below it are censored (they get
-  there at the budget or later): tables give how many held it and the median over all, and drop none; "learns
-  faster" is judged on it (:func:`famarl_cli.report.verdicts.faster`).
+- **steps to the speed level**: the first env step from which the smoothed training success holds the level for a
+  stated share of the budget (:func:`famarl_cli.core.statistics.steps_to_threshold`, docs/verdicts.md "Learning
+  speed"). Runs that never hold it are censored (they get there at the budget or later): tables give how many held
+  it and the median over all, and drop none; "learns faster" is judged on it
+  (:func:`famarl_cli.report.verdicts.faster`).
+
+The records name runs and FAVAEs by the paths they were made with, ``data/...`` in a pipeline; ``famarl report
+--data DIR`` reads them under DIR (:func:`located`), so that a copy of a pipeline's folder is read as a whole and
+never mixed with the checkout's own.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ from famarl_cli.artifacts.runs import (
     EVAL_FILE,
     EVAL_METRICS,
     LOG_FILE,
+    RUN_FILE,
     read_evaluation,
     read_run_file,
     read_timing,
@@ -38,8 +44,20 @@ from famarl_cli.artifacts.runs import (
 from famarl_cli.core.errors import ArtifactError
 from famarl_cli.core.statistics import RATE, THRESHOLD, Interval, mean_interval, normalised_auc, steps_to_threshold
 
+DATA = Path("data")
+"""The folder the pipelines write into, from the checkout's root: the paths their records hold start with it."""
+
 EDGE_FRACTION = 0.1
 """Share of a run's logged updates averaged for the 'start' and the 'end' of its learning curve."""
+
+
+def located(recorded: str | Path, data: Path = DATA) -> Path:
+    """A path a record holds (a run, a FAVAE), under ``data`` where it lies in the pipelines' folder (``data/...``):
+    ``data`` stands for that folder wherever it is now. Other paths as recorded."""
+    path = Path(recorded)
+    if not path.is_absolute() and path.parts[:1] == DATA.parts:
+        return data.joinpath(*path.parts[1:])
+    return path
 
 
 @dataclass
@@ -51,12 +69,22 @@ class RunResult:
     budget: int
     folder: Path
     """Where its evaluation was written (rollouts.png, episode.gif)."""
+    run: Path
+    """The run's folder, :func:`located` under the data folder read."""
+    spec: dict
+    """The run's settings, as its run.json records them."""
+    data: Path = DATA
     train_wall_s: float | None = None
     """The run's wall time (its timing.json), where recorded."""
 
     @property
     def label(self) -> str:
         return self.evaluation["label"]
+
+    @property
+    def favae(self) -> Path:
+        """The FAVAE the run decoded with, :func:`located` under the data folder read."""
+        return located(self.spec["favae"], self.data)
 
     @property
     def success(self) -> float:
@@ -114,18 +142,27 @@ class Group:
         return [run.log for run in self.runs]
 
 
-def gather(folders: list[Path]) -> list[RunResult]:
-    """Every evaluated run in ``folders`` (each a folder of per-run evaluation folders), in folder order."""
+def gather(folders: list[Path], data: Path = DATA) -> list[RunResult]:
+    """Every evaluated run in ``folders`` (each a folder of per-run evaluation folders), in folder order, the runs
+    :func:`located` under ``data``. A run beside the evaluated ones (in the same folder of runs) that none of these
+    evaluations covers is an error: a replicate left out would change every interval without a word."""
     results = []
     for folder in folders:
         for path in sorted(folder.glob(f"*/{EVAL_FILE}")):
             evaluation = read_evaluation(path)
-            run_folder = Path(evaluation["run"])
-            if not (run_folder / LOG_FILE).is_file():
-                raise ArtifactError(f"{path}: its run's training log {run_folder / LOG_FILE} is missing")
-            budget = int(read_run_file(run_folder)["spec"]["ppo"]["total_steps"])
-            log = read_training_log(run_folder)
-            results.append(RunResult(evaluation, log, budget, path.parent, read_timing(run_folder)))
+            run = located(evaluation["run"], data)
+            if not (run / LOG_FILE).is_file():
+                raise ArtifactError(f"{path}: its run's training log {run / LOG_FILE} is missing")
+            spec = read_run_file(run)["spec"]
+            log = read_training_log(run)
+            budget = int(spec["ppo"]["total_steps"])
+            results.append(RunResult(evaluation, log, budget, path.parent, run, spec, data, read_timing(run)))
+    evaluated = {result.run.resolve() for result in results}
+    for runs in sorted({result.run.parent for result in results}):
+        for run in sorted(runs.iterdir()):
+            if (run / RUN_FILE).is_file() and run.resolve() not in evaluated:
+                where = ", ".join(str(folder) for folder in folders)
+                raise ArtifactError(f"{run}: a run with no evaluation in {where}; evaluate it or move it out")
     return results
 
 
@@ -248,7 +285,7 @@ def write_curves(groups: list[Group], path: Path) -> None:
         writer.writerow(["series", "run", "seed", "env_steps", *CURVES])
         for series, g in zip(series_names(groups), groups, strict=True):
             for run in g.runs:
-                name, seed = Path(run.evaluation["run"]).name, run.evaluation["seed"]
+                name, seed = run.run.name, run.evaluation["seed"]
                 updates = len(run.log["env_steps"])
                 kept = np.unique(np.linspace(0, updates - 1, min(updates, CURVE_POINTS)).round().astype(int))
                 columns = [run.log["env_steps"][kept].astype(int)] + [run.log[key][kept] for key in CURVES.values()]

@@ -32,7 +32,7 @@ LOW = 1.0
 def beta(data: Path, out: Path):
     from famarl_cli.report.section import Section
 
-    groups = list(group(gather([data / "beta" / "eval"]), MAZE).values())
+    groups = list(group(gather([data / "beta" / "eval"], data), MAZE).values())
     if not groups:
         return None
     headline = headline_famarl_runs(data)

@@ -55,7 +55,7 @@ def demos_line(path: Path) -> str | None:
 def bipedal(data: Path, out: Path):
     from famarl_cli.report.section import Section
 
-    results = gather([data / "bipedal" / "eval"])
+    results = gather([data / "bipedal" / "eval"], data)
     if not results:
         return None
     agents = by_agent(group(results, BIPEDAL))

@@ -117,13 +117,14 @@ def aligned(a: dict[int, float], b: dict[int, float]) -> tuple[np.ndarray, np.nd
 
 def contrast(
     a: Group, b: Group, measure: Callable[[RunResult], float], episodes: int | None = None, level: float = LEVEL
-) -> tuple[Interval, bool, np.ndarray]:
+) -> tuple[Interval, bool, np.ndarray, np.ndarray]:
     """The interval of ``a``'s mean ``measure`` minus ``b``'s, paired by replicate where they share them (else
-    Welch's); whether it pairs, and ``b``'s values."""
+    Welch's); whether it pairs, and ``a``'s and ``b``'s values (in pairs' order where it pairs)."""
     mine, theirs, paired = aligned(by_seed(a, measure), by_seed(b, measure))
     return (
         (paired_difference_interval if paired else difference_interval)(mine, theirs, episodes, level),
         paired,
+        mine,
         theirs,
     )
 
@@ -256,20 +257,15 @@ def favae_comparison(folders: dict[str, Path], extra: dict[str, dict[str, list[f
 
 def favae_metrics_of(runs: list[RunResult]) -> list[dict]:
     """Per run, the metrics of the FAVAE it decoded with."""
-    from famarl_cli.artifacts.runs import read_run_file
-
-    paths = [Path(read_run_file(run.evaluation["run"])["spec"]["favae"]).with_suffix(".metrics.json") for run in runs]
-    return [read_json(path, "FAVAE metrics") for path in paths]
+    return [read_json(run.favae.with_suffix(".metrics.json"), "FAVAE metrics") for run in runs]
 
 
 def demo_episodes_of(runs: list[RunResult]) -> list[int]:
     """Per run, how many demo episodes the segments of its FAVAE were cut from (the segments in the FAVAE's
     replicate folder, famarl macros)."""
-    from famarl_cli.artifacts.runs import read_run_file
     from famarl_cli.artifacts.segments import REPLICATE_FILE, read_segments
 
-    folders = [Path(read_run_file(run.evaluation["run"])["spec"]["favae"]).parent for run in runs]
-    return [len(read_segments(folder / REPLICATE_FILE).boundaries) for folder in folders]
+    return [len(read_segments(run.favae.parent / REPLICATE_FILE).boundaries) for run in runs]
 
 
 def swept(label: str, values: list) -> float:
@@ -283,7 +279,7 @@ def swept(label: str, values: list) -> float:
 def headline_famarl_runs(data: Path) -> list[RunResult]:
     """The default pipeline's FaMARL runs on the Maze: the experiments that vary one of its settings (script, beta,
     number of demos) reuse them as that setting's variant instead of running it again."""
-    return [run for g in group(gather([data / "maze" / "eval"]), MAZE, "famarl").values() for run in g.runs]
+    return [run for g in group(gather([data / "maze" / "eval"], data), MAZE, "famarl").values() for run in g.runs]
 
 
 def demos_and_traversal(data: Path, out: Path, name: str, demos: str) -> list[str]:
@@ -368,7 +364,8 @@ def speed_ratio_goal(
         f"median over median (censored runs bounded; bootstrap over replicates, {how}); upper end <= {bound:g} met, "
         f"lower end > {bound:g} missed"
     )
-    return Claim(goal, measure, Judgement(at_most(interval, bound), rule, (Estimate(name, interval, (), bound),)))
+    estimate = Estimate(name, interval, (), bound, replicates=min(len(a), len(b)))
+    return Claim(goal, measure, Judgement(at_most(interval, bound), rule, (estimate,)))
 
 
 def ratio_goal(

@@ -22,7 +22,7 @@ from famarl_cli.report.verdicts import Claim, equivalent
 def demos_count(data: Path, out: Path):
     from famarl_cli.report.section import Section
 
-    groups = list(group(gather([data / "demos-count" / "eval"]), MAZE).values())
+    groups = list(group(gather([data / "demos-count" / "eval"], data), MAZE).values())
     if not groups:
         return None
     headline = headline_famarl_runs(data)

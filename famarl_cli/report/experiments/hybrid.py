@@ -38,7 +38,7 @@ from famarl_cli.report.results import (
     in_order,
     results_table,
 )
-from famarl_cli.report.verdicts import Claim, Estimate, Judgement, at_least, combine, not_run
+from famarl_cli.report.verdicts import Claim, Estimate, Judgement, at_least, combine, difference, not_run
 
 EARLY = 0.02
 """Share of the budget that counts as the start of training."""
@@ -87,21 +87,22 @@ def goals(maze: dict[str, Group], reaching: dict[str, Group]) -> list[Claim]:
         claims.append(not_run(start, "early training success"))
     if hybrid is not None and ppo is not None:
         claims.append(speed_ratio_goal(speed, SPEED_MEASURE, "hybrid / ppo", hybrid, ppo, SPEED_RATIO))
-        interval, paired, theirs = contrast(hybrid, ppo, sampled_return)
+        interval, paired, mine, theirs = contrast(hybrid, ppo, sampled_return)
         floor = -RETURN_MARGIN * abs(theirs.mean())
         how = "paired by replicate" if paired else "Welch"
         rule = f"hybrid - ppo ({how}): lower end >= {floor:.0f} met, upper end < {floor:.0f} missed"
-        estimate = Estimate("hybrid - ppo", interval, (), floor)
+        estimate = difference("hybrid - ppo", interval, ("hybrid", mine), ("ppo", theirs), floor, paired)
         measure = "return of the final policy, sampling as in training, over the evaluation episodes"
         claims.append(Claim(end, measure, Judgement(at_least(interval, floor), rule, (estimate,))))
     else:
         claims += [not_run(goal, "") for goal in (speed, end)]
     rivals = [g for g in (ppo, famarl) if g is not None]
     if hybrid is not None and rivals:
-        parts = [contrast(hybrid, rival, auc_of)[0] for rival in rivals]
-        verdict = combine([at_least(part, -AUC_DELTA) for part in parts])
+        contrasts = [contrast(hybrid, rival, auc_of) for rival in rivals]
+        verdict = combine([at_least(part[0], -AUC_DELTA) for part in contrasts])
         estimates = tuple(
-            Estimate(f"hybrid - {rival.label}", part, (), -AUC_DELTA) for rival, part in zip(rivals, parts, strict=True)
+            difference(f"hybrid - {rival.label}", part, ("hybrid", mine), (rival.label, theirs), -AUC_DELTA, paired)
+            for rival, (part, paired, mine, theirs) in zip(rivals, contrasts, strict=True)
         )
         rule = (
             f"hybrid - each rival (paired by replicate where they share seeds, else Welch): every lower end >= "
@@ -165,10 +166,10 @@ def hybrid(data: Path, out: Path):
     from famarl_cli.artifacts.runs import ROLLOUTS_FILE, STILLS_FILE
     from famarl_cli.report.section import Section
 
-    mine = gather([data / "hybrid" / "eval", data / "hybrid" / "robothand-eval"])
+    mine = gather([data / "hybrid" / "eval", data / "hybrid" / "robothand-eval"], data)
     if not mine:
         return None
-    results = gather([data / "maze" / "eval", data / "robothand" / "eval"]) + mine
+    results = gather([data / "maze" / "eval", data / "robothand" / "eval"], data) + mine
     order = ["famarl", "ppo", "figar", "hybrid", *VARIANTS]
     maze = in_order(group(results, MAZE), order)
     reaching, ball = (in_order(by_agent(group(results, env)), order) for env in (REACHING, BALL_PLACING))

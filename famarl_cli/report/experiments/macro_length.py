@@ -31,7 +31,7 @@ def macro_length(data: Path, out: Path):
     from famarl_cli.report.section import Section
 
     robothand = data / "robothand"
-    results = gather([robothand / "eval", robothand / "per-decision" / "eval", data / "macro-length" / "eval"])
+    results = gather([robothand / "eval", robothand / "per-decision" / "eval", data / "macro-length" / "eval"], data)
     parts = {}
     for discount, label, _ in DISCOUNTS:
         for name, env in (("time penalty", REACHING), ("no time penalty", REACHING_NO_PENALTY)):

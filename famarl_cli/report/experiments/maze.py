@@ -28,7 +28,7 @@ def maze(data: Path, out: Path):
     from famarl_cli.artifacts.runs import ROLLOUTS_FILE
     from famarl_cli.report.section import Section
 
-    results = gather([data / "maze" / "eval"])
+    results = gather([data / "maze" / "eval"], data)
     if not results:
         return None
     agents = by_agent(group(results, MAZE))

@@ -65,7 +65,7 @@ def macros_end_higher(question: str, famarl: Group | None, ppo: Group | None, fi
 def pointmaze(data: Path, out: Path):
     from famarl_cli.report.section import Section
 
-    results = gather([data / "pointmaze" / "eval"])
+    results = gather([data / "pointmaze" / "eval"], data)
     if not results:
         return None
     mazes = {name: by_agent(group(results, env)) for name, env in MAZES.items()}

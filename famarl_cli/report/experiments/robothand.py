@@ -172,7 +172,7 @@ def robothand(data: Path, out: Path):
     from famarl_cli.report.plots import plot_performance_profile
     from famarl_cli.report.section import Section
 
-    results = gather([data / "robothand" / "eval", data / "robothand" / "per-decision" / "eval"])
+    results = gather([data / "robothand" / "eval", data / "robothand" / "per-decision" / "eval"], data)
     if not results:
         return None
     tasks = {name: group(results, env) for name, env in TASKS.items()}

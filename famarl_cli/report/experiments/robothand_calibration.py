@@ -58,15 +58,14 @@ def judged(paper: str, g: Group) -> Claim:
 
 @experiment("robothand-calibration", "pipelines/robothand-calibration/dvc.yaml", order=9)
 def robothand_calibration(data: Path, out: Path):
-    from famarl_cli.artifacts.runs import read_run_file
     from famarl_cli.report.section import Section
 
-    results = gather(sorted((data / "robothand-calibration").glob("*/eval")))
+    results = gather(sorted((data / "robothand-calibration").glob("*/eval")), data)
     if not results:
         return None
     settings: dict[str, list[RunResult]] = {}
     for run in results:
-        kwargs = read_run_file(run.evaluation["run"])["spec"].get("env_kwargs") or {}
+        kwargs = run.spec.get("env_kwargs") or {}
         settings.setdefault(setting_of(kwargs), []).append(run)
     ordered = sorted(settings, key=protocol_order)
     groups = [Group(f"ppo, {name}", settings[name]) for name in ordered]

@@ -50,9 +50,7 @@ def task_of(env_id: str) -> str:
 
 def changed_in(run: RunResult) -> str:
     """The keyword arguments a run's env was made with, in words ("" for none)."""
-    from famarl_cli.artifacts.runs import read_run_file
-
-    kwargs = read_run_file(run.evaluation["run"])["spec"].get("env_kwargs") or {}
+    kwargs = run.spec.get("env_kwargs") or {}
     return ", ".join(f"{key} {value}" for key, value in sorted(kwargs.items()))
 
 
@@ -60,12 +58,12 @@ def changed_in(run: RunResult) -> str:
 def robothand_sensitivity(data: Path, out: Path):
     from famarl_cli.report.section import Section
 
-    varied = gather(sorted((data / "robothand-sensitivity").glob("*/eval")))
+    varied = gather(sorted((data / "robothand-sensitivity").glob("*/eval")), data)
     if not varied:
         return None
     # (env, what changed) -> agent -> runs; pipelines/robothand's runs are the default of their env
     settings: dict[tuple[str, str], dict[str, list[RunResult]]] = {}
-    default = gather([data / "robothand" / "eval"])
+    default = gather([data / "robothand" / "eval"], data)
     for env in (REACHING, BALL_PLACING):
         for agent, g in by_agent(group(default, env)).items():
             settings.setdefault((env, AS_PIPELINE), {})[agent] = g.runs

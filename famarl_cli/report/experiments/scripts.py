@@ -22,7 +22,7 @@ PUSHED_DOWN_ONLY = "PushedDownOnly macro actions complete the Maze"
 def scripts(data: Path, out: Path):
     from famarl_cli.report.section import Section
 
-    groups = group(gather([data / "scripts" / "eval"]), MAZE, "famarl")
+    groups = group(gather([data / "scripts" / "eval"], data), MAZE, "famarl")
     if not groups:
         return None
     named = {label.removeprefix("famarl (").removesuffix(")"): g for label, g in groups.items()}

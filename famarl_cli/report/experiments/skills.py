@@ -35,7 +35,16 @@ from famarl_cli.report.experiments.common import (
 )
 from famarl_cli.report.experiments.robothand import REACHING
 from famarl_cli.report.results import Group, copy_figure, gather, group, head, in_order, read_json, results_table
-from famarl_cli.report.verdicts import Claim, Estimate, Judgement, at_least, bonferroni_level, combine, not_run
+from famarl_cli.report.verdicts import (
+    Claim,
+    Estimate,
+    Judgement,
+    at_least,
+    bonferroni_level,
+    combine,
+    difference,
+    not_run,
+)
 
 SKILLS = (
     "famarl+prior",
@@ -98,8 +107,8 @@ PLACES = (
 def gather_place(data: Path, place: Place) -> dict[str, Group]:
     """The baselines' groups, then the skill agents' (and pointmaze-large's own FaMARL, which decodes the Large
     demos' FAVAEs)."""
-    baselines = group(gather([data / folder / "eval" for folder in place.baselines]), place.env)
-    skills = group(gather([data / "skills" / "eval" / place.skills]), place.env)
+    baselines = group(gather([data / folder / "eval" for folder in place.baselines], data), place.env)
+    skills = group(gather([data / "skills" / "eval" / place.skills], data), place.env)
     groups = {label: g for label, g in baselines.items() if label in place.kept}
     groups.update(skills)
     return in_order(groups, [*BASELINES, *SKILLS])
@@ -138,10 +147,9 @@ def pointmaze_goal(places: dict[str, dict[str, Group]]) -> Claim:
         floor = mean_interval(mine, chosen.episodes, level)
         parts = [Judgement(at_least(floor, SUCCESS_DELTA), "PPO never succeeds: a success that counts is more than "
                            "twice it", (Estimate(name, floor, tuple(mine), SUCCESS_DELTA),))]  # fmt: skip
-    versus, _, _ = contrast(chosen, figar, success_of, chosen.episodes, level)
-    parts.append(
-        Judgement(at_least(versus, SUCCESS_DELTA), "", (Estimate(f"{name} - figar", versus, (), SUCCESS_DELTA),))
-    )
+    versus, paired, ours, figars = contrast(chosen, figar, success_of, chosen.episodes, level)
+    estimate = difference(f"{name} - figar", versus, (name, ours), ("figar", figars), SUCCESS_DELTA, paired)
+    parts.append(Judgement(at_least(versus, SUCCESS_DELTA), "", (estimate,)))
     rule = (
         f"best of {len(candidates)} skill agents by mean success, intervals at {level:.1%} (Bonferroni): ratio to "
         f"PPO (bootstrap) lower end >= {POINTMAZE_RATIO:g} (where PPO never succeeds, success lower end >= "
@@ -165,7 +173,7 @@ def maze_goal(groups: dict[str, Group]) -> Claim:
     chosen = best_of(candidates, lambda g: per_seed(g, speed), highest=False, typical=np.median)
     quick = speed_ratio_goal(goal, measure, f"{chosen.label} / ppo, steps", chosen, ppo, MAZE_SPEED, level).judgement
     success = mean_interval(chosen.values("success"), chosen.episodes, level)
-    returns, _, theirs = contrast(chosen, ppo, sampled_return, level=level)
+    returns, paired, mine, theirs = contrast(chosen, ppo, sampled_return, level=level)
     floor = -MAZE_RETURN * abs(theirs.mean())
     verdict = combine([quick.verdict, at_least(success, MAZE_SUCCESS), at_least(returns, floor)])
     rule = (
@@ -176,7 +184,7 @@ def maze_goal(groups: dict[str, Group]) -> Claim:
     estimates = (
         *quick.estimates,
         Estimate(f"{chosen.label} success", success, tuple(chosen.values("success")), MAZE_SUCCESS),
-        Estimate(f"{chosen.label} - ppo, return", returns, (), floor),
+        difference(f"{chosen.label} - ppo, return", returns, (chosen.label, mine), ("ppo", theirs), floor, paired),
     )
     return Claim(goal, measure, Judgement(verdict, rule, estimates))
 
@@ -207,7 +215,7 @@ def bipedal_goal(groups: dict[str, Group]) -> Claim:
     closed, famarl = groups.get("famarl+closed"), groups.get("famarl")
     if closed is None or famarl is None:
         return not_run(goal, measure)
-    further, paired, _ = contrast(closed, famarl, sampled_return)
+    further, paired, mine, theirs = contrast(closed, famarl, sampled_return)
     success = mean_interval(closed.values("success"), closed.episodes)
     verdict = combine([at_least(further, 1e-9), at_least(success, SUCCESS_DELTA)])
     how = "paired by replicate" if paired else "Welch"
@@ -216,7 +224,7 @@ def bipedal_goal(groups: dict[str, Group]) -> Claim:
         f"return's upper end <= 0 or the success's < {SUCCESS_DELTA:g} missed"
     )
     estimates = (
-        Estimate("famarl+closed - famarl, return", further, (), 0.0),
+        difference("famarl+closed - famarl, return", further, ("famarl+closed", mine), ("famarl", theirs), 0.0, paired),
         Estimate("famarl+closed success", success, tuple(closed.values("success")), SUCCESS_DELTA),
     )
     return Claim(goal, measure, Judgement(verdict, rule, estimates))
