@@ -157,19 +157,19 @@ def test_every_json_famarl_writes_says_what_it_is_and_what_made_it(run, segments
     assert "--episodes 1," in options and '--script "pushed-down-only"' in options
 
 
-def test_a_json_famarl_did_not_write_or_cannot_read_is_refused_saying_why(segments_file, tmp_path):
-    truncated = tmp_path / "eval.json"
-    truncated.write_text('{"schema": "famarl.evaluation", "episo')
-    one_line_error(famarl("inspect", truncated), 1, "not valid JSON (truncated or corrupt")
-    alone = tmp_path / "lone.metrics.json"
-    alone.write_text('{"mse": 1.0}')
-    one_line_error(famarl("inspect", alone), 1, "neither lone.h5 nor lone.pt is here")
-    other = tmp_path / "timing.json"
-    other.write_text('{"wall_s": 1, "by": "someone"}')
-    one_line_error(famarl("inspect", other), 1, "a JSON file that no famarl command wrote")
-    empty = tmp_path / "empty.json"
-    empty.write_text("")
-    one_line_error(famarl("inspect", empty), 1, "an empty file")
+@pytest.mark.parametrize(
+    ("name", "content", "needle"),
+    [
+        ("eval.json", '{"schema": "famarl.evaluation", "episo', "not valid JSON (truncated or corrupt"),
+        ("lone.metrics.json", '{"mse": 1.0}', "neither lone.h5 nor lone.pt is here"),
+        ("timing.json", '{"wall_s": 1, "by": "someone"}', "a JSON file that no famarl command wrote"),
+        ("empty.json", "", "an empty file"),
+    ],
+)
+def test_a_json_famarl_did_not_write_or_cannot_read_is_refused_saying_why(tmp_path, name, content, needle):
+    path = tmp_path / name
+    path.write_text(content)
+    one_line_error(famarl("inspect", path), 1, needle)
 
 
 def test_status_never_cuts_a_pipeline_name(monkeypatch, tmp_path):
