@@ -27,6 +27,7 @@ import torch
 from common import RESULTS, command_line, peak_rss_mib, rate, record, rounded, timed, verdict, write_result
 from env_throughput import single_env
 
+from famarl_cli.core.errors import FamarlError
 from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.rl import Agent
 from famarl_cli.rl.training import Run
@@ -84,7 +85,7 @@ def records(
     trained = {row["agent"]: row for row in train_rows}
     decoded = {row["batch"]: row["decisions_per_s"] for row in decode_rows}
     ratio = trained["famarl"]["env_steps_per_s"] / trained["ppo"]["env_steps_per_s"]
-    suffix, where = ("", "") if env_id == DEFAULT_ENV else (f"_{slug(env_id)}", f" on {env_id}")
+    named, where = suffix(env_id), "" if env_id == DEFAULT_ENV else f" on {env_id}"
     shares = [row["env_share"] for row in trained.values()]
     # What is left to make faster once the env is as fast as it is: microseconds per env step outside its steps.
     outside = {
@@ -92,7 +93,7 @@ def records(
         for agent, row in trained.items()
     }
     return {
-        f"famarl_throughput_training{suffix}": {
+        f"famarl_throughput_training{named}": {
             "what": f"FaMARL training with the FAVAE decoder in the loop (`famarl train` defaults){where}",
             "command": command,
             "measured": f"{rounded(trained['famarl']['env_steps_per_s'])} env steps/s, "
@@ -124,7 +125,7 @@ def records(
             },
             "better": {"famarl_over_ppo": "higher"},
         },
-        f"famarl_throughput_decoding{suffix}": {
+        f"famarl_throughput_decoding{named}": {
             "what": "FAVAE decoding, batched",
             "command": command,
             "measured": f"{rounded(decoded[16])} decisions/s at 16 latents per call, {rounded(decoded[64])} at 64",
@@ -134,9 +135,12 @@ def records(
     }
 
 
-def slug(env_id: str) -> str:
-    """``famarl/RobotHand-Reaching-v1`` -> ``robothand_reaching_v1``: a measured.json name part."""
-    return "".join(c if c.isalnum() else "_" for c in env_id.rsplit("/", 1)[-1].lower())
+def suffix(env_id: str) -> str:
+    """What the names of ``env_id``'s results add: nothing on the Maze, ``_robothand_reaching_v1`` for
+    ``famarl/RobotHand-Reaching-v1``."""
+    if env_id == DEFAULT_ENV:
+        return ""
+    return "_" + "".join(c if c.isalnum() else "_" for c in env_id.rsplit("/", 1)[-1].lower())
 
 
 def main() -> None:
@@ -148,9 +152,14 @@ def main() -> None:
     parser.add_argument("--out", type=Path, help="JSON to write (default: results/famarl_throughput[_<env>].json)")
     args = parser.parse_args()
     if not args.favae.is_file():
-        parser.error(f"{args.favae} not found: make it with `dvc repro favae_fit` (or pass --favae)")
-    name = "famarl_throughput" if args.env == DEFAULT_ENV else f"famarl_throughput_{slug(args.env)}"
-    out = args.out or RESULTS / f"{name}.json"
+        raise SystemExit(f"error: {args.favae} not found: make it with `dvc repro favae_fit` (or pass --favae)")
+    if args.steps < 1 or not args.seconds > 0:
+        raise SystemExit("error: --steps must be at least 1 and --seconds above 0")
+    try:  # the env, and the FAVAE's actions fitting it, before anything is timed: famarl's own one-line refusals
+        Run.start(run_spec(TrainOptions(agent=Agent.FAMARL, favae=args.favae, steps=1, env=args.env)))
+    except FamarlError as exc:
+        raise SystemExit(f"error: {exc}") from None
+    out = args.out or RESULTS / f"famarl_throughput{suffix(args.env)}.json"
     torch.set_num_threads(1)
     favae = load_favae(args.favae)[0]
 

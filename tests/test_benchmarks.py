@@ -380,3 +380,20 @@ def test_robothand_phases_refuses_counts_below_one_before_any_work(tmp_path):
         result = run("robothand_phases.py", option, "0", "--data", tmp_path / "data", "--out", out)
         one_error_line(result, "must be at least 1")
     assert not out.exists() and not (tmp_path / "data").exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (("--env", "nope/Nothing-v0"), "unknown environment 'nope/Nothing-v0'"),
+        (("--env", "CartPole-v1"), "needs a Box (continuous) action space"),
+        (("--env", "Pendulum-v1"), "the FAVAE decodes 2-D actions but the environment takes 1-D ones"),
+        (("--steps", "0"), "--steps must be at least 1"),
+        (("--seconds", "nan"), "--seconds above 0"),
+    ],
+)
+def test_famarl_throughput_refuses_an_env_it_cannot_train_on_before_timing_anything(favae_file, tmp_path, args, needle):
+    measured, out = tmp_path / "measured.json", tmp_path / "out.json"
+    result = run_recording("famarl_throughput.py", measured, "--favae", favae_file, "--out", out, *args)
+    one_error_line(result, needle)
+    assert not measured.exists() and not out.exists() and not result.stdout

@@ -51,7 +51,7 @@ def inspect(
     elif kind == "torch":
         table, made = _checkpoint(path)
     else:
-        table, made = _record(path)
+        table, made = _record(path, kind)
     _provenance_rows(table, made)
     for column in table.columns:  # a path longer than its column is folded onto the next line, never cut
         column.overflow = "fold"
@@ -160,13 +160,13 @@ def _evaluation(path: Path) -> tuple[Table, dict]:
     return table, found.get("provenance") or {}
 
 
-def _record(path: Path) -> tuple[Table, dict]:
-    from famarl_cli.artifacts.base import file_kind
+def _record(path: Path, kind: str | None) -> tuple[Table, dict]:
+    """A JSON file of ``kind`` (:func:`~famarl_cli.artifacts.base.file_kind`'s, read already)."""
+    from famarl_cli.artifacts.records import unschemed_record
     from famarl_cli.artifacts.runs import EVAL_SCHEMA, RUN_SCHEMA
     from famarl_cli.core.errors import ArtifactError
     from famarl_cli.sweep.plan import JOB_FILE, JOB_SCHEMA
 
-    kind = file_kind(path)
     if kind == "empty":
         raise ArtifactError(f"{path}: an empty file (truncated?)")
     if kind != "json":
@@ -194,7 +194,7 @@ def _record(path: Path) -> tuple[Table, dict]:
             table.add_row("job", f"{name} ({point}): its making in {name}/{JOB_FILE}")
         return table, {"command": "famarl sweep"}
     if not str(schema).startswith("famarl.") and not str(made.get("command", "")).startswith("famarl "):
-        what, record, made = _unschemed(path, record)
+        what, record, made = unschemed_record(path, record)
         table.add_row("what", what)
     for key, value in record.items():
         shown = _shown(value)
@@ -248,47 +248,6 @@ def _swept_command(runner: str) -> str | None:
 
     module = runner.split(":")[0]
     return next((f"famarl {s.command}" for s in SWEEPABLE.values() if s.options.__module__ == module), None)
-
-
-def _unschemed(path: Path, record: dict) -> tuple[str, dict, dict]:
-    """What a JSON file that famarl writes without a schema is, in words, what of it to show, and the provenance of
-    what made it (that of the artifact it belongs to, beside it, where there is one); an error for a JSON that no
-    famarl command writes."""
-    from famarl_cli.artifacts.made import read_provenance
-    from famarl_cli.artifacts.runs import RUN_FILE, TIMING_FILE
-    from famarl_cli.core.errors import ArtifactError
-
-    if path.name.endswith(".metrics.json"):
-        stem = path.name.removesuffix(".metrics.json")
-        measured = [path.with_name(f"{stem}{suffix}") for suffix in (".h5", ".pt")]
-        found = next((artifact for artifact in measured if artifact.is_file()), None)
-        if found is None:
-            raise ArtifactError(
-                f"{path}: famarl writes a .metrics.json beside the artifact it measures, and neither "
-                f"{measured[0].name} nor {measured[1].name} is here"
-            )
-        return f"the metrics of {found}, made with it", record, read_provenance(found)
-    if path.name == TIMING_FILE and set(record) == {"wall_s"}:
-        what = f"the wall time famarl train took to make the run in {path.parent}"
-        return what, record, read_provenance(path.parent / RUN_FILE)
-    if {"effects_m", "values"} <= set(record):
-        traversal = path.with_suffix(".h5")
-        what = f"the effect of each latent variable famarl traverse measured in {traversal}"
-        return what, record, read_provenance(traversal)
-    if set(record) == {"episodes", "seed", "labels"}:
-        what = f"famarl evaluate's summary per label of the runs {path.with_suffix('.png')} draws"
-        return what, record, {"command": "famarl evaluate"}
-    if {"claims", "reproduce", "do_not", "inconclusive"} <= set(record):
-        return "famarl report's count of verdicts (a pipeline's DVC metric)", record, {"command": "famarl report"}
-    sections = [value for value in record.values() if isinstance(value, dict)]
-    if sections and len(sections) == len(record) and all({"verdict", "made"} <= set(s) for s in sections):
-        made = sections[0]["made"]
-        return (
-            "famarl report's summary: each experiment's verdicts and the estimates behind them",
-            {name: section["verdict"] for name, section in record.items()},
-            {"command": "famarl report", "famarl_version": made.get("famarl"), "machine": made.get("machine")},
-        )
-    raise ArtifactError(f"{path}: a JSON file that no famarl command wrote (no famarl schema or provenance)")
 
 
 def _provenance_rows(table: Table, made: dict) -> None:
