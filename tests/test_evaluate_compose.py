@@ -141,6 +141,15 @@ def test_one_refused_run_costs_no_other_runs_work(tmp_path):
     assert not (runs / "ppo-seed0/eval.json").exists()
 
 
+def test_a_run_whose_training_log_is_gone_is_refused_before_anything_is_written(tmp_path):
+    runs = tmp_path / "runs"
+    for seed in (0, 1):
+        assert famarl("train", *TINY, "--seed", seed, "--out", runs / f"ppo-seed{seed}").exit_code == 0
+    (runs / "ppo-seed1/train.csv").unlink()
+    one_line_error(famarl("evaluate", "--run", runs, "--episodes", 2, "--no-film"), 1, "train.csv")
+    assert not list(runs.glob("*/eval.json")) and not (runs / "curves.png").exists()
+
+
 def test_train_refuses_a_changed_run_in_the_options_typed(run):
     refused = famarl("train", *TINY[:-4], "--update-epochs", 5, "--minibatches", 2, "--lr", 0.001, "--out", run)
     one_line_error(refused, 2, "--update-epochs 1 -> 5; --lr 0.0003 -> 0.001")

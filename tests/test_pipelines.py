@@ -58,6 +58,7 @@ TINY = {
         "favae": TINY_FAVAE,
         "train": TINY_TRAIN,
         "evaluate": TINY_EVALUATE,
+        "block": {"seeds": "2-3", "default": {"segment_epochs": 3, "epochs": 3}},
     },
     "pipelines/demos-count/params.yaml": {
         "seeds": "0-1",
@@ -92,6 +93,7 @@ TINY = {
         "favae": TINY_FAVAE,
         "train": TINY_TRAIN,
         "evaluate": TINY_EVALUATE,
+        "block": {"seeds": "2-3"},
     },
     "pipelines/skills/params.yaml": {
         "seeds": "0-1",
@@ -221,6 +223,18 @@ def stages(tmp_path_factory) -> Iterator[tuple[Path, Any, list[Parsed]]]:
 
 
 @pytest.mark.filterwarnings("ignore:_NoneStep.value:DeprecationWarning")  # DVC's own, of pygtrie
+def test_a_block_that_makes_the_default_pipelines_macros_again_makes_them_as_it_does():
+    """beta's block fits the default pipeline's macros on more seeds: with its demos, segmentation and FAVAE."""
+    default = yaml.safe_load((ROOT / "params.yaml").read_text())
+    copied = yaml.safe_load((ROOT / "pipelines/beta/params.yaml").read_text())["block"]["default"]
+    assert copied == {
+        "demos": default["demos"]["script"],
+        "margin": default["segment"]["margin"],
+        "segment_epochs": default["segment"]["epochs"],
+        **{key: default["favae"][key] for key in ("beta", "epochs", "preset")},
+    }
+
+
 def test_every_stage_parses_reads_only_its_deps_and_a_parameter_reaches_only_what_is_downstream(stages, monkeypatch):
     """Without running anything: each stage's command as famarl parses it (a sweep: its plan, every run's options
     parsed by their command), each file a run reads or a command names under data/ among the stage's deps or outs,
@@ -386,6 +400,7 @@ def test_every_pipeline_writes_its_report(project):
     bipedal = (project / "data/report/bipedal/report.md").read_text()
     assert "| FaMARL fails BipedalWalker (it does not walk to the far end) |" in bipedal
     assert "gymnasium's heuristic controller kept 1 of 1 episodes" in bipedal
+    assert "FaMARL's row counts the replicates added in blocks" in bipedal  # the block stages ran and were read
     pointmaze = (project / "data/report/pointmaze/report.md").read_text()
     assert "PointMaze Medium, sparse reward:" in pointmaze and "| hybrid |" in pointmaze
     for figure in ("bipedal/bipedal-traversal.png", "pointmaze/pointmaze-demos.png", "traversal/traversal.png"):

@@ -20,7 +20,7 @@ from famarl_cli.core.power import (
 from famarl_cli.core.statistics import success_interval
 from famarl_cli.report.power import claims, paired_variance
 from famarl_cli.report.section import Section
-from famarl_cli.report.verdicts import Claim, Verdict, beats, equivalent, faster, solves
+from famarl_cli.report.verdicts import Claim, Verdict, beats, equivalent, fails, faster, solves
 
 NEAR = [0.62, 0.98, 0.71, 0.9, 0.84]
 """Five replicates whose mean (0.81) lies just above 0.8, too spread to show it."""
@@ -113,10 +113,24 @@ def test_split_replicates_are_planned_on_the_rules_own_interval_by_resampling():
     assert fresh[1] == pytest.approx(0.8, abs=0.04) and fresh[0] < fresh[1]
 
 
-def test_a_sample_that_cannot_split_is_planned_by_t():
-    """Replicates that all learned are judged on the t interval: planned by t, not resampled."""
-    (needed,) = claims(summary_of(solves("c", NEAR, 0.8, episodes=100)), "summary.json")
-    assert needed.deciding.basis == "values"
+def test_replicates_all_at_zero_are_planned_on_the_count_of_learners_not_on_their_nil_sd():
+    """Five replicates at zero against "fails" (<= 0.5): their sd is nil, so a t plan says two replicates, but the
+    rule's interval is bounded by the exact count of learners, and only seven zeros bring its upper end under 0.5."""
+    judged = fails("famarl", [0.0] * 5, 0.5, episodes=20)
+    assert judged.verdict == Verdict.INCONCLUSIVE
+    (needed,) = claims(summary_of(judged), "summary.json")
+    assert needed.deciding.basis.startswith("values, resampled") and needed.deciding.needed == 7
+    assert success_interval([0.0] * 6, 20).high >= 0.5 > success_interval([0.0] * 7, 20).high
+
+
+def test_replicates_that_all_learned_are_planned_near_the_t_plan():
+    """Where every replicate learned the rule's interval is the t interval, and resampling it asks about what the t
+    plan asks."""
+    learned = [0.62, 0.98, 0.91, 0.75, 0.99, 0.84]
+    (needed,) = claims(summary_of(solves("c", learned, 0.8, episodes=100)), "summary.json")
+    t_plan = replicates_for_mean(np.mean(learned) - 0.8, np.std(learned, ddof=1))
+    assert needed.deciding.basis.startswith("values, resampled")
+    assert 0.5 * t_plan <= needed.deciding.needed <= 2 * t_plan
 
 
 def test_an_estimate_at_its_threshold_needs_unbounded_replicates():

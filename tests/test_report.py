@@ -225,6 +225,29 @@ def test_beta_claims_use_each_seeds_favae(tmp_path):
     assert "beta 1 - beta 0.1: 0.15 [" in (tmp_path / "report/report.md").read_text()
 
 
+def test_betas_mig_claim_reads_its_blocks_favaes_at_their_look_and_its_runs_claims_do_not(tmp_path):
+    """The MIG claim's block fits FAVAEs on seeds 10-14 (no runs): the claim pairs 15 seeds per beta at look 2 of 3,
+    at that look's level over its comparisons; the success claims keep the runs' 10."""
+    data, claim = tmp_path / "data", "FAVAE does not disentangle when beta is low"
+    for beta, success, mig in ((0.1, 0.1, 0.05), (1, 0.9, 0.2)):
+        for seed, jitter in zip(SEEDS, JITTER, strict=True):
+            favae = data / "beta" / "macros" / f"beta{beta}-seed{seed}" / "favae.pt"
+            favae.parent.mkdir(parents=True)
+            favae.with_suffix(".metrics.json").write_text(json.dumps({"mig": mig + jitter, "beta": beta}))
+            make_run(data, "beta", f"beta{beta}-seed{seed}", f"beta {beta}", "famarl", success + jitter, favae=favae)
+        for seed, jitter in zip(range(10, 15), JITTER, strict=False):
+            block = data / "beta" / "block" / "macros" / f"beta{beta}-seed{seed}"
+            block.mkdir(parents=True)
+            (block / "favae.metrics.json").write_text(json.dumps({"mig": mig + jitter, "beta": beta}))
+    section = write_report(["beta"], data, tmp_path / "report", "test")["beta"]
+    judged = next(c for c in section.claims if c.paper == claim)
+    assert judged.look == (2, 3) and "look 2 of 3" in judged.judgement.rule and "97.5%" in judged.judgement.rule
+    assert all(len(arm.values) == 15 for arm in judged.judgement.estimates[0].arms)
+    success = next(c for c in section.claims if c.paper.startswith("beta >= 1.0 is enough"))
+    assert len(success.judgement.estimates[0].values) == 10 and success.look is None
+    assert "seeds 10, 11, 12, 13, 14, fitted at every beta" in (tmp_path / "report/report.md").read_text()
+
+
 @pytest.mark.slow
 def test_robothand_aggregates_both_tasks(tmp_path):
     data = tmp_path / "data"
@@ -646,3 +669,44 @@ def test_robothand_sensitivity_judges_each_claim_under_each_setting_read_from_it
     headline = json.loads((tmp_path / "report/summary.json").read_text())["robothand-sensitivity"]["headline"]
     assert headline["famarl, max_episode_steps 400 (RobotHand-Reaching-v1)"]["n"] == len(SEEDS)
     assert headline["ppo, as pipelines/robothand (RobotHand-Reaching-v1)"]["n"] == len(SEEDS)
+
+
+def test_robothand_sensitivity_adds_a_blocks_runs_to_its_setting_and_judges_that_claim_at_their_look(tmp_path):
+    """A setting's block (``<setting>-block``: the same env and keyword arguments) adds FaMARL's replicates to the
+    setting's FaMARL: its claim is judged on both at look 2 of 4; PPO's claim of the same setting keeps look 1."""
+    data, kwargs = tmp_path / "data", {"max_episode_steps": 400}
+    for seed, jitter in zip(range(10), JITTER, strict=True):
+        agents = (("famarl", 0.9), ("ppo", 0.1)) if seed < 5 else (("famarl", 0.9),)
+        folder = "robothand-sensitivity/limit" + ("-block" if seed >= 5 else "")
+        for agent, success in agents:
+            name = f"limit-{agent}-seed{seed}"
+            make_run(data, folder, name, agent, agent, success + jitter, REACHING)
+            with_env_kwargs(data, folder, name, kwargs)
+    section = write_report(["robothand-sensitivity"], data, tmp_path / "report", "test")["robothand-sensitivity"]
+    famarl = next(c for c in section.claims if c.paper.startswith("FaMARL completes Reaching"))
+    ppo = next(c for c in section.claims if c.paper.startswith("PPO with primitive actions"))
+    assert famarl.look == (2, 4) and len(famarl.judgement.estimates[0].values) == 10
+    assert famarl.verdict == Verdict.REPRODUCES and "look 2 of 4" in famarl.judgement.rule
+    assert ppo.look is None and len(ppo.judgement.estimates[0].values) == 5
+
+
+def test_bipedal_judges_famarls_failure_on_the_replicates_added_in_blocks_at_their_look(tmp_path):
+    """FaMARL's failure is judged on the pipeline's 5 seeds and its block's 5 more, at look 2 of 4 (where all ten
+    at zero decide it and five do not); the comparison with PPO keeps to the seeds both ran."""
+    from famarl_cli.report.experiments.bipedal import BIPEDAL
+
+    data, claim = tmp_path / "data", "FaMARL fails BipedalWalker (it does not walk to the far end)"
+    for seed in range(5):
+        for agent in ("famarl", "ppo"):
+            make_run(data, "bipedal", f"{agent}-seed{seed}", agent, agent, 0.0, BIPEDAL)
+    first = write_report(["bipedal"], data, tmp_path / "first", "test")["bipedal"]
+    assert next(c for c in first.claims if c.paper == claim).verdict == Verdict.INCONCLUSIVE
+    for seed in range(5, 10):
+        make_run(data, "bipedal/block", f"seed{seed}", "famarl", "famarl", 0.0, BIPEDAL)
+    section = write_report(["bipedal"], data, tmp_path / "report", "test")["bipedal"]
+    judged = next(c for c in section.claims if c.paper == claim)
+    assert judged.verdict == Verdict.REPRODUCES and judged.look == (2, 4)
+    assert "look 2 of 4" in judged.judgement.rule and len(judged.judgement.estimates[0].values) == 10
+    walks = next(c for c in section.claims if c.paper.startswith("The failure is a lack of feedback control"))
+    assert all(len(arm.values) == 5 for arm in walks.judgement.estimates[0].arms)
+    assert "replicates added in blocks" in (tmp_path / "report" / "report.md").read_text()

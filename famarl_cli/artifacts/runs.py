@@ -86,7 +86,9 @@ def read_run_file(run_dir: str | os.PathLike) -> dict:
 
 def expand_run_folders(folders: list[Path]) -> list[Path]:
     """Each folder as given if it is a run folder; a folder without a run file but with run folders inside stands
-    for those, in name order (``famarl evaluate --run data/maze/runs`` evaluates every run of an experiment)."""
+    for those, in name order (``famarl evaluate --run data/maze/runs`` evaluates every run of an experiment). Each
+    is checked whole (:func:`check_run_folder`) before any is returned: what evaluate and oracle make from runs,
+    none is written where one run cannot be read."""
     expanded = []
     for folder in folders:
         inside = sorted(folder.glob(f"*/{RUN_FILE}")) if folder.is_dir() else []
@@ -94,6 +96,8 @@ def expand_run_folders(folders: list[Path]) -> list[Path]:
             expanded.append(folder)
         else:
             expanded.extend(path.parent for path in inside)
+    for folder in expanded:
+        check_run_folder(folder)
     return expanded
 
 

@@ -43,7 +43,7 @@ from famarl_cli.core.power import (
     spread_from_interval,
     times_today,
 )
-from famarl_cli.core.statistics import LEVEL, SPLIT, Interval, floored_variance, success_interval
+from famarl_cli.core.statistics import LEVEL, Interval, floored_variance, success_interval
 
 INCONCLUSIVE, UNDEFINED = "inconclusive", "undefined"
 NUMBER = r"(-?\d+(?:\.\d+)?(?:e-?\d+)?|1/2)"
@@ -196,13 +196,6 @@ def paired_variance(a: np.ndarray, b: np.ndarray, episodes: int | None = None) -
     return variance
 
 
-def splits(values: np.ndarray) -> bool:
-    """Whether success rates split into learners and non-learners (some above SPLIT, some not): where they do, the
-    rule's interval is :func:`~famarl_cli.core.statistics.success_interval`'s mixture, not a t interval."""
-    learners = int((values > SPLIT).sum())
-    return 0 < learners < len(values)
-
-
 def _spread(
     estimate: dict, level: float, threshold: float, distance: float
 ) -> tuple[float | None, float | None, str, str]:
@@ -220,14 +213,14 @@ def _spread(
             sd_a, sd_b = (math.sqrt(floored_variance(x, episodes)) for x in (a, b))
             return replicates_for_difference(distance, sd_a, sd_b, level), None, "values, Welch", ""
     values = _finite(estimate.get("values", []))
-    if values is not None and episodes and splits(values):
+    if values is not None and episodes:
         above = estimate["estimate"] > threshold
 
         def decides(sample: np.ndarray) -> bool:
             interval = success_interval(sample, episodes, level)
             return interval.low >= threshold if above else interval.high < threshold
 
-        return replicates_by_resampling(values, decides), None, "values, resampled (learners and non-learners)", ""
+        return replicates_by_resampling(values, decides), None, "values, resampled (the rule's own interval)", ""
     if values is not None:
         return replicates_for_mean(distance, math.sqrt(floored_variance(values, episodes)), level), None, "values", ""
     sides = (estimate["estimate"] - estimate["low"], estimate["high"] - estimate["estimate"])

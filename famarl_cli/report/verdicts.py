@@ -127,9 +127,9 @@ class Judgement:
     """Why the measure is undefined, for :attr:`Verdict.UNDEFINED`."""
 
 
-def bonferroni_level(comparisons: int) -> float:
-    """The confidence level of each of ``comparisons`` intervals, so that all hold together at LEVEL."""
-    return 1 - (1 - LEVEL) / max(1, comparisons)
+def bonferroni_level(comparisons: int, level: float = LEVEL) -> float:
+    """The confidence level of each of ``comparisons`` intervals, so that all hold together at ``level``."""
+    return 1 - (1 - level) / max(1, comparisons)
 
 
 def three_way(reproduces: bool, does_not: bool) -> Verdict:

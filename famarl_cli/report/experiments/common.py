@@ -8,6 +8,7 @@ shows curves, not numbers, so each is our reading of its words.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +33,7 @@ from famarl_cli.report.verdicts import (
     Claim,
     Estimate,
     Judgement,
+    Looks,
     Verdict,
     at_least,
     at_most,
@@ -99,6 +101,16 @@ def incomplete_claim(paper: str, g: Group | None, level: float = LEVEL) -> Claim
     verdict = mirror.get(completes.verdict, completes.verdict)
     rule = f"mean < {SOLVED:g}: upper end < {SOLVED:g} reproduces, lower end >= {SOLVED:g} does not"
     return Claim(paper, success_measure(g), Judgement(verdict, rule, completes.estimates))
+
+
+def at_look(claim: Claim, looks: Looks, n: int) -> Claim:
+    """``claim``, judged on ``n`` replicates at ``looks.level(n)``, where a claim that stayed inconclusive got
+    replicates added in blocks (docs/verdicts.md): at a later look its rule and :attr:`Claim.look` say which."""
+    look = looks.of(n)
+    if look is None:
+        return claim
+    rule = f"{claim.judgement.rule}; look {look[0]} of {look[1]} of replicates added in blocks (docs/verdicts.md)"
+    return replace(claim, judgement=replace(claim.judgement, rule=rule), look=look)
 
 
 def by_seed(g: Group, measure: Callable[[RunResult], float]) -> dict[int, float]:

@@ -9,14 +9,13 @@ A setting is read from its runs (their env's keyword arguments), named as the pr
 
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 
 from famarl_cli.core.errors import ArtifactError
 from famarl_cli.report.experiments import experiment
-from famarl_cli.report.experiments.common import curves, solves_claim
+from famarl_cli.report.experiments.common import at_look, curves, solves_claim
 from famarl_cli.report.results import Group, RunResult, gather, results_table
-from famarl_cli.report.verdicts import Claim, Looks, Verdict
+from famarl_cli.report.verdicts import Looks, Verdict
 
 CONTROL = "PPO over primitive actions learns BallPlacing"
 """The positive control's words; the setting follows in brackets."""
@@ -45,17 +44,6 @@ def protocol_order(name: str) -> tuple[int, tuple[int, ...]]:
     return sum(place > 0 for place in places), places
 
 
-def judged(paper: str, g: Group) -> Claim:
-    """PPO's claim on one setting, at the level of the look its replicates make: a setting whose claim stayed
-    inconclusive gets blocks of replicates (params ``blocks``), judged as :data:`LOOKS` plans."""
-    n = len(g.runs)
-    claim, look = solves_claim(paper, g, LOOKS.level(n)), LOOKS.of(n)
-    if look is None:
-        return claim
-    rule = f"{claim.judgement.rule}; look {look[0]} of {look[1]} of replicates added in blocks (docs/verdicts.md)"
-    return replace(claim, judgement=replace(claim.judgement, rule=rule), look=look)
-
-
 @experiment("robothand-calibration", "pipelines/robothand-calibration/dvc.yaml", order=9)
 def robothand_calibration(data: Path, out: Path):
     from famarl_cli.report.section import Section
@@ -69,7 +57,10 @@ def robothand_calibration(data: Path, out: Path):
         settings.setdefault(setting_of(kwargs), []).append(run)
     ordered = sorted(settings, key=protocol_order)
     groups = [Group(f"ppo, {name}", settings[name]) for name in ordered]
-    claims = [judged(f"{CONTROL} [{name}]", g) for name, g in zip(ordered, groups, strict=True)]
+    claims = [
+        at_look(solves_claim(f"{CONTROL} [{name}]", g, LOOKS.level(len(g.runs))), LOOKS, len(g.runs))
+        for name, g in zip(ordered, groups, strict=True)
+    ]
     chosen = next((name for name, c in zip(ordered, claims, strict=True) if c.verdict == Verdict.REPRODUCES), None)
     undecided = sum(c.verdict != Verdict.DOES_NOT for c in claims)
     choice = (

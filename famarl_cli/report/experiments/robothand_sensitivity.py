@@ -12,29 +12,46 @@ from collections.abc import Callable
 from pathlib import Path
 
 from famarl_cli.report.experiments import experiment
-from famarl_cli.report.experiments.common import curves, fails_claim, solves_claim
+from famarl_cli.report.experiments.common import at_look, curves, fails_claim, solves_claim
 from famarl_cli.report.experiments.robothand import BALL_PLACING, FIGAR_FAILS, REACHING, figar_contrast_claim
 from famarl_cli.report.results import Group, RunResult, by_agent, gather, group, results_table
-from famarl_cli.report.verdicts import Claim
+from famarl_cli.report.verdicts import Claim, Looks
+
+Judge = Callable[[str, dict[str, Group], dict[str, int]], Claim]
+"""A claim of a setting from its groups by agent and, by agent, how many of their runs are the setting's own (the
+rest were added in blocks)."""
 
 
-def of_agent(judge: Callable[[str, Group | None], Claim], agent: str) -> Callable[[str, dict[str, Group]], Claim]:
-    """A claim about one agent's runs of a setting, judged by ``judge`` (None where the setting did not train it)."""
-    return lambda paper, named: judge(paper, named.get(agent))
+def of_agent(judge: Callable[..., Claim], agent: str) -> Judge:
+    """A claim about one agent's runs of a setting, judged by ``judge`` (None where the setting did not train it), at
+    the look its replicates make where the claim got replicates added in blocks (params ``blocks``)."""
+
+    def judged(paper: str, named: dict[str, Group], own: dict[str, int]) -> Claim:
+        g = named.get(agent)
+        if g is None:
+            return judge(paper, None)
+        n = len(g.runs)
+        looks = Looks(first=own.get(agent, n))
+        return at_look(judge(paper, g, looks.level(n)), looks, n)
+
+    return judged
 
 
-CLAIMS = {
+CLAIMS: dict[str, tuple[tuple[str, Judge], ...]] = {
     "reaching": (
         ("FaMARL completes Reaching", of_agent(solves_claim, "famarl")),
         ("PPO with primitive actions fails Reaching (sparse reward)", of_agent(fails_claim, "ppo")),
     ),
     "ball-placing": (
         ("FaMARL completes BallPlacing", of_agent(solves_claim, "famarl")),
-        (FIGAR_FAILS, figar_contrast_claim),
+        (FIGAR_FAILS, lambda paper, named, own: figar_contrast_claim(paper, named)),
     ),
 }
 """pipelines/robothand's claims about each task alone (by the name of the env's task, whatever its variant), each
 judged as there from the setting's runs by agent: FiGAR's with its contrast against the setting's other agents."""
+BLOCK = "-block"
+"""The ending of a setting's name in params ``blocks``: its runs are replicates added to the setting of the same env
+and keyword arguments, for the claim about the agent they train."""
 AS_PIPELINE = "as pipelines/robothand"
 """What the default setting's runs, pipelines/robothand's own, are named by in place of changed keyword arguments."""
 
@@ -67,9 +84,12 @@ def robothand_sensitivity(data: Path, out: Path):
     for env in (REACHING, BALL_PLACING):
         for agent, g in by_agent(group(default, env)).items():
             settings.setdefault((env, AS_PIPELINE), {})[agent] = g.runs
+    own: dict[tuple[str, str], dict[str, int]] = {}
     for run in varied:
-        setting = settings.setdefault((run.evaluation["env"], changed_in(run)), {})
-        setting.setdefault(run.evaluation["agent"], []).append(run)
+        key, agent = (run.evaluation["env"], changed_in(run)), run.evaluation["agent"]
+        settings.setdefault(key, {}).setdefault(agent, []).append(run)
+        if not run.folder.parent.parent.name.endswith(BLOCK):
+            own.setdefault(key, {})[agent] = own.get(key, {}).get(agent, 0) + 1
     claims: list = []
     groups: list[Group] = []
     for (env, changed), agents in sorted(
@@ -79,7 +99,8 @@ def robothand_sensitivity(data: Path, out: Path):
         named = {agent: Group(f"{agent}{suffix}", runs) for agent, runs in agents.items()}
         groups += named.values()
         where = env.removeprefix("famarl/RobotHand-") + suffix
-        claims += [judge(f"{words} [{where}]", named) for words, judge in CLAIMS.get(task_of(env), ())]
+        first = own.get((env, changed), {})
+        claims += [judge(f"{words} [{where}]", named, first) for words, judge in CLAIMS.get(task_of(env), ())]
     tables = [
         "Each claim of pipelines/robothand judged again under one constant changed at a time (in brackets: the env "
         "and the keyword arguments its runs were made with; pipelines/robothand's own runs are the default).\n\n"
