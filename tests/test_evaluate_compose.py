@@ -150,6 +150,18 @@ def test_a_run_whose_training_log_is_gone_is_refused_before_anything_is_written(
     assert not list(runs.glob("*/eval.json")) and not (runs / "curves.png").exists()
 
 
+def test_train_refuses_an_out_folder_of_someone_elses_files_and_writes_nothing_there(run, tmp_path):
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("not a run")
+    for out in (mine, run.parent):  # someone's folder; a folder of run folders
+        before = sorted(path.name for path in out.iterdir())
+        one_line_error(famarl("train", *TINY, "--out", out), 2, "holds files that are not a run's")
+        assert sorted(path.name for path in out.iterdir()) == before
+    (run / "run.json").unlink()  # a run stopped before its first run file: its own files, trained again there
+    assert famarl("train", *TINY, "--out", run).exit_code == 0 and (run / "run.json").is_file()
+
+
 def test_train_refuses_a_changed_run_in_the_options_typed(run):
     refused = famarl("train", *TINY[:-4], "--update-epochs", 5, "--minibatches", 2, "--lr", 0.001, "--out", run)
     one_line_error(refused, 2, "--update-epochs 1 -> 5; --lr 0.0003 -> 0.001")

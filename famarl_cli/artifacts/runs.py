@@ -101,6 +101,23 @@ def expand_run_folders(folders: list[Path]) -> list[Path]:
     return expanded
 
 
+def check_run_destination(folder: Path) -> None:
+    """A usage error where a new run would be trained into ``folder`` among files not its own: a folder that holds
+    no run file may be missing, empty, or hold what a run stopped before its first save leaves (its checkpoint,
+    log, timing, lock and sweep record); anything else there is someone else's, and a run written in beside it
+    would be read later as one folder."""
+    from famarl_cli.artifacts.lock import LOCK_FILE
+    from famarl_cli.core.errors import UsageError
+
+    if not folder.is_dir() or (folder / RUN_FILE).exists():
+        return
+    own = {CHECKPOINT_FILE, LOG_FILE, TIMING_FILE, LOCK_FILE, "job.json"}
+    foreign = sorted(path.name for path in folder.iterdir() if path.name not in own)
+    if foreign:
+        shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
+        raise UsageError(f"{folder} holds files that are not a run's ({shown}); give an empty or new --out")
+
+
 ORACLE_FILE = "oracle.json"
 """``famarl oracle``'s result for one run (famarl_cli.stages.oracle)."""
 ORACLE_SCHEMA, ORACLE_SCHEMA_VERSION = "famarl.oracle", 1

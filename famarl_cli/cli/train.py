@@ -20,8 +20,11 @@ def train(options: TrainOptions) -> None:
     """Train an agent with PPO; writes run.json, checkpoint.pt and train.csv into the run folder. The default 1M
     env steps on the Maze take, on one core of a 2-core AMD EPYC VM, about 25 s for famarl, 30 s for figar and
     60 s for ppo (their env steps per second in docs/performance.md)."""
+    from famarl_cli.artifacts.runs import check_run_destination
+
     one_thread()
     out = options.destination
+    check_run_destination(out)
     # A new run is built (its options and files checked) before the folder is claimed, so bad input writes nothing.
     with console.status(f"making {options.env} and the agent"):  # a user's env may take long to construct
         fresh = new_run(options)
