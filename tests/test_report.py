@@ -690,6 +690,22 @@ def test_robothand_sensitivity_adds_a_blocks_runs_to_its_setting_and_judges_that
     assert ppo.look is None and len(ppo.judgement.estimates[0].values) == 5
 
 
+def test_robothand_sensitivity_judges_figars_contrast_on_a_block_of_both_its_arms_at_their_look(tmp_path):
+    """FiGAR's failure with its contrast reads FiGAR and FaMARL: a block of both is judged at look 2 of 4, every
+    part at that look's level over the parts."""
+    data, kwargs = tmp_path / "data", {"ball_reward": 1000}
+    for seed, jitter in zip(range(10), JITTER, strict=True):
+        folder = "robothand-sensitivity/bonus" + ("-block" if seed >= 5 else "")
+        for agent, success in (("famarl", 0.9), ("figar", 0.0)):
+            name = f"bonus-{agent}-seed{seed}"
+            make_run(data, folder, name, agent, agent, max(0.0, success + jitter), BALL_PLACING)
+            with_env_kwargs(data, folder, name, kwargs)
+    section = write_report(["robothand-sensitivity"], data, tmp_path / "report", "test")["robothand-sensitivity"]
+    figar = next(c for c in section.claims if c.paper.startswith("FiGAR fails"))
+    assert figar.look == (2, 4) and figar.verdict == Verdict.REPRODUCES
+    assert "every part at 99.2%" in figar.judgement.rule  # 1 - 0.05 / 3, over 2 parts
+
+
 def test_bipedal_judges_famarls_failure_on_the_replicates_added_in_blocks_at_their_look(tmp_path):
     """FaMARL's failure is judged on the pipeline's 5 seeds and its block's 5 more, at look 2 of 4 (where all ten
     at zero decide it and five do not); the comparison with PPO keeps to the seeds both ran."""

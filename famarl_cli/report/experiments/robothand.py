@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from famarl_cli.core.statistics import aggregate_interval
+from famarl_cli.core.statistics import LEVEL, aggregate_interval
 from famarl_cli.report.experiments import experiment
 from famarl_cli.report.experiments.common import (
     FAILED,
@@ -113,14 +113,15 @@ def controls_table(found: dict[str, dict], returns: dict[str, dict[str, float]])
 FIGAR_FAILS = "FiGAR fails BallPlacing (no precise control)"
 
 
-def figar_contrast_claim(paper: str, ball: dict[str, Group]) -> Claim:
+def figar_contrast_claim(paper: str, ball: dict[str, Group], level: float = LEVEL) -> Claim:
     """FiGAR fails BallPlacing, and below each agent the paper has learn it (of those in ``ball``, by agent): its
     failure alone would hold where no agent learns the task, and then says nothing about FiGAR's precision. Every
-    part at the Bonferroni level over the parts; the contrasts paired by replicate where the arms share them."""
+    part at the Bonferroni level over the parts (together at ``level``); the contrasts paired by replicate where the
+    arms share them."""
     figar, learners = ball.get("figar"), [ball[label] for label in LEARNERS if label in ball]
     if figar is None or not learners:
         return not_run(paper, success_measure(figar))
-    level = bonferroni_level(1 + len(learners))
+    level = bonferroni_level(1 + len(learners), level)
     theirs = by_seed(figar, success_of)
     parts = [fails(figar.label, figar.values("success"), FAILED, figar.episodes, level)]
     for g in learners:

@@ -37,6 +37,14 @@ def of_agent(judge: Callable[..., Claim], agent: str) -> Judge:
     return judged
 
 
+def figar_contrast(paper: str, named: dict[str, Group], own: dict[str, int]) -> Claim:
+    """FiGAR's failure with its contrast (:func:`figar_contrast_claim`), at the look FiGAR's replicates make where
+    the claim got blocks (of FiGAR and the agents it is contrasted with)."""
+    n = len(named["figar"].runs) if "figar" in named else 0
+    looks = Looks(first=own.get("figar", n))
+    return at_look(figar_contrast_claim(paper, named, looks.level(n)), looks, n)
+
+
 CLAIMS: dict[str, tuple[tuple[str, Judge], ...]] = {
     "reaching": (
         ("FaMARL completes Reaching", of_agent(solves_claim, "famarl")),
@@ -44,7 +52,7 @@ CLAIMS: dict[str, tuple[tuple[str, Judge], ...]] = {
     ),
     "ball-placing": (
         ("FaMARL completes BallPlacing", of_agent(solves_claim, "famarl")),
-        (FIGAR_FAILS, lambda paper, named, own: figar_contrast_claim(paper, named)),
+        (FIGAR_FAILS, figar_contrast),
     ),
 }
 """pipelines/robothand's claims about each task alone (by the name of the env's task, whatever its variant), each
