@@ -103,14 +103,27 @@ def incomplete_claim(paper: str, g: Group | None, level: float = LEVEL) -> Claim
     return Claim(paper, success_measure(g), Judgement(verdict, rule, completes.estimates))
 
 
-def at_look(claim: Claim, looks: Looks, n: int) -> Claim:
-    """``claim``, judged on ``n`` replicates at ``looks.level(n)``, where a claim that stayed inconclusive got
-    replicates added in blocks (docs/verdicts.md): at a later look its rule and :attr:`Claim.look` say which."""
-    look = looks.of(n)
+def sequential(judge: Callable[[int, float], Claim], first: int, n: int) -> Claim:
+    """A claim whose replicates may have been added in blocks (docs/verdicts.md, "Replicates added in blocks"),
+    judged as the blocks were run: ``judge(k, level)`` on the first ``k`` replicates (the pipeline's ``first``, then
+    each block more), at each look's level, up to the first look that decides it, else the last. A claim decided on
+    the pipeline's replicates is not judged again on a block added for another claim; a later look's rule and
+    :attr:`Claim.look` say which look decided."""
+    looks = Looks(first=first)
+    for k in [*range(first, n, looks.block), n] if n > first else [n]:
+        claim = judge(k, looks.level(k))
+        if claim.verdict != Verdict.INCONCLUSIVE:
+            break
+    look = looks.of(k)
     if look is None:
         return claim
     rule = f"{claim.judgement.rule}; look {look[0]} of {look[1]} of replicates added in blocks (docs/verdicts.md)"
     return replace(claim, judgement=replace(claim.judgement, rule=rule), look=look)
+
+
+def first_runs(g: Group, k: int) -> Group:
+    """``g`` with its first ``k`` runs: a look's replicates, the pipeline's own before a block's."""
+    return Group(g.label, g.runs[:k])
 
 
 def by_seed(g: Group, measure: Callable[[RunResult], float]) -> dict[int, float]:

@@ -13,13 +13,13 @@ from pathlib import Path
 
 from famarl_cli.core.errors import ArtifactError
 from famarl_cli.report.experiments import experiment
-from famarl_cli.report.experiments.common import at_look, curves, solves_claim
+from famarl_cli.report.experiments.common import curves, first_runs, sequential, solves_claim
 from famarl_cli.report.results import Group, RunResult, gather, results_table
-from famarl_cli.report.verdicts import Looks, Verdict
+from famarl_cli.report.verdicts import Verdict
 
 CONTROL = "PPO over primitive actions learns BallPlacing"
 """The positive control's words; the setting follows in brackets."""
-LOOKS = Looks(first=5)
+FIRST = 5
 """Each setting's first look is the pipeline's 5 development seeds (params ``seeds``); blocks add 5 more."""
 
 
@@ -58,7 +58,11 @@ def robothand_calibration(data: Path, out: Path):
     ordered = sorted(settings, key=protocol_order)
     groups = [Group(f"ppo, {name}", settings[name]) for name in ordered]
     claims = [
-        at_look(solves_claim(f"{CONTROL} [{name}]", g, LOOKS.level(len(g.runs))), LOOKS, len(g.runs))
+        sequential(
+            lambda k, level, g=g, name=name: solves_claim(f"{CONTROL} [{name}]", first_runs(g, k), level),
+            FIRST,
+            len(g.runs),
+        )
         for name, g in zip(ordered, groups, strict=True)
     ]
     chosen = next((name for name, c in zip(ordered, claims, strict=True) if c.verdict == Verdict.REPRODUCES), None)

@@ -12,10 +12,10 @@ from collections.abc import Callable
 from pathlib import Path
 
 from famarl_cli.report.experiments import experiment
-from famarl_cli.report.experiments.common import at_look, curves, fails_claim, solves_claim
+from famarl_cli.report.experiments.common import curves, fails_claim, first_runs, sequential, solves_claim
 from famarl_cli.report.experiments.robothand import BALL_PLACING, FIGAR_FAILS, REACHING, figar_contrast_claim
 from famarl_cli.report.results import Group, RunResult, by_agent, gather, group, results_table
-from famarl_cli.report.verdicts import Claim, Looks
+from famarl_cli.report.verdicts import Claim
 
 Judge = Callable[[str, dict[str, Group], dict[str, int]], Claim]
 """A claim of a setting from its groups by agent and, by agent, how many of their runs are the setting's own (the
@@ -30,9 +30,9 @@ def of_agent(judge: Callable[..., Claim], agent: str) -> Judge:
         g = named.get(agent)
         if g is None:
             return judge(paper, None)
-        n = len(g.runs)
-        looks = Looks(first=own.get(agent, n))
-        return at_look(judge(paper, g, looks.level(n)), looks, n)
+        return sequential(
+            lambda k, level: judge(paper, first_runs(g, k), level), own.get(agent, len(g.runs)), len(g.runs)
+        )
 
     return judged
 
@@ -41,8 +41,11 @@ def figar_contrast(paper: str, named: dict[str, Group], own: dict[str, int]) -> 
     """FiGAR's failure with its contrast (:func:`figar_contrast_claim`), at the look FiGAR's replicates make where
     the claim got blocks (of FiGAR and the agents it is contrasted with)."""
     n = len(named["figar"].runs) if "figar" in named else 0
-    looks = Looks(first=own.get("figar", n))
-    return at_look(figar_contrast_claim(paper, named, looks.level(n)), looks, n)
+
+    def judged(k: int, level: float) -> Claim:
+        return figar_contrast_claim(paper, {agent: first_runs(g, k) for agent, g in named.items()}, level)
+
+    return sequential(judged, own.get("figar", n), n)
 
 
 CLAIMS: dict[str, tuple[tuple[str, Judge], ...]] = {
