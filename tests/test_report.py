@@ -253,6 +253,32 @@ def test_betas_mig_claim_reads_its_blocks_favaes_at_their_look_and_its_runs_clai
     assert "seeds 10, 11, 12, 13, 14, fitted at every beta" in (tmp_path / "report/report.md").read_text()
 
 
+@pytest.mark.parametrize(
+    ("text", "error"),
+    [
+        ("[]", "not a record"),
+        ("{}", "without a number for beta and mig"),
+        ('{"beta": 1, "mig": null}', "without a number for beta and mig"),
+        ('{"beta": 1, "mig": "high"}', "without a number for beta and mig"),
+        ('{"beta": 1, "mig": NaN}', "no number to compare"),
+    ],
+)
+def test_a_blocks_favae_metrics_that_hold_no_mig_are_refused_naming_the_file(tmp_path, text, error):
+    data = tmp_path / "data"
+    for beta in (0.1, 1):
+        for seed in SEEDS:
+            favae = data / "beta" / "macros" / f"beta{beta}-seed{seed}" / "favae.pt"
+            favae.parent.mkdir(parents=True)
+            favae.with_suffix(".metrics.json").write_text(json.dumps({"mig": 0.1, "beta": beta}))
+            make_run(data, "beta", f"beta{beta}-seed{seed}", f"beta {beta}", "famarl", 0.5, favae=favae)
+    block = data / "beta" / "block" / "macros" / "beta1-seed10"
+    block.mkdir(parents=True)
+    (block / "favae.metrics.json").write_text(text)
+    with pytest.raises(ArtifactError, match=rf"beta1-seed10/favae.metrics.json: .*{error}"):
+        write_report(["beta"], data, tmp_path / "report", "test")
+    assert not (tmp_path / "report").exists()
+
+
 @pytest.mark.slow
 def test_robothand_aggregates_both_tasks(tmp_path):
     data = tmp_path / "data"

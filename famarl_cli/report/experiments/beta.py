@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 
 import numpy as np
 
+from famarl_cli.core.errors import ArtifactError
 from famarl_cli.core.statistics import RATE, mean_interval
 from famarl_cli.report.experiments import experiment
 from famarl_cli.report.experiments.common import (
@@ -39,7 +41,15 @@ def block_mig(data: Path) -> dict[float, dict[int, float]]:
         seed = re.search(r"seed(\d+)$", path.parent.name)
         if seed is None:
             continue
-        found.setdefault(float(metrics["beta"]), {})[int(seed[1])] = float(metrics["mig"])
+        if not isinstance(metrics, dict):
+            raise ArtifactError(f"{path}: FAVAE metrics that are not a record (a JSON object)")
+        try:
+            beta, mig = float(metrics["beta"]), float(metrics["mig"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ArtifactError(f"{path}: FAVAE metrics without a number for beta and mig ({exc!r})") from None
+        if not math.isfinite(mig):
+            raise ArtifactError(f"{path}: FAVAE metrics with a MIG of {mig}, no number to compare")
+        found.setdefault(beta, {})[int(seed[1])] = mig
     return found
 
 

@@ -99,8 +99,9 @@ def robothand_sensitivity(data: Path, out: Path):
     for run in varied:
         key, agent = (run.evaluation["env"], changed_in(run)), run.evaluation["agent"]
         settings.setdefault(key, {}).setdefault(agent, []).append(run)
-        if not run.folder.parent.parent.name.endswith(BLOCK):
-            own.setdefault(key, {})[agent] = own.get(key, {}).get(agent, 0) + 1
+        if not run.folder.parent.parent.name.endswith(BLOCK):  # the setting's own runs, not a block's
+            counts = own.setdefault(key, {})
+            counts[agent] = counts.get(agent, 0) + 1
     claims: list = []
     groups: list[Group] = []
     for (env, changed), agents in sorted(
