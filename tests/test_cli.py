@@ -230,7 +230,9 @@ def test_favae_calibrate_then_fit_reuses_c_last_and_is_deterministic(segments_fi
 def test_favae_and_traverse_bad_inputs(demos_file, segments_file, tmp_path):
     one_line_error(famarl("favae", "fit", "--segments", demos_file, "--epochs", 1), 1, "expected 'famarl.segments'")
     one_line_error(
-        famarl("favae", "fit", "--segments", segments_file, "--ladders", 5, "--epochs", 1), 2, "divisible by 32"
+        famarl("favae", "fit", "--segments", segments_file, "--ladders", 5, "--epochs", 1),
+        2,
+        "holds macro actions of length 48, not divisible by 32 (2 ** --ladders)",
     )
     assert "greater than or equal to 0" in usage_error(famarl("favae", "fit", "--beta", -1))
     one_line_error(
@@ -255,7 +257,8 @@ def test_train_and_evaluate_end_to_end(favae_file, tmp_path):
     agents = ("famarl", "ppo", "figar", "hybrid")
     for agent in agents:
         out = tmp_path / agent
-        result = famarl("train", "--agent", agent, "--favae", favae_file, *TINY_TRAINING, "--out", out)
+        macros = ("--favae", favae_file) if agent in ("famarl", "hybrid") else ()
+        result = famarl("train", "--agent", agent, *macros, *TINY_TRAINING, "--out", out)
         assert result.exit_code == 0, result.output
         assert {p.name for p in out.iterdir()} == {"run.json", "checkpoint.pt", "train.csv", "timing.json"}
         run = json.loads((out / "run.json").read_text())
@@ -568,6 +571,35 @@ def test_prior_fit_refuses_a_holdout_out_of_range_and_writes_nothing(demos_file,
     args = ("prior", "fit", "--demos", demos_file, "--segments", segments_file, "--favae", favae_file)
     assert "Invalid value for '--holdout'" in usage_error(famarl(*args, "--holdout", 1.5, "--out", out))
     assert list(tmp_path.iterdir()) == []
+
+
+NOT_TOGETHER = [
+    (("train", "--agent", "ppo", "--residual", 0.5), "--residual goes with --agent hybrid, not ppo"),
+    (("train", "--agent", "ppo", "--macro-horizon", 3), "--macro-horizon goes with --agent famarl or hybrid, not ppo"),
+    (("train", "--agent", "figar", "--type-entropy-floor", 0.1), "--type-entropy-floor goes with --agent hybrid, not"),
+    (("train", "--agent", "ppo", "--favae", "{favae}"), "--favae goes with --agent famarl or hybrid, not ppo"),
+    (("train", "--favae", "{favae}", "--residual", 0), "--residual goes with --agent hybrid, not famarl"),
+    (("macros", "--demos", "{demos}", "--length", 12), "--length must be a multiple of 8 (2 ** --ladders), got 12"),
+    (("macros", "--demos", "{demos}", "--length", 1), "--length must be a multiple of 8 (2 ** --ladders), got 1"),
+    (("macros", "--demos", "{demos}", "--ladders", 4, "--length", 24), "--length must be a multiple of 16"),
+]
+"""Options that do not go together, refused before any work (a run started, demos segmented)."""
+
+
+@pytest.mark.parametrize(("args", "needle"), NOT_TOGETHER, ids=[" ".join(map(str, a[0])) for a in NOT_TOGETHER])
+def test_options_that_do_not_go_together_are_refused_in_one_line_before_any_work(
+    args, needle, demos_file, favae_file, tmp_path, monkeypatch
+):
+    monkeypatch.chdir(tmp_path)
+    files = {"demos": demos_file, "favae": favae_file}
+    one_line_error(famarl(*(str(arg).format(**files) for arg in args), "--out", "out"), 2, needle)
+    assert list(tmp_path.iterdir()) == [], "a refused command must not leave files or empty folders"
+
+
+def test_an_option_of_another_agent_is_still_the_runs_own_on_resume(tmp_path):
+    """--resume continues the run as it was made: an option given beside it is not read, so not refused."""
+    resumed = famarl("train", "--agent", "ppo", "--residual", 0.5, "--resume", "--out", tmp_path / "run")
+    one_line_error(resumed, 1, "nothing to resume")
 
 
 def test_a_file_of_the_wrong_kind_is_named_by_what_it_is(favae_file, segments_file, tmp_path):

@@ -7,11 +7,13 @@ from __future__ import annotations
 import ast
 import dataclasses
 import inspect
+import re
 from pathlib import Path
 
 import pytest
 
 from famarl_cli.core.declare import declared
+from famarl_cli.core.errors import UsageError
 from famarl_cli.rl import Agent, agent_defaults
 from famarl_cli.rl.options import PPOOptions, RunOptions
 from famarl_cli.stages.train import DEFAULT_ENV, TrainOptions, run_spec
@@ -46,6 +48,26 @@ def _literal(node: ast.expr) -> bool:
     if isinstance(node, ast.UnaryOp):
         return _literal(node.operand)
     return isinstance(node, ast.Constant) or (isinstance(node, ast.Attribute) and node.attr.isupper())
+
+
+def test_the_options_famarl_train_refuses_for_other_agents_are_those_their_help_gives_agents():
+    """An option left out by default whose help opens with the agents it is for (``hybrid: ...``) is refused for the
+    others (AGENT_OPTIONS): a new one missing there would be accepted and ignored. --prior, refused by the options
+    themselves, and --favae, whose help names its agents in brackets, are checked on their own."""
+    from famarl_cli.stages.train import AGENT_OPTIONS, MACRO_AGENTS
+
+    options = {option.name: option for option in declared(TrainOptions)}
+    agent = "|".join(Agent)
+    helped = {
+        name: tuple(Agent(agent) for agent in opening[1].split(", "))
+        for name, option in options.items()
+        if option.default is None and (opening := re.match(rf"((?:{agent})(?:, (?:{agent}))*): ", option.help))
+    }
+    assert helped.pop("prior") == MACRO_AGENTS
+    assert helped == {name: agents for name, agents in AGENT_OPTIONS.items() if name != "favae"}
+    assert AGENT_OPTIONS["favae"] == MACRO_AGENTS and "(famarl and hybrid)" in options["favae"].help
+    with pytest.raises(UsageError, match="--prior goes with --agent famarl or hybrid, not ppo"):
+        TrainOptions(agent=Agent.PPO, prior=Path("p.pt"))
 
 
 def test_no_option_default_is_written_again_in_the_settings():

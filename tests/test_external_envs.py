@@ -125,6 +125,9 @@ def test_demos_options_that_do_not_go_together_are_refused(tmp_path):
     one_line_error(both, 2, "give one source of demos, not --script and --expert")
     one_line_error(famarl("demos", "--expert", "user_experts:swing", "--out", out), 2, "--expert needs --env")
     one_line_error(famarl("demos", "--min-return", 0, "--out", out), 2, "go with --expert")
+    fewer = famarl("demos", "--env", "Pendulum-v1", "--expert", "user_experts:swing", "--episodes", 5,
+                   "--max-episodes", 3, "--out", out)  # fmt: skip
+    one_line_error(fewer, 2, "--max-episodes 3 is fewer than --episodes 5")
     assert not out.exists()
 
 

@@ -7,7 +7,9 @@ import shutil
 import pytest
 from cli_helpers import famarl
 
+from famarl_cli.artifacts.made import option_names
 from famarl_cli.core.errors import UsageError
+from famarl_cli.stages.macros import MacrosConfig
 from famarl_cli.sweep.plan import JOB_FILE, Action, Job, folder_action, job_record
 
 TINY = ["--segment-epochs", 2, "--epochs", 2, "--length", 48]
@@ -32,10 +34,12 @@ def test_a_folder_is_run_resumed_skipped_or_refused_by_its_record(tmp_path):
     (folder / JOB_FILE).write_text(json.dumps(job_record(job, complete=True)))
     assert folder_action(folder, job, overwrite=False) == Action.SKIP
     assert folder_action(folder, job, overwrite=True) == Action.RUN
-    with pytest.raises(UsageError, match=r"made from other inputs: epochs 2 -> 3; add --overwrite"):
+    with pytest.raises(UsageError, match=r"made from other inputs or options: epochs 2 -> 3; add --overwrite"):
         folder_action(folder, _job(tmp_path, epochs=3), overwrite=False)
+    with pytest.raises(UsageError, match=r"other inputs or options: --epochs 2 -> 3; add"):
+        folder_action(folder, _job(tmp_path, epochs=3), overwrite=False, names=option_names(MacrosConfig))
     (tmp_path / "in.txt").write_text("two")
-    with pytest.raises(UsageError, match=r"other inputs: the content of .*in\.txt; add --overwrite"):
+    with pytest.raises(UsageError, match=r"other inputs or options: the content of .*in\.txt; add --overwrite"):
         folder_action(folder, job, overwrite=False)
     assert folder_action(folder, job, overwrite=True) == Action.RUN
 
@@ -65,7 +69,8 @@ def test_famarl_macros_skips_its_own_work_and_refuses_work_from_other_inputs(dem
 
     changed = famarl("macros", "--demos", demos, "--out", out, *TINY[:2], "--epochs", 3, "--length", 48)
     assert changed.exit_code == 2
-    assert changed.output.strip().splitlines()[-1].startswith(f"error: {out} was made from other inputs: epochs 2 -> 3")
+    last = changed.output.strip().splitlines()[-1]
+    assert last.startswith(f"error: {out} was made from other inputs or options: --epochs 2 -> 3")
     other = tmp_path / "other.h5"
     assert famarl("demos", "--episodes", 8, "--seed", 5, "--out", other, "--no-plot").exit_code == 0
     shutil.copy(other, demos)

@@ -72,6 +72,20 @@ def test_plan_fills_templates_and_gives_each_axis_to_the_option_of_its_name(tmp_
         plan("train", ["--label", "{typo}"], "0", [], None)
 
 
+def test_a_sweep_over_agents_gives_its_favae_to_the_agents_that_decode_macros():
+    """The pipelines' sweeps give --favae beside --over agent=famarl,ppo,...: each run takes what its agent uses
+    (famarl train alone refuses --favae with --agent ppo)."""
+    jobs = plan("train", [*TINY_PPO[2:], "--favae", "m/seed{seed}/favae.pt"], "0", ["agent=famarl,ppo,figar,hybrid"],
+                None)  # fmt: skip
+    assert [job.config["spec"]["favae"] for job in jobs] == ["m/seed0/favae.pt", None, None, "m/seed0/favae.pt"]
+
+
+def test_runs_of_one_name_are_refused_before_the_sweep_starts(tmp_path):
+    result = famarl("sweep", "train", "--seeds", "0-1", "--name", "same", "--out", tmp_path / "runs", "--", *TINY_PPO)
+    one_line_error(result, 2, "two runs of the sweep are named 'same' and would share its folder; give --name")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_job_key_is_stable_under_reordering_and_changes_with_config_code_and_inputs(tmp_path, monkeypatch):
     one = plan("train", [*TINY_PPO, "--steps", "1000"], "0", [], None)[0]
     reordered = ["--steps", "1000", "--update-epochs", "2", "--minibatches", "2", "--n-steps", "64", "--n-envs", "2"]

@@ -29,14 +29,14 @@ def test_records_name_settings_as_the_command_line_does():
     segment = to_json(SegmentOptions(margin=0.3))
     assert segment["peak_neighbours"] == 10 and segment["segment_epochs"] == 300
     assert "neighbours" not in segment and "epochs" not in segment
-    assert to_json(DemosOptions(env="Pendulum-v1", expert="m:f", max_episodes=7))["max_episodes"] == 7
+    assert to_json(DemosOptions(env="Pendulum-v1", expert="m:f", episodes=5, max_episodes=7))["max_episodes"] == 7
     assert option_names(SegmentOptions)["peak_neighbours"] == "--peak-neighbours"
 
 
 def test_a_record_written_under_former_names_reads_as_the_same_settings():
     old = _rename(to_json(SegmentOptions(margin=0.3, peak_neighbours=6)), FORMER)
     assert from_json(SegmentOptions, old) == SegmentOptions(margin=0.3, peak_neighbours=6)
-    demos = {**to_json(DemosOptions(env="Pendulum-v1", expert="m:f", min_return=0.0)), "max_episodes": None}
+    demos = {**to_json(DemosOptions(env="Pendulum-v1", expert="m:f", episodes=5, min_return=0.0)), "max_episodes": None}
     demos = _rename(demos, {"max_episodes": "max_attempts"}) | {"max_attempts": 9}
     assert from_json(DemosOptions, demos).max_episodes == 9
 

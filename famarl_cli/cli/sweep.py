@@ -149,7 +149,7 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
     give it."""
     from famarl_cli.cli.derived import parse_options
     from famarl_cli.core.declare import declared
-    from famarl_cli.sweep.plan import Axis, Job, default_name, expand, fill, parse_values
+    from famarl_cli.sweep.plan import Axis, Job, default_name, expand, fill, named_apart, parse_values
     from famarl_cli.sweep.worker import name_of
 
     if command not in SWEEPABLE:
@@ -185,7 +185,7 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
         jobs.append(
             Job(job_name, runner, recipe.config, recipe.inputs, recipe.resumable, point, recipe.batched, setting)
         )
-    return jobs
+    return named_apart(jobs)
 
 
 def _axis_flag(option, value: str) -> list[str]:

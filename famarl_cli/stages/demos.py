@@ -84,6 +84,11 @@ class DemosOptions(Replaceable):
             raise UsageError(f"give one source of demos, not {' and '.join(given)}")
         if (self.min_return is not None or self.max_episodes is not None or self.env_kwargs) and self.expert is None:
             raise UsageError("--min-return, --max-episodes and --env-kwargs go with --expert")
+        if self.max_episodes is not None and self.max_episodes < self.episodes:
+            raise UsageError(
+                f"--max-episodes {self.max_episodes} is fewer than --episodes {self.episodes}: it counts every "
+                "episode tried, kept or not"
+            )
         if self.success_return is not None and self.expert is None and self.from_minari is None:
             raise UsageError("--success-return goes with --expert or --from-minari: famarl's scripts report success")
         if self.from_minari is not None and self.env is not None:
@@ -100,7 +105,9 @@ class DemosOptions(Replaceable):
                     "env, give your expert with --expert module:attribute"
                 )
             if self.env is not None and self.env != self.script.environment:
-                raise UsageError(f"script {self.script.value} acts in {self.script.environment}, not in {self.env}")
+                raise UsageError(
+                    f"--script {self.script.value} acts in {self.script.environment}, not in --env {self.env}"
+                )
 
     @property
     def name(self) -> str:

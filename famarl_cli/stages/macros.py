@@ -27,7 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from famarl_cli.artifacts.made import Replaceable
+from famarl_cli.artifacts.made import Replaceable, option_names
 from famarl_cli.artifacts.segments import REPLICATE_FILE as SEGMENTS
 from famarl_cli.core.declare import from_json, option, pick, same_as, to_json, with_paths
 from famarl_cli.core.errors import UsageError
@@ -70,6 +70,14 @@ class MacrosConfig(stages.TraversalPlace, FitChoices, FavaeOptions, SegmentParam
             raise UsageError("--episodes goes with --demos: it takes the first episodes of the demos")
         if self.calibration is not None and self.segments is None:
             raise UsageError("--calibration goes with --segments: it is C_last measured on those segments")
+        # Refused here, before segmenting: the FAVAE fit would refuse this L only after the segmentation's work.
+        # famarl segment takes any --length, as its segments may feed a FAVAE of any --ladders (favae calibrate
+        # and fit refuse an L that theirs cannot halve before they train).
+        if self.demos is not None and self.length is not None and self.length % 2**self.ladders:
+            raise UsageError(
+                f"--length must be a multiple of {2**self.ladders} (2 ** --ladders), got {self.length}: the FAVAE "
+                "halves it once per ladder"
+            )
 
     @property
     def inputs(self) -> list[Path]:
@@ -109,7 +117,11 @@ def make_macros(options: MacrosOptions, on_progress: Callable[[str, int, int], N
     job = Job("macros", name_of(recipe.runner), recipe.config, recipe.inputs, recipe.resumable)
     with claim_folder(out):
         return make_in_folder(
-            out, job, options.overwrite, lambda: learn_macros(pick(MacrosConfig, options), out, on_progress)
+            out,
+            job,
+            options.overwrite,
+            lambda: learn_macros(pick(MacrosConfig, options), out, on_progress),
+            option_names(MacrosConfig),
         )
 
 

@@ -294,18 +294,21 @@ def favae_setup(segments: Path, options: FavaeOptions):
     from famarl_cli.method.favae.model import FavaeConfig
 
     loaded = read_segments(segments)
-    try:
-        config = FavaeConfig(
-            action_dim=loaded.action_dim,
-            length=loaded.max_length,
-            latent_dims=(options.latent_dim,) * options.ladders,
-            channels=tuple(min(32 * 2**i, 64) for i in range(options.ladders)),
-            head=str(options.head),
-            decoder=str(options.decoder),
-            join=str(options.join),
+    multiple = 2**options.ladders
+    if loaded.max_length % multiple:
+        raise UsageError(
+            f"{segments} holds macro actions of length {loaded.max_length}, not divisible by {multiple} (2 ** "
+            f"--ladders); re-run famarl segment with a --length divisible by {multiple}, or give fewer --ladders"
         )
-    except ValueError as exc:
-        raise UsageError(f"{exc}; re-run famarl segment with a --length divisible by {2**options.ladders}") from exc
+    config = FavaeConfig(
+        action_dim=loaded.action_dim,
+        length=loaded.max_length,
+        latent_dims=(options.latent_dim,) * options.ladders,
+        channels=tuple(min(32 * 2**i, 64) for i in range(options.ladders)),
+        head=str(options.head),
+        decoder=str(options.decoder),
+        join=str(options.join),
+    )
     return loaded, config
 
 

@@ -11,7 +11,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from famarl_cli.artifacts.made import Replaceable
+from famarl_cli.artifacts.made import Replaceable, option_names
 from famarl_cli.core.declare import option, pick, same_as
 from famarl_cli.core.errors import UsageError
 from famarl_cli.envs.external import MakeOptions
@@ -31,6 +31,16 @@ from famarl_cli.stages import defaults as inputs
 from famarl_cli.sweep.registry import JobRecipe
 
 DEFAULT_ENV = "famarl/ContinuousWorld-Maze-v0"
+
+MACRO_AGENTS = tuple(agent for agent in Agent if agent.decodes_macros)
+AGENT_OPTIONS = {
+    "favae": MACRO_AGENTS,
+    "macro_horizon": MACRO_AGENTS,
+    "residual": (Agent.HYBRID,),
+    "type_entropy_floor": (Agent.HYBRID,),
+}
+"""The options of :class:`TrainOptions` that only some agents use, by those agents: options left out by default
+(None), so that :func:`new_run` can tell one given for an agent that ignores it."""
 
 
 @dataclass(frozen=True)
@@ -166,7 +176,22 @@ def new_run(options: TrainOptions):
     anything is written; None where ``--resume`` continues the one in the run folder instead."""
     from famarl_cli.rl.training import Run
 
-    return None if options.resume else Run.start(run_spec(options))
+    if options.resume:
+        return None
+    refuse_unused(options)
+    return Run.start(run_spec(options))
+
+
+def refuse_unused(options: TrainOptions) -> None:
+    """A usage error naming the first option given (:data:`AGENT_OPTIONS`) that ``options.agent`` does not use.
+    ``famarl train`` alone refuses them: a sweep's options are every run's, and ``--favae`` beside ``--over
+    agent=famarl,ppo`` is the famarl runs' (the pipelines')."""
+    flags = option_names(TrainOptions)
+    for name, agents in AGENT_OPTIONS.items():
+        if getattr(options, name) is not None and options.agent not in agents:
+            raise UsageError(
+                f"{flags[name]} goes with --agent {' or '.join(agents)}, not {options.agent}, which does not use it"
+            )
 
 
 @contextlib.contextmanager
@@ -224,7 +249,6 @@ def setting_options() -> dict[str, str]:
     (``ppo.vf_coef``) keep their own names."""
     from dataclasses import fields
 
-    from famarl_cli.artifacts.made import option_names
     from famarl_cli.core.declare import declared
     from famarl_cli.rl.ppo import PPOConfig
     from famarl_cli.rl.training import RunSpec

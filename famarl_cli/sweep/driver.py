@@ -35,6 +35,7 @@ from famarl_cli.sweep.plan import (
     job_key,
     job_record,
     made_from,
+    named_apart,
     reconcile,
     refuse_unasked,
 )
@@ -94,10 +95,7 @@ def prepare(out: Path, jobs: list[Job], overwrite: bool = False) -> tuple[SweepS
     pending job's record and the manifest. Returns the state and what each job is made from (by name), which its
     record says again when it completes. Deleting a job folder, or replacing one that holds other work, is refused
     before anything changes, unless ``overwrite`` (:func:`~famarl_cli.sweep.plan.refuse_unasked`)."""
-    names = [job.name for job in jobs]
-    if len(set(names)) < len(names):
-        duplicate = next(name for name in names if names.count(name) > 1)
-        raise ValueError(f"two jobs of the sweep are named {duplicate!r}")
+    named_apart(jobs)
     made = {job.name: made_from(job) for job in jobs}
     keys = {job.name: job_key(job, made[job.name]) for job in jobs}
     plan = reconcile(out, jobs, made)
@@ -125,14 +123,16 @@ def prepare(out: Path, jobs: list[Job], overwrite: bool = False) -> tuple[SweepS
     return SweepState(states, [folder.name for folder in plan.delete], list(plan.replace)), made
 
 
-def make_in_folder(folder: Path, job: Job, overwrite: bool, work: Callable[[], object]) -> bool:
+def make_in_folder(
+    folder: Path, job: Job, overwrite: bool, work: Callable[[], object], names: dict[str, str] | None = None
+) -> bool:
     """Make the one job ``job`` in ``folder`` (held by the caller, :func:`~famarl_cli.artifacts.lock.claim_folder`)
-    by :func:`~famarl_cli.sweep.plan.folder_action`'s rule: ``work()`` afresh (what the folder held goes first, but
-    for its hidden files) or continued, with the job's record written before it (incomplete) and after (complete).
-    Returns False where the folder holds the job complete and nothing ran. A ``work`` that fails having written
-    nothing leaves no record either."""
+    by :func:`~famarl_cli.sweep.plan.folder_action`'s rule (its refusal naming the job's settings by ``names``):
+    ``work()`` afresh (what the folder held goes first, but for its hidden files) or continued, with the job's record
+    written before it (incomplete) and after (complete). Returns False where the folder holds the job complete and
+    nothing ran. A ``work`` that fails having written nothing leaves no record either."""
     made = made_from(job)
-    action = folder_action(folder, job, overwrite, made)
+    action = folder_action(folder, job, overwrite, made, names)
     if action == Action.SKIP:
         return False
     if action == Action.RUN:

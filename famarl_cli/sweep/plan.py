@@ -151,6 +151,18 @@ class Job:
         return json.dumps([self.runner, rest], sort_keys=True)
 
 
+def named_apart(jobs: list[Job]) -> list[Job]:
+    """``jobs``, refused where two share a name: they would share a folder."""
+    names = [job.name for job in jobs]
+    if len(set(names)) < len(names):
+        shared = next(name for name in names if names.count(name) > 1)
+        raise UsageError(
+            f"two runs of the sweep are named {shared!r} and would share its folder; give --name a template that "
+            "tells them apart, with {seed} and each --over axis"
+        )
+    return jobs
+
+
 def batches(jobs: list[Job], workers: int, most: int | None = None) -> list[list[int]]:
     """The jobs' indices in the batches they run in: each group of batched jobs split into
     ``ceil(len(group) / workers)``-sized batches (at most ``most``), so the group fills the workers; every other
@@ -310,7 +322,9 @@ def held(folder: Path) -> list[Path]:
     return sorted(e for e in folder.iterdir() if not e.name.startswith(".")) if folder.is_dir() else []
 
 
-def folder_action(folder: Path, job: Job, overwrite: bool, made: dict | None = None) -> Action:
+def folder_action(
+    folder: Path, job: Job, overwrite: bool, made: dict | None = None, names: dict[str, str] | None = None
+) -> Action:
     """What a command that makes one job in ``folder`` (``famarl macros --out``) does with what the folder holds:
     the sweep's rule for one folder, except that work made from other inputs is never replaced unasked.
 
@@ -324,7 +338,8 @@ def folder_action(folder: Path, job: Job, overwrite: bool, made: dict | None = N
     =======================================================  ==========================================
 
     famarl's source is not compared, as for any command's output (:mod:`famarl_cli.artifacts.made`). ``made``: what
-    the job is made from (:func:`made_from`), when the caller has it already.
+    the job is made from (:func:`made_from`), when the caller has it already; ``names``: the command's flag of each
+    setting of the job's config (:func:`~famarl_cli.artifacts.made.option_names`), which the refusal names it by.
     """
     record = read_job_record(folder)
     if record is None:
@@ -338,10 +353,10 @@ def folder_action(folder: Path, job: Job, overwrite: bool, made: dict | None = N
     if overwrite:
         return Action.RUN
     made = made_from(job) if made is None else made
-    changes = what_changed(_making(record), _making(made))
+    changes = what_changed(_making(record), _making(made), names)
     if changes:
         raise UsageError(
-            f"{folder} was made from other inputs: {'; '.join(changes)}; add --overwrite to start over in it, or "
-            "give another --out"
+            f"{folder} was made from other inputs or options: {'; '.join(changes)}; add --overwrite to start over "
+            "in it, or give another --out"
         )
     return Action.SKIP if record.get("complete") else Action.RESUME
