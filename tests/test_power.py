@@ -17,8 +17,8 @@ from famarl_cli.core.power import (
     replicates_for_mean,
     resampled_power,
 )
-from famarl_cli.core.statistics import success_interval
-from famarl_cli.report.power import claims, paired_variance
+from famarl_cli.core.statistics import paired_variance, success_interval
+from famarl_cli.report.power import claims
 from famarl_cli.report.section import Section
 from famarl_cli.report.verdicts import Claim, Verdict, beats, equivalent, fails, faster, solves
 

@@ -440,7 +440,13 @@ def test_the_papers_favae_is_judged_beside_ours_on_the_same_claims(tmp_path):
         for seed in range(10):  # a share of 5 of 5 is not enough at the Bonferroni level of 6 claims
             folder = tmp_path / "data/traversal" / source / f"seed{seed}"
             folder.mkdir(parents=True)
-            metrics = {"mig": 0.2, "length_accuracy": 0.6, "reconstruction_mse": 0.01, "kl_per_ladder": [0, 1, 3]}
+            metrics = {
+                "beta": 1.0,
+                "mig": 0.2,
+                "length_accuracy": 0.6,
+                "reconstruction_mse": 0.01,
+                "kl_per_ladder": [0, 1, 3],
+            }
             (folder / "favae.metrics.json").write_text(json.dumps(metrics))
             effects = {f"({lad},{i})": 0.01 for lad in (1, 2, 3) for i in (1, 2)} | {strong: 1.5 + 0.1 * seed}
             (folder / "traverse.json").write_text(json.dumps({"effects_m": effects}))

@@ -247,6 +247,11 @@ def claim_output(
     return not all(p.exists() for p in outputs)
 
 
+JOB_FILE = "job.json"
+"""In every job folder (and a ``famarl macros`` folder), :func:`famarl_cli.sweep.plan.job_record`: the job's key,
+what it hashes and whether the job is complete. In a sweep, the driver alone writes it."""
+JOB_SCHEMA, JOB_SCHEMA_VERSION = "famarl.job", 1
+
 ALREADY_MADE = "already holds this, complete and made from the same inputs and options; nothing to do"
 """What a command says where :func:`claim_output` finds its work done (after the output's name)."""
 

@@ -107,11 +107,12 @@ def check_run_destination(folder: Path) -> None:
     log, timing, lock and sweep record); anything else there is someone else's, and a run written in beside it
     would be read later as one folder."""
     from famarl_cli.artifacts.lock import LOCK_FILE
+    from famarl_cli.artifacts.made import JOB_FILE
     from famarl_cli.core.errors import UsageError
 
     if not folder.is_dir() or (folder / RUN_FILE).exists():
         return
-    own = {CHECKPOINT_FILE, LOG_FILE, TIMING_FILE, LOCK_FILE, "job.json"}
+    own = {CHECKPOINT_FILE, LOG_FILE, TIMING_FILE, LOCK_FILE, JOB_FILE}
     foreign = sorted(path.name for path in folder.iterdir() if path.name not in own)
     if foreign:
         shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")

@@ -198,11 +198,18 @@ def paired_difference_interval(
     bounds = (-1.0, 1.0) if episodes else None
     if len(differences) < 2:
         return Interval(estimate, -np.inf, np.inf, level).within(bounds)
-    variance = float(differences.var(ddof=1))
-    if episodes:
-        variance = max(variance, _binomial(a, episodes) + _binomial(b, episodes))
+    variance = paired_variance(a, b, episodes)
     half = stats.t.ppf(0.5 + level / 2, len(differences) - 1) * np.sqrt(variance / len(differences))
     return Interval(estimate, estimate - half, estimate + half, level).within(bounds)
+
+
+def paired_variance(a: np.ndarray, b: np.ndarray, episodes: int | None = None) -> float:
+    """The variance of the differences a_i - b_i that :func:`paired_difference_interval` reads: for success rates
+    over ``episodes`` episodes, at least both arms' binomial variances together."""
+    variance = float((a - b).var(ddof=1))
+    if episodes:
+        variance = max(variance, _binomial(a, episodes) + _binomial(b, episodes))
+    return variance
 
 
 def _binomial(values: np.ndarray, episodes: int) -> float:

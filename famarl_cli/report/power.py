@@ -43,7 +43,7 @@ from famarl_cli.core.power import (
     spread_from_interval,
     times_today,
 )
-from famarl_cli.core.statistics import LEVEL, Interval, floored_variance, success_interval
+from famarl_cli.core.statistics import LEVEL, Interval, floored_variance, paired_variance, success_interval
 
 INCONCLUSIVE, UNDEFINED = "inconclusive", "undefined"
 NUMBER = r"(-?\d+(?:\.\d+)?(?:e-?\d+)?|1/2)"
@@ -183,17 +183,6 @@ def _finite(values) -> np.ndarray | None:
     except (TypeError, ValueError) as exc:
         raise ArtifactError(f"per-replicate values that are not numbers ({exc})") from exc
     return array if len(array) >= 2 and np.isfinite(array).all() else None
-
-
-def paired_variance(a: np.ndarray, b: np.ndarray, episodes: int | None = None) -> float:
-    """The variance of per-replicate differences a_i - b_i that
-    :func:`~famarl_cli.core.statistics.paired_difference_interval` reads: for success rates over ``episodes``
-    episodes, at least both arms' binomial variances at their mean rates (shrunk off 0 and 1) together."""
-    variance = float((a - b).var(ddof=1))
-    if episodes:
-        shares = ((x.sum() * episodes + 0.5) / (len(x) * episodes + 1) for x in (a, b))
-        variance = max(variance, sum(float(p * (1 - p) / episodes) for p in shares))
-    return variance
 
 
 def _spread(

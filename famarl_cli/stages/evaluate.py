@@ -198,15 +198,13 @@ def evaluate_runs(
     ``curves`` and its ``.json`` (the summary per label). ``on_note`` hears where the results go when the runs lie
     in a DVC stage's output; ``on_done(done, total)`` follows the runs."""
     from famarl_cli.artifacts.base import prepare_output
-    from famarl_cli.artifacts.runs import expand_run_folders, read_run_file, read_timing, read_training_log
+    from famarl_cli.artifacts.runs import expand_run_folders, read_timing, read_training_log
     from famarl_cli.report.plots import plot_learning_curves
     from famarl_cli.rl.evaluation import summarise
     from famarl_cli.sweep.executors import run_each
 
     o = options
     runs = expand_run_folders(o.runs)
-    for folder in runs:
-        read_run_file(folder)
     out = o.out or beside_tracked(runs, on_note)
     into = {folder: (out / name if out else folder) for folder, name in zip(runs, evaluation_names(runs), strict=True)}
     first = into[runs[0]]

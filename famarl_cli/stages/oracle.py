@@ -129,7 +129,7 @@ def oracle_runs(
     """``famarl oracle``: each run's action space searched (:func:`oracle_run`) into OUT/<name>
     (:func:`~famarl_cli.stages.evaluate.evaluation_names`), spread over ``options.jobs`` workers; the run folders
     and what each search found, in order (``reused`` where it was there already)."""
-    from famarl_cli.artifacts.runs import expand_run_folders, read_run_file
+    from famarl_cli.artifacts.runs import expand_run_folders
     from famarl_cli.artifacts.tracked import refuse_tracked
     from famarl_cli.stages.evaluate import evaluation_names
     from famarl_cli.sweep.executors import run_each
@@ -138,8 +138,6 @@ def oracle_runs(
     if not o.run:
         raise UsageError("give --run: a run folder, or a folder of run folders (famarl train, famarl sweep train)")
     runs = expand_run_folders(o.run)
-    for folder in runs:
-        read_run_file(folder)
     into = {folder: o.out / name for folder, name in zip(runs, evaluation_names(runs), strict=True)}
     refuse_tracked(o.out)  # before the search: its writes would be refused at the end
     args = (o.layouts, o.seed, o.candidates, o.iterations, o.decisions, o.overwrite)

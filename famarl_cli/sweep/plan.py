@@ -36,13 +36,9 @@ from pathlib import Path
 
 from famarl_cli import __version__
 from famarl_cli.artifacts.base import sha256
-from famarl_cli.artifacts.made import shown_path, what_changed
+from famarl_cli.artifacts.made import JOB_FILE, JOB_SCHEMA, JOB_SCHEMA_VERSION, shown_path, what_changed
 from famarl_cli.core.errors import ArtifactError, UsageError
 
-JOB_FILE = "job.json"
-"""In every job folder (and a ``famarl macros`` folder), :func:`job_record`: the job's key, what it hashes and whether
-the job is complete. In a sweep, the driver alone writes it."""
-JOB_SCHEMA, JOB_SCHEMA_VERSION = "famarl.job", 1
 MANIFEST = "sweep.json"
 """In the sweep's output folder: the plan (each job's name, axis values and key)."""
 

@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import math
 import re
 from pathlib import Path
 
 import numpy as np
 
-from famarl_cli.core.errors import ArtifactError
 from famarl_cli.core.statistics import RATE, mean_interval
 from famarl_cli.report.experiments import experiment
 from famarl_cli.report.experiments.common import (
@@ -19,11 +17,12 @@ from famarl_cli.report.experiments.common import (
     curves,
     favae_metrics_of,
     headline_famarl_runs,
+    read_favae_metrics,
     sequential,
     success_measure,
     swept,
 )
-from famarl_cli.report.results import Group, gather, group, read_json, results_table
+from famarl_cli.report.results import Group, gather, group, results_table
 from famarl_cli.report.verdicts import Claim, all_of, beats, bonferroni_level, fails, not_run, solves
 
 MIG_DELTA = 0.05
@@ -37,19 +36,11 @@ def block_mig(data: Path) -> dict[float, dict[int, float]]:
     pipeline's macros at its beta, then each other beta on their segments and C_last)."""
     found: dict[float, dict[int, float]] = {}
     for path in sorted((data / "beta" / "block").glob("*/*/favae.metrics.json")):
-        metrics = read_json(path, "FAVAE metrics")
         seed = re.search(r"seed(\d+)$", path.parent.name)
         if seed is None:
             continue
-        if not isinstance(metrics, dict):
-            raise ArtifactError(f"{path}: FAVAE metrics that are not a record (a JSON object)")
-        try:
-            beta, mig = float(metrics["beta"]), float(metrics["mig"])
-        except (KeyError, TypeError, ValueError) as exc:
-            raise ArtifactError(f"{path}: FAVAE metrics without a number for beta and mig ({exc!r})") from None
-        if not math.isfinite(mig):
-            raise ArtifactError(f"{path}: FAVAE metrics with a MIG of {mig}, no number to compare")
-        found.setdefault(beta, {})[int(seed[1])] = mig
+        metrics = read_favae_metrics(path)
+        found.setdefault(float(metrics["beta"]), {})[int(seed[1])] = float(metrics["mig"])
     return found
 
 

@@ -7,6 +7,7 @@ shows curves, not numbers, so each is our reading of its words.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
@@ -191,7 +192,7 @@ def _favae_rows(folder: Path) -> dict[str, list[float]]:
     folders = macros_folders(folder)
     if not folders:
         return {}
-    metrics = [read_json(f / "favae.metrics.json", "FAVAE metrics") for f in folders]
+    metrics = [read_favae_metrics(f / "favae.metrics.json") for f in folders]
     segments = [
         read_json(f / "segments.metrics.json", "segmentation metrics")
         for f in folders
@@ -280,9 +281,24 @@ def favae_comparison(folders: dict[str, Path], extra: dict[str, dict[str, list[f
     return "\n".join(lines)
 
 
+def read_favae_metrics(path: Path) -> dict:
+    """A FAVAE's metrics (``famarl favae``'s ``favae.metrics.json``): a record with a number for beta and a finite
+    MIG, what every claim about disentanglement reads; an error naming the file otherwise."""
+    metrics = read_json(path, "FAVAE metrics")
+    if not isinstance(metrics, dict):
+        raise ArtifactError(f"{path}: FAVAE metrics that are not a record (a JSON object)")
+    try:
+        float(metrics["beta"]), float(metrics["mig"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ArtifactError(f"{path}: FAVAE metrics without a number for beta and mig ({exc!r})") from None
+    if not math.isfinite(float(metrics["mig"])):
+        raise ArtifactError(f"{path}: FAVAE metrics with a MIG of {metrics['mig']}, no number to compare")
+    return metrics
+
+
 def favae_metrics_of(runs: list[RunResult]) -> list[dict]:
     """Per run, the metrics of the FAVAE it decoded with."""
-    return [read_json(run.favae.with_suffix(".metrics.json"), "FAVAE metrics") for run in runs]
+    return [read_favae_metrics(run.favae.with_suffix(".metrics.json")) for run in runs]
 
 
 def demo_episodes_of(runs: list[RunResult]) -> list[int]:
