@@ -108,6 +108,39 @@ def test_pipeline_stages_against_a_revision_that_is_not_there(tmp_path):
     assert not out.exists()
 
 
+def test_same_outputs_against_a_revision_that_is_not_there():
+    one_error_line(run_process("same_outputs.py", "no-such-revision"), "no-such-revision: no such revision")
+
+
+def test_same_outputs_finds_each_changed_number_and_only_those(tmp_path, monkeypatch):
+    """A tensor, a dataset or a record's value that differs is found, and a file on one side only; pictures,
+    timings and what a record says of when, where and by which source are not compared."""
+    import json
+
+    import h5py
+
+    compare = benchmark_module("same_outputs", monkeypatch)
+    sides = before, after = tmp_path / "before", tmp_path / "after"
+    for side, weight, value, revision in ((before, 1.0, 3, "abc"), (after, 1.0, 3, "def")):
+        (side / "run").mkdir(parents=True)
+        torch.save({"model": {"w": torch.full((2,), weight)}}, side / "run/checkpoint.pt")
+        (side / "run/run.json").write_text(json.dumps({"value": value, "provenance": {"revision": revision}}))
+        with h5py.File(side / "demos.h5", "w") as file:
+            file["actions"] = [value, 1]
+        (side / "run/timing.json").write_text(json.dumps({"seconds": weight * len(str(side))}))
+        (side / "run/curve.png").write_bytes(str(side).encode())
+    assert compare.differences(*sides) == (3, [])
+    torch.save({"model": {"w": torch.tensor([1.0, 1.0 + 1e-7])}}, after / "run/checkpoint.pt")
+    (after / "run/run.json").write_text(json.dumps({"value": 4, "provenance": {}}))
+    with h5py.File(after / "demos.h5", "w") as file:
+        file["actions"] = [3, 2]
+    (after / "extra.csv").write_text("1\n")
+    assert compare.differences(*sides) == (
+        4,
+        ["demos.h5", "extra.csv (on one side only)", "run/checkpoint.pt", "run/run.json"],
+    )
+
+
 def test_robothand_sparsity_counts_each_setting_from_one_pass(tmp_path):
     import json
 
