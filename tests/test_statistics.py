@@ -175,6 +175,7 @@ def test_an_arm_that_never_learns_has_an_undefined_speed_with_its_reason():
     assert judgement.reason.startswith("flat: 10 of 10 runs never hold the level") and not judgement.estimates
 
 
+@pytest.mark.slow  # a simulation of thousands of evaluations
 def test_the_reported_intervals_cover_at_their_level_when_each_replicate_meets_its_own_layouts(tmp_path):
     """The coverage simulation (studies/interval_coverage.py, which docs/verdicts.md's table records): with a
     replicate effect and a layout effect, the interval over replicates covers the truth at 95% (within 3 Monte Carlo

@@ -20,13 +20,14 @@ def torch_threads(job: int) -> tuple[int, int]:
     return job, torch.get_num_threads()
 
 
-@pytest.mark.parametrize("workers", [1, 2])
+@pytest.mark.parametrize("workers", [1, pytest.param(2, marks=pytest.mark.slow)])  # 2: a pool of processes
 def test_fan_out_runs_each_job_on_the_sweep_executors_in_order_with_torch_on_one_thread(workers):
     seen = []
     results = study.fan_out(torch_threads, list(range(5)), workers, each=seen.append)
     assert results == seen == [(job, 1) for job in range(5)]
 
 
+@pytest.mark.slow  # a pool of processes
 def test_fan_out_takes_the_sweep_s_default_workers_and_raises_a_job_s_own_error(monkeypatch):
     monkeypatch.setenv("FAMARL_JOBS", "2")
     assert study.fan_out(math.sqrt, [4.0, 9.0, 16.0]) == [2.0, 3.0, 4.0]

@@ -104,6 +104,7 @@ def sequential_errors(levels, rng, runs: int = 4000) -> float:
     return wrong / runs
 
 
+@pytest.mark.slow  # a simulation of thousands of claims
 def test_replicates_added_in_blocks_err_at_most_twice_one_look_and_count_twice():
     """The blocks' levels (docs/verdicts.md, "Replicates added in blocks") keep a claim's error, truth at its
     threshold, within twice one look's; every look at the first look's level would not."""
