@@ -582,16 +582,17 @@ NOT_TOGETHER = [
     (("macros", "--demos", "{demos}", "--length", 12), "--length must be a multiple of 8 (2 ** --ladders), got 12"),
     (("macros", "--demos", "{demos}", "--length", 1), "--length must be a multiple of 8 (2 ** --ladders), got 1"),
     (("macros", "--demos", "{demos}", "--ladders", 4, "--length", 24), "--length must be a multiple of 16"),
+    (("macros", "--segments", "{segments}", "--length", 48), "--length goes with --demos"),
 ]
 """Options that do not go together, refused before any work (a run started, demos segmented)."""
 
 
 @pytest.mark.parametrize(("args", "needle"), NOT_TOGETHER, ids=[" ".join(map(str, a[0])) for a in NOT_TOGETHER])
 def test_options_that_do_not_go_together_are_refused_in_one_line_before_any_work(
-    args, needle, demos_file, favae_file, tmp_path, monkeypatch
+    args, needle, demos_file, favae_file, segments_file, tmp_path, monkeypatch
 ):
     monkeypatch.chdir(tmp_path)
-    files = {"demos": demos_file, "favae": favae_file}
+    files = {"demos": demos_file, "favae": favae_file, "segments": segments_file}
     one_line_error(famarl(*(str(arg).format(**files) for arg in args), "--out", "out"), 2, needle)
     assert list(tmp_path.iterdir()) == [], "a refused command must not leave files or empty folders"
 

@@ -70,6 +70,8 @@ class MacrosConfig(stages.TraversalPlace, FitChoices, FavaeOptions, SegmentParam
             raise UsageError("--episodes goes with --demos: it takes the first episodes of the demos")
         if self.calibration is not None and self.segments is None:
             raise UsageError("--calibration goes with --segments: it is C_last measured on those segments")
+        if self.length is not None and self.demos is None:
+            raise UsageError("--length goes with --demos: it is where their segmentation cuts; --segments are cut")
         # Refused here, before segmenting: the FAVAE fit would refuse this L only after the segmentation's work.
         # famarl segment takes any --length, as its segments may feed a FAVAE of any --ladders (favae calibrate
         # and fit refuse an L that theirs cannot halve before they train).

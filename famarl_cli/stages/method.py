@@ -298,7 +298,8 @@ def favae_setup(segments: Path, options: FavaeOptions):
     if loaded.max_length % multiple:
         raise UsageError(
             f"{segments} holds macro actions of length {loaded.max_length}, not divisible by {multiple} (2 ** "
-            f"--ladders); re-run famarl segment with a --length divisible by {multiple}, or give fewer --ladders"
+            f"--ladders); cut them again with a --length divisible by {multiple} (famarl segment, or famarl macros "
+            "--demos), or give fewer --ladders"
         )
     config = FavaeConfig(
         action_dim=loaded.action_dim,
