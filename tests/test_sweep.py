@@ -68,6 +68,8 @@ def test_plan_fills_templates_and_gives_each_axis_to_the_option_of_its_name(tmp_
         plan("train", ["--agent", "dqn"], "0", [], None)
     with pytest.raises(UsageError, match="cannot sweep 'report'"):
         plan("report", [], "0", [], None)
+    with pytest.raises(UsageError, match=r"--over clip-value=maybe: "):  # the axis as typed, not its field
+        plan("train", TINY_PPO[2:], "0", ["clip-value=maybe"], None)
     with pytest.raises(UsageError, match="not an axis"):
         plan("train", ["--label", "{typo}"], "0", [], None)
 

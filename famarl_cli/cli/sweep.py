@@ -176,7 +176,7 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
         for axis, value in point.items():
             field = fields.get(axis.replace("-", "_"))
             if field is not None and not _given(field.flag, argv):
-                argv += _axis_flag(field, value)
+                argv += _axis_flag(field, axis, value)
         recipe = sweepable.make(sweepable.options(**parse_options(app, sweepable.command, sweepable.options, argv)))
         job_name = fill(name, point) if name else default_name(point)
         # A setting is the same options for every seed ("--favae .../seed{seed}/favae.pt" included).
@@ -188,16 +188,16 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
     return named_apart(jobs)
 
 
-def _axis_flag(option, value: str) -> list[str]:
+def _axis_flag(option, axis: str, value: str) -> list[str]:
     """An axis value as COMMAND's own parser takes it, so the value is typed and bounded where every option is: a
     yes/no option (``--normalize`` / ``--no-normalize``) by click's reading of yes/no text, the others as
-    ``--NAME VALUE``."""
+    ``--NAME VALUE``. ``axis``: its name as the user typed it in ``--over``."""
     if option.base is not bool:
         return [option.flag, value]
     try:
         return [option.flag if click.BOOL.convert(value, None, None) else "--no-" + option.flag.removeprefix("--")]
     except click.BadParameter as exc:
-        raise UsageError(f"--over {option.name}={value}: {exc.format_message()}") from None
+        raise UsageError(f"--over {axis}={value}: {exc.format_message()}") from None
 
 
 def _given(option: str, argv: list[str]) -> bool:
