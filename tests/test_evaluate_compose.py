@@ -53,6 +53,21 @@ def test_no_command_writes_into_a_stage_output_by_hand(project, monkeypatch):
     assert not (project / "data/x/runs").exists()
 
 
+def test_a_stages_run_is_refused_before_anything_of_it_goes(project, monkeypatch):
+    """Other options, with or without --overwrite, into a run a DVC stage made: the stage's refusal, and the run
+    left whole (--overwrite had deleted it, then been refused at the first save; without it the advice had been
+    --overwrite's)."""
+    monkeypatch.setenv(STAGE_VARIABLE, "pipelines/x/dvc.yaml:train")
+    assert famarl("train", *TINY, "--out", "data/x/runs/ppo-seed0").exit_code == 0
+    monkeypatch.delenv(STAGE_VARIABLE)
+    run = project / "data/x/runs/ppo-seed0"
+    before = {path.name: path.read_bytes() for path in run.iterdir()}
+    other = [*TINY, "--lr", "0.001"]
+    for extra in ((), ("--overwrite",)):
+        one_line_error(famarl("train", *other, "--out", run, *extra), 2, "the output of the DVC stage train")
+        assert {path.name: path.read_bytes() for path in run.iterdir()} == before
+
+
 def test_a_bare_evaluate_of_a_stages_runs_writes_beside_them(project, monkeypatch):
     monkeypatch.setenv(STAGE_VARIABLE, "pipelines/x/dvc.yaml:train")
     assert famarl("train", *TINY, "--out", "data/x/runs/ppo-seed0").exit_code == 0

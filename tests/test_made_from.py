@@ -87,6 +87,11 @@ def test_famarl_macros_skips_its_own_work_and_refuses_work_from_other_inputs(dem
     assert (out / "traverse.json").is_file() and (out / "favae.pt").stat().st_mtime_ns == made["favae.pt"]
     assert json.loads((out / JOB_FILE).read_text())["complete"]
 
+    # Replacing work that is refused, or fails, leaves the old work as it was.
+    kept = {path.name: path.read_bytes() for path in out.iterdir()}
+    failed = famarl("macros", "--demos", demos, "--out", out, *TINY, "--device", "cuda", "--overwrite")
+    assert failed.exit_code == 1 and "CUDA" in failed.output
+    assert {path.name: path.read_bytes() for path in out.iterdir()} == kept, "the old macros must stay whole"
     fresh = famarl("macros", "--demos", demos, "--out", out, *TINY[:2], "--epochs", 3, "--length", 48, "--overwrite")
     assert fresh.exit_code == 0, fresh.output
     assert json.loads((out / JOB_FILE).read_text())["config"]["epochs"] == 3

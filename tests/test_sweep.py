@@ -70,6 +70,14 @@ def test_plan_fills_templates_and_gives_each_axis_to_the_option_of_its_name(tmp_
         plan("report", [], "0", [], None)
     with pytest.raises(UsageError, match=r"--over clip-value=maybe: "):  # the axis as typed, not its field
         plan("train", TINY_PPO[2:], "0", ["clip-value=maybe"], None)
+    # an axis's option given after -- as well, or an axis no option reads: every run alike
+    with pytest.raises(UsageError, match=r"--seed is an axis of this sweep \(--seeds\); leave it out"):
+        plan("train", [*TINY_PPO[2:], "--seed", "5"], "0-1", [], None)
+    with pytest.raises(UsageError, match=r"--agent is an axis of this sweep \(--over agent=...\)"):
+        plan("train", [*TINY_PPO[2:], "--agent", "ppo"], "0", ["agent=ppo,figar"], None)
+    with pytest.raises(UsageError, match=r"--over bogus: train has no option --bogus and no option names \{bogus\}"):
+        plan("train", TINY_PPO[2:], "0", ["bogus=1,2"], None)
+    assert len(plan("train", [*TINY_PPO[2:], "--label", "x{bogus}"], "0", ["bogus=1,2"], None)) == 2
     with pytest.raises(UsageError, match="not an axis"):
         plan("train", ["--label", "{typo}"], "0", [], None)
 

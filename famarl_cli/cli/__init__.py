@@ -163,7 +163,13 @@ def already_made(command: str, options: Any, outputs: list, inputs: tuple = ()) 
     from famarl_cli.artifacts.tracked import refuse_tracked
 
     made = making(command, options, inputs)
-    if claim_output(outputs, made, options.overwrite, names=option_names(type(options))):
+    try:
+        afresh = claim_output(outputs, made, options.overwrite, names=option_names(type(options)))
+    except UsageError:
+        for output in outputs:  # the refusal that holds whatever the options, not --overwrite's advice
+            refuse_tracked(output)
+        raise
+    if afresh:
         for output in outputs:  # before any work: the writes would be refused at the end
             refuse_tracked(output)
         return False

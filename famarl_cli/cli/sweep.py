@@ -170,6 +170,17 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
     if bad := [value for value in seed_values if not value.isdigit()]:
         raise UsageError(f"--seeds {seeds}: {bad[0]!r} is not a seed (a whole number >= 0: a range 0-9, a list 0,3,7)")
     axes = [Axis("seed", seed_values), *(Axis.parse(text) for text in over)]
+    for axis in axes:
+        field = fields.get(axis.name.replace("-", "_"))
+        typed = "--seeds" if axis.name == "seed" else f"--over {axis.name}=..."
+        if field is not None and _given(field.flag, options):
+            # the option's one value would win over every run's own: runs alike, counted as replicates
+            raise UsageError(f"{field.flag} is an axis of this sweep ({typed}); leave it out of the options after --")
+        if field is None and axis.name != "seed" and not any("{" + axis.name + "}" in option for option in options):
+            raise UsageError(
+                f"--over {axis.name}: {command} has no option --{axis.name} and no option names {{{axis.name}}}, so "
+                "every value would make the same runs"
+            )
     jobs = []
     for point in expand(axes):
         argv = [fill(option, point) for option in options]

@@ -209,7 +209,7 @@ def evaluate_runs(
     into = {folder: (out / name if out else folder) for folder, name in zip(runs, evaluation_names(runs), strict=True)}
     first = into[runs[0]]
     curves = o.curves or (first / "curves.png" if len(runs) == 1 else first.parent / "curves.png")
-    refuse_tracked(curves, "give --curves elsewhere")
+    refuse_tracked(curves, "give --curves elsewhere" if o.curves else "give --out elsewhere")
     curves = prepare_output(curves)
     # Every run's evaluation is claimed before any is made: one refused run must not cost the others' work.
     settings = EvaluateOptions(episodes=o.episodes, seed=o.seed, success_return=o.success_return)

@@ -135,18 +135,39 @@ def make_in_folder(
     action = folder_action(folder, job, overwrite, made, names)
     if action == Action.SKIP:
         return False
-    if action == Action.RUN:
+    aside = folder / REPLACED
+    if aside.exists():  # left by a process killed while it replaced the folder's work, which it was asked to
+        shutil.rmtree(aside)
+    if action == Action.RUN and held(folder):
+        # Moved aside, not deleted, until the new work is done: work refused or stopped leaves the old as it was.
+        aside.mkdir()
         for entry in held(folder):
-            shutil.rmtree(entry) if entry.is_dir() else entry.unlink()
+            entry.rename(aside / entry.name)
     write_json(folder / JOB_FILE, job_record(job, complete=False, made=made))
     try:
         work()
     except BaseException:
-        if held(folder) == [folder / JOB_FILE]:  # a record of work that wrote nothing is none
+        if aside.exists():
+            _remove(held(folder))
+            for entry in aside.iterdir():
+                entry.rename(folder / entry.name)
+            aside.rmdir()
+        elif held(folder) == [folder / JOB_FILE]:  # a record of work that wrote nothing is none
             (folder / JOB_FILE).unlink()
         raise
     write_json(folder / JOB_FILE, job_record(job, complete=True, made=made))
+    if aside.exists():
+        shutil.rmtree(aside)
     return True
+
+
+REPLACED = ".famarl-replaced"
+"""The hidden folder in which :func:`make_in_folder` keeps a folder's old work while new work replaces it."""
+
+
+def _remove(entries: list[Path]) -> None:
+    for entry in entries:
+        shutil.rmtree(entry) if entry.is_dir() else entry.unlink()
 
 
 def run_sweep(
