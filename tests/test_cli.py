@@ -445,7 +445,7 @@ def test_traverse_without_a_model_takes_the_manual_chains_favae_else_the_main_jo
     shutil.copy(favae_file, pipeline)
     used = famarl("traverse", "--ladder", 3)
     assert used.exit_code == 0, used.output
-    assert "replicate 0 of the default pipeline" in used.stdout
+    assert "a FAVAE of the default pipeline" in used.stdout
     assert (tmp_path / "data/traverse/maze-macros-seed0-ladder3.json").is_file()
     manual = tmp_path / "data/favae/pushed-down-only.pt"
     manual.parent.mkdir(parents=True)
@@ -509,7 +509,12 @@ FAILING = [
     (("train", "--steps", 100), 1, "error: no FAVAE given"),
     (("evaluate",), 1, "error: no run given, and data/maze/runs (dvc repro) does not exist; make one, or give --run"),
     (("macros", "--demos", "missing.h5"), 1, "error: missing.h5: no such file"),
-    (("report", "--experiment", "maze"), 1, "error: data: nothing to report for maze"),
+    (("report", "--experiment", "maze"), 1, "error: data: nothing to report for maze (run `dvc repro dvc.yaml`"),
+    (
+        ("report", "--experiment", "scripts"),
+        1,
+        "error: data: nothing to report for scripts (run `dvc repro pipelines/scripts",
+    ),
     (("report", "--experiment", "maze", "--summary", "summary.json"), 1, "error: data: nothing to report for maze"),
     (("docs",), 1, "error: .: no dvc.yaml here"),
     (("export-minari", "missing.h5", "--dataset-id", "a-v0"), 1, "error: missing.h5: no such file"),
@@ -640,7 +645,7 @@ def test_stages_given_no_inputs_take_the_main_jobs(favae_file, segments_file, tm
     assert result.exit_code == 0, result.output
     assert "data/maze/macros/seed0/segments.h5" in result.stdout
     result = famarl("traverse", "--values=-1,1", "--out", "traverse.h5")
-    assert result.exit_code == 0 and "replicate 0 of the default pipeline" in result.stdout
+    assert result.exit_code == 0 and "a FAVAE of the default pipeline" in result.stdout
 
 
 @pytest.mark.parametrize(

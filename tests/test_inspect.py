@@ -55,6 +55,12 @@ def broken(run: Path, tmp_path: Path, name: str, change) -> Path:
     return folder
 
 
+def _drop_agent(run_file):
+    run = json.loads(run_file.read_text())
+    del run["spec"]["agent"]
+    run_file.write_text(json.dumps(run))
+
+
 @pytest.mark.parametrize(
     ("fault", "change", "needle"),
     [
@@ -75,6 +81,7 @@ def broken(run: Path, tmp_path: Path, name: str, change) -> Path:
             "train.csv: has 45 updates where run.json says 47",
         ),
         ("log deleted", lambda f: (f / "train.csv").unlink(), "train.csv: no training log"),
+        ("settings edited", lambda f: _drop_agent(f / "run.json"), "run.json: its run's settings lack 'agent'"),
     ],
 )
 def test_a_broken_run_folder_is_refused_naming_the_file(run, tmp_path, fault, change, needle):

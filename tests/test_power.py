@@ -201,6 +201,7 @@ def test_famarl_power_json_lists_each_inconclusive_claim_with_its_need(summary_f
         (None, "missing or unreadable"),
         ("{not json", "missing or unreadable"),
         ("[1, 2]", "not a summary famarl report writes"),
+        ("{}", "not a summary famarl report writes (it holds no experiment)"),
         ("BROKEN", "lacks a number among"),
     ],
 )

@@ -77,7 +77,8 @@ def test_plan_fills_templates_and_gives_each_axis_to_the_option_of_its_name(tmp_
         plan("train", [*TINY_PPO[2:], "--agent", "ppo"], "0", ["agent=ppo,figar"], None)
     with pytest.raises(UsageError, match=r"--over bogus: train has no option --bogus and no option names \{bogus\}"):
         plan("train", TINY_PPO[2:], "0", ["bogus=1,2"], None)
-    assert len(plan("train", [*TINY_PPO[2:], "--label", "x{bogus}"], "0", ["bogus=1,2"], None)) == 2
+    assert len(plan("train", [*TINY_PPO, "--label", "x{bogus}"], "0", ["bogus=1,2"], None)) == 2
+    assert plan("train", [*TINY_PPO, "--seed", "5"], "0", [], None)[0].config["spec"]["seed"] == 5  # one seed: its own
     with pytest.raises(UsageError, match="not an axis"):
         plan("train", ["--label", "{typo}"], "0", [], None)
 

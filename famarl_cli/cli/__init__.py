@@ -128,7 +128,8 @@ def reports_errors(command):
             # each file as it was or complete, never half-written (a run's last checkpoint is one to resume from).
             typer.echo(
                 "error: interrupted; no file was left half-written (files completed before stay; famarl train "
-                "--resume, or the same famarl macros or sweep, continues)",
+                "--resume continues a run from its last checkpoint, where one was saved; the same famarl macros or "
+                "sweep continues its work)",
                 err=True,
             )
             raise typer.Exit(INTERRUPTED) from None

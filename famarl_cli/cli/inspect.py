@@ -121,18 +121,23 @@ def _checkpoint(path: Path) -> tuple[Table, dict]:
 
 
 def _run_folder(folder: Path) -> tuple[Table, dict]:
-    from famarl_cli.artifacts.runs import EVAL_FILE, check_run_folder, read_evaluation
+    from famarl_cli.artifacts.runs import EVAL_FILE, RUN_FILE, check_run_folder, read_evaluation
+    from famarl_cli.core.errors import ArtifactError
     from famarl_cli.stages.evaluate import judged_success
 
     run = check_run_folder(folder)
-    spec, ppo = run["spec"], run["spec"]["ppo"]
+    try:
+        spec, ppo = run["spec"], run["spec"]["ppo"]
+        agent, label, seed, env, total = spec["agent"], spec["label"], spec["seed"], spec["env_id"], ppo["total_steps"]
+    except (KeyError, TypeError) as exc:
+        raise ArtifactError(f"{folder / RUN_FILE}: its run's settings lack {exc} (edited by hand?)") from None
     table = Table(title=f"run {folder}", show_header=False)
-    table.add_row("agent", f"{spec['agent']} ({spec['label']}), seed {spec['seed']}")
-    table.add_row("env", f"{spec['env_id']} {spec.get('env_kwargs') or ''}".strip())
+    table.add_row("agent", f"{agent} ({label}), seed {seed}")
+    table.add_row("env", f"{env} {spec.get('env_kwargs') or ''}".strip())
     if spec.get("favae"):
         table.add_row("FAVAE", spec["favae"])
     state = "complete" if run.get("complete") else "stopped (famarl train --resume continues it)"
-    table.add_row("env steps", f"{run.get('env_steps', 0):,} of {ppo['total_steps']:,}; {state}")
+    table.add_row("env steps", f"{run.get('env_steps', 0):,} of {total:,}; {state}")
     evaluation = folder / EVAL_FILE
     if evaluation.is_file():
         table.add_row("evaluation", judged_success(read_evaluation(evaluation)))

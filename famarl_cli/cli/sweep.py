@@ -173,7 +173,7 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
     for axis in axes:
         field = fields.get(axis.name.replace("-", "_"))
         typed = "--seeds" if axis.name == "seed" else f"--over {axis.name}=..."
-        if field is not None and _given(field.flag, options):
+        if field is not None and _given(field.flag, options) and len(axis.values) > 1:
             # the option's one value would win over every run's own: runs alike, counted as replicates
             raise UsageError(f"{field.flag} is an axis of this sweep ({typed}); leave it out of the options after --")
         if field is None and axis.name != "seed" and not any("{" + axis.name + "}" in option for option in options):

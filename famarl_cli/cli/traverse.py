@@ -27,7 +27,7 @@ def traverse(options: TraverseOptions) -> None:
         return
     console = results_console()
     if defaults.is_main_jobs(model):
-        console.print(f"traversing {model}: replicate 0 of the default pipeline (dvc repro)")
+        console.print(f"traversing {model}: a FAVAE of the default pipeline (dvc repro)")
     out = options.destination
     result, carried = stages.traverse(options)
     table = Table(title=f"traversal of {model}", show_header=True)

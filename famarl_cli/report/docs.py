@@ -151,7 +151,8 @@ def outputs_differing(root: Path, definition: str, graph) -> tuple[str, ...]:
             str(out)
             for stage in stages_of(root, definition, graph)
             for out in stage.outs
-            if out.exists and out.hash_info and out.status()
+            # the workspace's status, not DVC's cache: a copy of the same content is no other result
+            if out.exists and out.hash_info and out.workspace_status()
         )
     )
 
@@ -159,6 +160,8 @@ def outputs_differing(root: Path, definition: str, graph) -> tuple[str, ...]:
 def read_summary(path: Path) -> dict:
     """A pipeline's committed summary, checked to be what ``famarl report`` writes: each experiment's counts."""
     loaded = read_json(path, "summary.json")
+    if loaded == {}:
+        raise ArtifactError(f"{path}: not a summary famarl report writes (it holds no experiment)")
     for name, section in loaded.items() if isinstance(loaded, dict) else [("", None)]:
         missing = [key for key in COUNTS if not isinstance(section, dict) or not isinstance(section.get(key), int)]
         if missing:

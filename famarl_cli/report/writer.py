@@ -32,8 +32,9 @@ def write_report(
     sections = {name: known[name].build(data, out) for name in names}
     built = {name: section for name, section in sections.items() if section is not None}
     if not built:
+        repro = "; ".join(dict.fromkeys(f"`dvc repro {known[name].pipeline}`" for name in names))
         raise ArtifactError(
-            f"{data}: nothing to report for {', '.join(names)} (run `dvc repro` first, or `famarl evaluate --out`)"
+            f"{data}: nothing to report for {', '.join(names)} (run {repro} first, or `famarl evaluate --out`)"
         )
     summary = summary or out / "summary.json"
     for name, section in built.items():
