@@ -22,7 +22,9 @@ A *derived* output, a result computed from a run (``famarl evaluate``'s, ``famar
 command and options from inputs that changed since (the run was trained further), is out of date rather than
 another's work: it is made again, not refused.
 
-``--overwrite`` makes it afresh in every case. famarl's own source is not part of the making (as with any tool, a
+``--overwrite`` makes it afresh in every case. An output in a DVC stage's output (:mod:`famarl_cli.artifacts.tracked`)
+that would be made, or that is refused, is refused as DVC's first: no option lets a command write there by hand.
+famarl's own source is not part of the making (as with any tool, a
 new release is a new version): a sweep's key adds it, because DVC re-runs a sweep's stage when the code changes.
 """
 
@@ -219,7 +221,29 @@ def claim_output(
 
     ``derived``: the output is a result computed from its inputs (an evaluation of a run), so one made by the same
     command and options from inputs that have changed since (the run trained further) is out of date, not someone
-    else's work: it is made again, not refused."""
+    else's work: it is made again, not refused.
+
+    Where it would be made or refused, an output lying in a DVC stage's output is refused as such first
+    (:func:`~famarl_cli.artifacts.tracked.refuse_tracked`): before any work, and before advice (``--overwrite``)
+    that could not help."""
+    from famarl_cli.artifacts.tracked import refuse_tracked
+
+    try:
+        afresh = _claim(outputs, made, overwrite, instead, names, derived)
+    except UsageError:
+        for output in outputs:
+            refuse_tracked(output)
+        raise
+    if afresh:
+        for output in outputs:
+            refuse_tracked(output)
+    return afresh
+
+
+def _claim(
+    outputs: list[Path], made: dict, overwrite: bool, instead: str, names: dict[str, str] | None, derived: bool
+) -> bool:
+    """:func:`claim_output`'s rule, DVC's outputs aside."""
     primary = outputs[0]
     if overwrite or not primary.exists():
         return True

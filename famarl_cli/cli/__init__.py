@@ -161,18 +161,9 @@ def already_made(command: str, options: Any, outputs: list, inputs: tuple = ()) 
     ``options.overwrite`` (:func:`famarl_cli.artifacts.made.claim_output`, the rule every command follows), or where
     they lie in a DVC stage's output (:mod:`famarl_cli.artifacts.tracked`)."""
     from famarl_cli.artifacts.made import ALREADY_MADE, claim_output, making, option_names
-    from famarl_cli.artifacts.tracked import refuse_tracked
 
     made = making(command, options, inputs)
-    try:
-        afresh = claim_output(outputs, made, options.overwrite, names=option_names(type(options)))
-    except UsageError:
-        for output in outputs:  # the refusal that holds whatever the options, not --overwrite's advice
-            refuse_tracked(output)
-        raise
-    if afresh:
-        for output in outputs:  # before any work: the writes would be refused at the end
-            refuse_tracked(output)
+    if claim_output(outputs, made, options.overwrite, names=option_names(type(options))):
         return False
     note(f"{outputs[0]} {ALREADY_MADE} (--overwrite makes it afresh)")
     return True

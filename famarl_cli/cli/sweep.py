@@ -170,8 +170,9 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
     if bad := [value for value in seed_values if not value.isdigit()]:
         raise UsageError(f"--seeds {seeds}: {bad[0]!r} is not a seed (a whole number >= 0: a range 0-9, a list 0,3,7)")
     axes = [Axis("seed", seed_values), *(Axis.parse(text) for text in over)]
+    field_of = {axis.name: fields.get(axis.name.replace("-", "_")) for axis in axes}  # an axis sets its option's
     for axis in axes:
-        field = fields.get(axis.name.replace("-", "_"))
+        field = field_of[axis.name]
         typed = "--seeds" if axis.name == "seed" else f"--over {axis.name}=..."
         if field is not None and _given(field.flag, options) and len(axis.values) > 1:
             # the option's one value would win over every run's own: runs alike, counted as replicates
@@ -185,7 +186,7 @@ def plan(command: str, options: list[str], seeds: str, over: list[str], name: st
     for point in expand(axes):
         argv = [fill(option, point) for option in options]
         for axis, value in point.items():
-            field = fields.get(axis.replace("-", "_"))
+            field = field_of[axis]
             if field is not None and not _given(field.flag, argv):
                 argv += _axis_flag(field, axis, value)
         recipe = sweepable.make(sweepable.options(**parse_options(app, sweepable.command, sweepable.options, argv)))

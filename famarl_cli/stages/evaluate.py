@@ -87,7 +87,7 @@ def evaluation_state(run: Path, into: Path, options: EvaluateOptions, overwrite:
     found = made_result(target, made, overwrite, "give --out to keep both", option_names(EvaluateOptions))
     if found is not None and found.get("schema_version") == EVAL_SCHEMA_VERSION:
         return "reuse", found
-    refuse_tracked(target, "give --out to evaluate elsewhere")
+    refuse_tracked(target)  # one of an older layout, which made_result found complete, is made again
     return ("remake" if target.exists() and not overwrite else "make"), None
 
 

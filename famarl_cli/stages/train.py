@@ -203,7 +203,6 @@ def claimed_run(options: TrainOptions, fresh) -> Iterator:
     from famarl_cli.artifacts.lock import claim_folder
     from famarl_cli.artifacts.made import claim_output
     from famarl_cli.artifacts.runs import CHECKPOINT_FILE, EVAL_FILE, LOG_FILE, ROLLOUTS_FILE, RUN_FILE
-    from famarl_cli.artifacts.tracked import refuse_tracked
     from famarl_cli.rl.training import Run
 
     out = options.destination
@@ -212,15 +211,9 @@ def claimed_run(options: TrainOptions, fresh) -> Iterator:
             run = Run.resume(out, options.steps)
         else:
             made, instead = fresh.provenance["made_from"], "--resume to continue it as it was made"
-            names = setting_options()
-            try:
-                afresh = claim_output([out / RUN_FILE], made, options.overwrite, instead=instead, names=names)
-            except UsageError:
-                refuse_tracked(out / RUN_FILE)  # the refusal that holds whatever the options first
-                raise
+            afresh = claim_output([out / RUN_FILE], made, options.overwrite, instead=instead, names=setting_options())
             run = fresh if afresh else Run.resume(out)
         if run is fresh:
-            refuse_tracked(out / RUN_FILE)  # before the old run goes: a run there could never be saved
             for name in (RUN_FILE, CHECKPOINT_FILE, LOG_FILE, EVAL_FILE, ROLLOUTS_FILE):
                 (out / name).unlink(missing_ok=True)
         yield run

@@ -138,10 +138,10 @@ def make_in_folder(
     aside = folder / REPLACED
     if aside.exists():  # left by a process killed while it replaced the folder's work, which it was asked to
         shutil.rmtree(aside)
-    if action == Action.RUN and held(folder):
+    if old := (held(folder) if action == Action.RUN else []):
         # Moved aside, not deleted, until the new work is done: work refused or stopped leaves the old as it was.
         aside.mkdir()
-        for entry in held(folder):
+        for entry in old:
             entry.rename(aside / entry.name)
     write_json(folder / JOB_FILE, job_record(job, complete=False, made=made))
     try:
