@@ -41,7 +41,8 @@ import torch
 from famarl_cli.stages import method as stages
 from famarl_cli.rl import Agent
 from famarl_cli.rl.ppo import PPOConfig
-from famarl_cli.rl.training import Run, RunSpec
+from famarl_cli.rl.spec import RunSpec
+from famarl_cli.rl.training import Run
 
 folder, epochs, steps = Path(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
 out = {"platform": platform_facts()}

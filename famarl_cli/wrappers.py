@@ -31,11 +31,11 @@ import gymnasium
 import numpy as np
 
 from famarl_cli.envs.success import as_bool
+from famarl_cli.envs.vector import GymBatch
 from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.method.prior.checkpoint import load_skills
 from famarl_cli.rl.action_modes import ClosedLoopMacroActions, LatentMacroActions, RepeatedActions
 from famarl_cli.rl.executor import discounted_sum, run_sequences
-from famarl_cli.rl.vector import GymBatch
 
 Reward = Literal["discounted", "sum"]
 

@@ -25,7 +25,8 @@ from famarl_cli.method.favae.model import Favae, FavaeConfig
 from famarl_cli.rl import Agent, MacroDecoder, MacroDiscount
 from famarl_cli.rl.agent import load_agent
 from famarl_cli.rl.ppo import PPOConfig
-from famarl_cli.rl.training import Run, RunSpec
+from famarl_cli.rl.spec import RunSpec
+from famarl_cli.rl.training import Run
 
 MAZE = ENV_IDS["maze"]
 TINY = {"total_steps": 64, "n_envs": 2, "n_steps": 16, "minibatches": 2, "epochs": 1}
@@ -57,7 +58,7 @@ def runs(tmp_path_factory, favae) -> dict[Agent, Path]:
 
 def observations(n: int, seed: int = 0) -> np.ndarray:
     from famarl_cli.envs.batched import ContinuousWorldBatch
-    from famarl_cli.rl.vector import CONTINUOUS_WORLD_TASKS
+    from famarl_cli.envs.vector import CONTINUOUS_WORLD_TASKS
 
     return ContinuousWorldBatch(CONTINUOUS_WORLD_TASKS[MAZE], n_envs=n, seed=seed).reset().astype(np.float64)
 

@@ -25,7 +25,7 @@ def test_famarl_train_left_alone_is_the_settings_own_defaults(agent):
     what depends on the agent: a default declared again with another value, in the options or in a dataclass,
     fails here. ``PPOConfig()`` is ``famarl train --agent ppo``'s."""
     from famarl_cli.rl.ppo import PPOConfig
-    from famarl_cli.rl.training import RunSpec
+    from famarl_cli.rl.spec import RunSpec
 
     spec = run_spec(TrainOptions(agent=agent, favae=Path("f.pt")))
     own = agent_defaults(agent)
@@ -74,7 +74,7 @@ def test_no_option_default_is_written_again_in_the_settings():
     """PPOConfig's and RunSpec's fields that a ``famarl train`` option with a default sets take that default from
     the option's declaration, never as a literal of their own; and TrainOptions does not declare them again."""
     from famarl_cli.rl.ppo import PPOConfig
-    from famarl_cli.rl.training import RunSpec
+    from famarl_cli.rl.spec import RunSpec
     from famarl_cli.stages.train import setting_options
 
     by_flag = {option.flag: option for option in declared(TrainOptions)}

@@ -15,10 +15,10 @@ from famarl_cli.artifacts.minari_datasets import export_minari
 from famarl_cli.core.errors import FamarlError, UsageError
 from famarl_cli.envs import external
 from famarl_cli.envs.external import MissingExtra, make_env
+from famarl_cli.envs.vector import make_batch
 from famarl_cli.experts.bipedal import BipedalWalkerExpert
 from famarl_cli.experts.point_maze import PointMazeExpert
 from famarl_cli.method.traversal import run_in_env
-from famarl_cli.rl.vector import make_batch
 from famarl_cli.stages.demos import collect, record_expert_demos
 
 NO_RESTART = json.dumps({"continuing_task": False})

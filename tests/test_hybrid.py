@@ -7,12 +7,12 @@ from ppo_reference import autograd_ppo_loss
 from torch.distributions import Categorical
 
 from famarl_cli.envs import ENV_IDS
+from famarl_cli.envs.vector import make_batch
 from famarl_cli.method.favae.model import Favae, FavaeConfig
 from famarl_cli.rl.action_modes import HybridActions, LatentMacroActions, PrimitiveActions
 from famarl_cli.rl.policy import ActorCritic
 from famarl_cli.rl.ppo import Minibatch, PPOConfig, PPOTrainer, ppo_loss
 from famarl_cli.rl.semi_mdp import path_value
-from famarl_cli.rl.vector import make_batch
 
 MAZE = "famarl/ContinuousWorld-Maze-v0"
 D, Z = 2, 3

@@ -11,9 +11,9 @@ from famarl_cli.core.errors import UsageError
 from famarl_cli.envs import CONTINUOUS_WORLD_IDS
 from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.envs.continuous_world import GOAL_RADIUS, distance_to_goal
+from famarl_cli.envs.vector import GymBatch, make_batch
 from famarl_cli.rl.action_modes import HybridActions, LatentMacroActions, PrimitiveActions, RepeatedActions
 from famarl_cli.rl.oracle import OracleOptions, by_chance, draw, initial, rollout, search, start_of
-from famarl_cli.rl.vector import GymBatch, make_batch
 
 REACHING = "famarl/RobotHand-Reaching-v0"
 MAZE = CONTINUOUS_WORLD_IDS["maze"]

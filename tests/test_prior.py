@@ -10,6 +10,7 @@ from ppo_reference import autograd_ppo_loss
 
 from famarl_cli.artifacts import read_demos
 from famarl_cli.artifacts.segments import read_segments
+from famarl_cli.envs.vector import make_batch
 from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.method.prior.checkpoint import load_skills
 from famarl_cli.method.prior.choices import PriorFitChoices
@@ -21,8 +22,8 @@ from famarl_cli.rl.action_modes import ClosedLoopMacroActions
 from famarl_cli.rl.policy import ActorCritic
 from famarl_cli.rl.ppo import Minibatch, PPOConfig, PPOTrainer, ppo_loss
 from famarl_cli.rl.prior_guide import PriorGuide
-from famarl_cli.rl.training import Run, RunSpec
-from famarl_cli.rl.vector import make_batch
+from famarl_cli.rl.spec import RunSpec
+from famarl_cli.rl.training import Run
 
 BASE = "famarl/ContinuousWorld-Base-v0"
 BRANCHES = np.array([[True, True, False, False, False], [True, True, True, True, True]])

@@ -8,6 +8,7 @@ from ppo_reference import autograd_ppo_loss
 from torch.distributions import Categorical, Normal
 
 from famarl_cli.envs.batched import ContinuousWorldBatch
+from famarl_cli.envs.vector import GymBatch
 from famarl_cli.method.favae.model import Favae, FavaeConfig
 from famarl_cli.rl import Agent
 from famarl_cli.rl.action_modes import LatentMacroActions, PrimitiveActions, RepeatedActions
@@ -17,8 +18,8 @@ from famarl_cli.rl.executor import discounted_sum, run_sequences
 from famarl_cli.rl.normalization import RewardScaler, RunningMeanStd
 from famarl_cli.rl.policy import ActorCritic
 from famarl_cli.rl.ppo import STATS, Minibatch, PPOConfig, PPOTrainer, compute_gae, ppo_loss
-from famarl_cli.rl.training import Run, RunSpec, train_together
-from famarl_cli.rl.vector import GymBatch
+from famarl_cli.rl.spec import RunSpec
+from famarl_cli.rl.training import Run, train_together
 
 MAZE = "famarl/ContinuousWorld-Maze-v0"
 

@@ -9,9 +9,9 @@ from gymnasium.utils.env_checker import check_env
 from famarl_cli.artifacts import read_demos
 from famarl_cli.envs import ROBOT_HAND_IDS
 from famarl_cli.envs import robot_hand as rh
+from famarl_cli.envs.vector import GymBatch, make_batch
 from famarl_cli.experts import PeggingExpert
 from famarl_cli.method.traversal import run_macro_actions
-from famarl_cli.rl.vector import GymBatch, make_batch
 from famarl_cli.stages.demos import record_demos
 
 STILL = np.zeros(4)

@@ -143,7 +143,7 @@ def test_a_run_records_its_loop_as_the_command_line_names_it_and_older_runs_stil
     ``decoder`` reads back the same."""
     from famarl_cli.rl import Agent, MacroDecoder
     from famarl_cli.rl.ppo import PPOConfig
-    from famarl_cli.rl.training import RunSpec
+    from famarl_cli.rl.spec import RunSpec
     from famarl_cli.stages.train import setting_options
 
     spec = RunSpec("famarl/ContinuousWorld-Maze-v0", Agent.FAMARL, 0, PPOConfig(), loop=MacroDecoder.CLOSED)

@@ -104,17 +104,27 @@ def provenance(
     inputs = list(inputs)
     made = None if options is None else making(command, options, inputs)
     hashed = {} if made is None else made["inputs"]  # each input's content read once
+    return _recorded(
+        command, params, seed, {shown_path(p): hashed.get(shown_path(p)) or sha256(p) for p in inputs}, made
+    )
+
+
+def provenance_of(made: dict, params: dict[str, Any], seed: int | None) -> dict:
+    """:func:`provenance` of an output whose making (:func:`making`) was taken already, to see whether it was there:
+    its inputs are the making's, each file's content read once."""
+    return _recorded(made["command"], params, seed, dict(made["inputs"]), made)
+
+
+def _recorded(command: str, params: dict[str, Any], seed: int | None, inputs: dict, made: dict | None) -> dict:
     prov = {
         "command": command,
         "params": params,
         "seed": seed,
         "famarl_version": __version__,
-        "inputs": {shown_path(p): hashed.get(shown_path(p)) or sha256(p) for p in inputs},
+        "inputs": inputs,
         "platform": platform_facts(),
     }
-    if made is not None:
-        prov["made_from"] = made
-    return prov
+    return prov if made is None else {**prov, "made_from": made}
 
 
 def _provenance(path: Path) -> dict:

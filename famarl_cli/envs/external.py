@@ -8,7 +8,7 @@
 - **Success** follows :mod:`famarl_cli.envs.success`: the env's report where it gives one (gymnasium-robotics',
   famarl's), else its ``reward_threshold``, never termination. BipedalWalker's termination is a fall as often as
   the far end: it reports reaching the end (:class:`ReportsBipedalSuccess`).
-- **Observations** of any space with a flat form are flattened by :class:`~famarl_cli.rl.vector.GymBatch` with
+- **Observations** of any space with a flat form are flattened by :class:`~famarl_cli.envs.vector.GymBatch` with
   ``gymnasium.spaces.flatten``: a Dict's entries in the space's key order, which gymnasium sorts (PointMaze:
   achieved_goal (2), desired_goal (2), observation (4)).
 """

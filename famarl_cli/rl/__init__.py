@@ -1,8 +1,7 @@
 """Reinforcement learning: one PPO over four action modes (FaMARL's latent macro actions, primitive actions,
 FiGAR's repeated actions, and the hybrid of macro and primitive actions), all executed through the same open-loop
-path and budgeted in environment steps.
+path and budgeted in environment steps, on the batched environments of :mod:`famarl_cli.envs.vector`.
 
-- :mod:`~famarl_cli.rl.vector`: batched environments (ContinuousWorld natively, any gymnasium id by a loop);
 - :mod:`~famarl_cli.rl.executor`: runs a batch of open-loop action sequences of different lengths;
 - :mod:`~famarl_cli.rl.action_modes`: what the policy outputs and how it becomes an action sequence;
 - :mod:`~famarl_cli.rl.policy`: the actor-critic networks and their distributions;
@@ -68,7 +67,7 @@ def agent_defaults(agent: Agent) -> dict:
     """The settings that depend on the agent, as ``famarl train`` fills them in: ``n_steps``, ``macro_discount``,
     ``type_entropy_floor`` (PPOConfig) and ``macro_horizon``, ``residual`` (RunSpec). A new agent is a member of
     :class:`Agent`, its settings here, an action mode (:class:`~famarl_cli.rl.action_modes.ActionMode`) and its
-    branch of :func:`~famarl_cli.rl.training.build_mode`.
+    branch of :func:`~famarl_cli.rl.action_modes.build_mode`.
 
     The hybrid's decisions last 1 step or a macro's length, and only the semi-MDP form values them alike
     (:mod:`famarl_cli.rl.semi_mdp`); the other agents keep the paper's convention and run whole macros.

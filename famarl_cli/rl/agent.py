@@ -13,13 +13,16 @@ import numpy as np
 
 from famarl_cli.artifacts.runs import read_run_checkpoint
 from famarl_cli.core.errors import UsageError
+from famarl_cli.envs.vector import BatchedEnv, make_batch
 from famarl_cli.method.favae.model import Favae
 from famarl_cli.method.prior.checkpoint import Skills
 from famarl_cli.rl import MacroDecoder
+from famarl_cli.rl.action_modes import ActionMode, build_mode
 from famarl_cli.rl.normalization import ObservationNormalizer
 from famarl_cli.rl.policy import ActorCritic
-from famarl_cli.rl.training import RunSpec, build_guide, build_mode, favae_from_state, skills_from_state
-from famarl_cli.rl.vector import BatchedEnv, make_batch
+from famarl_cli.rl.prior_guide import build_guide
+from famarl_cli.rl.spec import RunSpec
+from famarl_cli.rl.training import mode_from_state
 
 
 @dataclass
@@ -33,6 +36,11 @@ class TrainedAgent:
 
     spec: RunSpec
     policy: ActorCritic
+    mode: ActionMode
+    """How its decisions become actions (:func:`~famarl_cli.rl.action_modes.build_mode`): the same for any batch of
+    its env."""
+    env: BatchedEnv = field(repr=False, compare=False)
+    """One env of its kind: the shape and space of the observations it takes."""
     obs_norm_state: dict
     favae: Favae | None
     env_steps: int
@@ -43,19 +51,15 @@ class TrainedAgent:
     """:meth:`predict`: per env of the batch, the actions of its decision in progress still to run."""
 
     @functools.cached_property
-    def _env(self) -> BatchedEnv:
-        return make_batch(self.spec.env_id, 1, self.spec.seed, self.spec.env_kwargs)
-
-    @functools.cached_property
     def _actor(self) -> FrozenActor:
-        return FrozenActor(self, self._env)
+        return FrozenActor(self)
 
     @classmethod
     def load(cls, run_dir: str | os.PathLike) -> TrainedAgent:
         """The agent a run folder (``famarl train``) holds, as its checkpoint left it."""
         payload = read_run_checkpoint(run_dir)
         spec = RunSpec.from_dict(payload["config"])
-        favae, skills = favae_from_state(payload["mode"]), skills_from_state(payload["mode"])
+        favae, skills = mode_from_state(payload["mode"])
         trainer = payload["trainer"]
         env = make_batch(spec.env_id, 1, spec.seed, spec.env_kwargs, spec.success_return)
         mode = build_mode(spec, env, favae, skills)
@@ -63,7 +67,7 @@ class TrainedAgent:
             env.observation_size, mode.policy_action_size, mode.choices, spec.ppo.hidden, mode.branches
         )
         policy.load_state_dict(trainer["policy"])
-        return cls(spec, policy, trainer["obs_norm"], favae, int(trainer["counters"]["env_steps"]), skills)
+        return cls(spec, policy, mode, env, trainer["obs_norm"], favae, int(trainer["counters"]["env_steps"]), skills)
 
     def act(
         self, observation: np.ndarray | dict, deterministic: bool = False, rng: np.random.Generator | None = None
@@ -130,11 +134,11 @@ class TrainedAgent:
 
     @property
     def _shape(self) -> tuple[int]:
-        return (self._env.observation_size,)
+        return (self.env.observation_size,)
 
     def _observations(self, observation: np.ndarray | dict) -> tuple[np.ndarray, bool]:
         """``observation`` as rows of flat observations (N, size), and whether it was one observation."""
-        size, space = self._env.observation_size, getattr(self._env, "observation_space", None)
+        size, space = self.env.observation_size, getattr(self.env, "observation_space", None)
         expected = f"{self.spec.env_id} observations have shape {self._shape}, or (N, {size}) for a batch"
         if isinstance(observation, Mapping):
             observation = _flatten_dict(observation, space, expected)
@@ -151,7 +155,7 @@ class TrainedAgent:
 
 def _flatten_dict(observation: Mapping, space: object, expected: str) -> np.ndarray:
     """A Dict observation, or a batch of them (each entry with a leading row axis), flattened as training
-    flattened it (:class:`~famarl_cli.rl.vector.GymBatch`)."""
+    flattened it (:class:`~famarl_cli.envs.vector.GymBatch`)."""
     if not isinstance(space, gym.spaces.Dict):
         raise UsageError(f"{expected}; got a dict")
     shapes = {key: sub.shape for key, sub in space.spaces.items()}
@@ -185,11 +189,10 @@ class FrozenActor:
     with its mode, or sampling as it did in training when given a generator. Returns each decision's open-loop
     actions (N, L, D) and lengths (N,); ``macro`` is which of the last decisions were macro actions."""
 
-    def __init__(self, agent: TrainedAgent, env: BatchedEnv, rng: np.random.Generator | None = None) -> None:
-        self.agent, self.rng = agent, rng
-        self.mode = build_mode(agent.spec, env, agent.favae, agent.skills)
+    def __init__(self, agent: TrainedAgent, rng: np.random.Generator | None = None) -> None:
+        self.agent, self.rng, self.mode = agent, rng, agent.mode
         self.guide = build_guide(agent.spec, self.mode, agent.skills)
-        self.normalize = ObservationNormalizer((env.observation_size,), agent.spec.ppo.normalize_obs)
+        self.normalize = ObservationNormalizer((agent.policy.obs_size,), agent.spec.ppo.normalize_obs)
         self.normalize.load_state_dict(agent.obs_norm_state)
 
     def __call__(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

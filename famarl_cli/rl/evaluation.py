@@ -18,9 +18,9 @@ from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.envs.continuous_world import Layouts
 from famarl_cli.envs.external import make_env
 from famarl_cli.envs.success import as_bool, rate
+from famarl_cli.envs.vector import GymBatch, make_batch
 from famarl_cli.rl.agent import FrozenActor, TrainedAgent
 from famarl_cli.rl.executor import run_sequences
-from famarl_cli.rl.vector import GymBatch, make_batch
 
 
 @dataclass
@@ -61,7 +61,7 @@ def evaluate(
     if success_return is None:
         success_return = agent.spec.success_return
     env = make_batch(agent.spec.env_id, episodes, layout_seed(agent, seed), agent.spec.env_kwargs, success_return)
-    act = FrozenActor(agent, env, generator(agent.spec.seed, Stream.EVALUATION_ACTIONS, seed) if sample else None)
+    act = FrozenActor(agent, generator(agent.spec.seed, Stream.EVALUATION_ACTIONS, seed) if sample else None)
     obs = env.reset()
     alive = np.ones(episodes, dtype=bool)
     returns, lengths, decisions, chosen, macros, macro_steps = (np.zeros(episodes) for _ in range(6))
@@ -143,7 +143,7 @@ def film_episode(agent: TrainedAgent, seed: int) -> Film:
         success_return=agent.spec.success_return,
     )
     env = batch.envs[0]
-    act = FrozenActor(agent, batch)
+    act = FrozenActor(agent)
     batch.reset()
     frames, decisions, macros, decision = [env.render()], [], [], 0
 

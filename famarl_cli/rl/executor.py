@@ -17,7 +17,7 @@ from typing import Protocol
 
 import numpy as np
 
-from famarl_cli.rl.vector import BatchedEnv
+from famarl_cli.envs.vector import BatchedEnv
 
 
 class Plan(Protocol):

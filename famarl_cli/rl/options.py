@@ -1,6 +1,6 @@
 """The settings of PPO and of a run that ``famarl train`` offers, declared once (:mod:`famarl_cli.core.declare`):
 :class:`~famarl_cli.stages.train.TrainOptions` is built on them (its options), and
-:class:`~famarl_cli.rl.ppo.PPOConfig` and :class:`~famarl_cli.rl.training.RunSpec` take their defaults from them
+:class:`~famarl_cli.rl.ppo.PPOConfig` and :class:`~famarl_cli.rl.spec.RunSpec` take their defaults from them
 (:func:`~famarl_cli.core.declare.default_of`), so a default changes in one line. The settings that depend on the
 agent are :func:`famarl_cli.rl.agent_defaults`'.
 
@@ -22,7 +22,7 @@ option's default: on ``--resume`` the budget left out is the run's own."""
 
 @dataclass(frozen=True)
 class RunOptions:
-    """A run's settings beyond PPO's (:class:`~famarl_cli.rl.training.RunSpec`'s)."""
+    """A run's settings beyond PPO's (:class:`~famarl_cli.rl.spec.RunSpec`'s)."""
 
     prior: Path | None = option(
         None,

@@ -28,9 +28,9 @@ import numpy as np
 from famarl_cli.core.errors import UsageError
 from famarl_cli.core.seeding import Stream, generator, seed_of
 from famarl_cli.envs.batched import ContinuousWorldBatch
+from famarl_cli.envs.vector import GymBatch
 from famarl_cli.rl.action_modes import ActionMode, LatentMacroActions, PrimitiveActions
 from famarl_cli.rl.executor import run_sequences
-from famarl_cli.rl.vector import GymBatch
 
 ELITE_SHARE = 0.1
 """The share of a CEM iteration's plans that refit its Gaussian."""

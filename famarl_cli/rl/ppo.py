@@ -33,6 +33,7 @@ from famarl_cli.core.declare import default_of, plain
 from famarl_cli.core.replicate_adam import ReplicateAdam
 from famarl_cli.core.seeding import Stream, generator, seed_of
 from famarl_cli.envs.batched import ContinuousWorldBatch
+from famarl_cli.envs.vector import BatchedEnv
 from famarl_cli.rl import DECISIONS_PER_ROLLOUT, Agent, MacroDiscount
 from famarl_cli.rl.action_modes import ActionMode
 from famarl_cli.rl.executor import SequenceResult, run_sequences
@@ -41,7 +42,6 @@ from famarl_cli.rl.options import DEFAULT_STEPS, PPOOptions
 from famarl_cli.rl.policy import LOG_SQRT_2PI, ActorCritic
 from famarl_cli.rl.prior_guide import PriorGuide
 from famarl_cli.rl.semi_mdp import decision_reward
-from famarl_cli.rl.vector import BatchedEnv
 
 RECENT_EPISODES = 100
 """Training statistics (return, success) are means over this many most recent episodes."""

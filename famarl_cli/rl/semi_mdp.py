@@ -61,7 +61,7 @@ def path_value(
 ) -> float:
     """The discounted return, from the start, of walking :class:`ConstantPenaltyEnv`'s path (unit penalty) in
     decisions of ``macro_length`` steps, as PPO's targets count it under ``macro_discount`` (unscaled)."""
-    from famarl_cli.rl.vector import GymBatch
+    from famarl_cli.envs.vector import GymBatch
 
     env = GymBatch([ConstantPenaltyEnv(length, 1.0, bonus)], seed=0, autoreset=False)
     obs, value, weight = env.reset(), 0.0, 1.0

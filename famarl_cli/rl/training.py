@@ -1,134 +1,31 @@
-"""A training run from start to finish: its spec, the agent it builds, checkpoints and exact resumes.
+"""A training run from start to finish: the trainer its spec builds, checkpoints and exact resumes.
 
-A run is fully described by its :class:`RunSpec` plus the FAVAE it decodes with (FaMARL and hybrid). Checkpoints
-hold the whole trainer state (:meth:`PPOTrainer.state_dict`), so ``resume`` continues the very same run: with
-the same seed, a run stopped and resumed ends with the same weights and log as one that never stopped.
+A run is fully described by its :class:`~famarl_cli.rl.spec.RunSpec` plus the FAVAE it decodes with (FaMARL and
+hybrid). Checkpoints hold the whole trainer state (:meth:`PPOTrainer.state_dict`), so ``resume`` continues the very
+same run: with the same seed, a run stopped and resumed ends with the same weights and log as one that never
+stopped.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 
 from famarl_cli.artifacts import provenance
 from famarl_cli.artifacts.base import sha256
 from famarl_cli.artifacts.runs import CHECKPOINT_FILE, read_run_checkpoint, read_timing, write_run, write_timing
-from famarl_cli.core.declare import default_of, plain
 from famarl_cli.core.errors import ArtifactError, UsageError
 from famarl_cli.core.seeding import Stream, seed_of
+from famarl_cli.envs.vector import BatchedEnv, make_batch
 from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.method.favae.model import Favae, FavaeConfig
 from famarl_cli.method.prior.checkpoint import Skills, load_skills
-from famarl_cli.rl import Agent, MacroDecoder
-from famarl_cli.rl.action_modes import (
-    ActionMode,
-    ClosedLoopMacroActions,
-    HybridActions,
-    LatentMacroActions,
-    PrimitiveActions,
-    RepeatedActions,
-)
-from famarl_cli.rl.options import RunOptions
-from famarl_cli.rl.ppo import Member, PPOConfig, PPOTrainer
-from famarl_cli.rl.prior_guide import PriorGuide
-from famarl_cli.rl.vector import BatchedEnv, make_batch
-
-
-@dataclass(frozen=True)
-class RunSpec:
-    """A run's settings, as run.json records them; those ``famarl train`` offers take its defaults
-    (:class:`~famarl_cli.rl.options.RunOptions`, whose help says what each means)."""
-
-    env_id: str
-    agent: Agent
-    seed: int
-    ppo: PPOConfig
-    latent_bound: float = default_of(RunOptions, "latent_bound")
-    macro_horizon: int = 0
-    """FaMARL and hybrid: macro actions are cut after this many steps (0: where the decoder stops them)."""
-    residual: float = 0.0
-    """Hybrid: a macro decision adds this times the primitive output to each of its actions (0: off)."""
-    max_repeat: int = default_of(RunOptions, "max_repeat")
-    favae: str | None = None
-    """FaMARL and hybrid: the FAVAE checkpoint it was started from (its weights are copied into the run)."""
-    prior: str | None = default_of(RunOptions, "prior")
-    """The prior file it was started from (copied into the run like the FAVAE)."""
-    prior_guide: bool = default_of(RunOptions, "prior_guide")
-    prior_weight: float = default_of(RunOptions, "prior_weight")
-    prior_target_kl: float = default_of(RunOptions, "prior_target_kl")
-    prior_obs_prefix: bool = default_of(RunOptions, "prior_obs_prefix")
-    loop: MacroDecoder = default_of(RunOptions, "loop")
-    """Runs written before recorded it as ``decoder`` (:meth:`from_dict` reads both)."""
-    label: str = ""
-    """How plots and reports name this kind of run; seeds of one experiment share it."""
-    env_kwargs: dict = field(default_factory=dict)
-    """Keyword arguments of ``gymnasium.make`` (PointMaze's ``continuing_task``, say)."""
-    success_return: float | None = None
-    """``--success-return``: an episode succeeds when its return reaches this, whatever the env reports
-    (:mod:`famarl_cli.envs.success`); None: the env's report, else its reward_threshold, else not defined."""
-
-    def __post_init__(self) -> None:
-        # Held in one form whatever the caller gave (an enum or its value, a Path or its text), so that the spec
-        # written into run.json and checkpoint.pt is plain data that reads back equal.
-        object.__setattr__(self, "agent", Agent(self.agent))
-        object.__setattr__(self, "loop", MacroDecoder(self.loop))
-        for name in ("favae", "prior"):
-            if (path := getattr(self, name)) is not None:
-                object.__setattr__(self, name, os.fspath(path))
-
-    def to_dict(self) -> dict:
-        """Plain data (enums as their values), as JSON and the safe checkpoint loader read it back."""
-        return {**plain(asdict(self)), "ppo": self.ppo.to_dict()}
-
-    @staticmethod
-    def from_dict(values: dict) -> RunSpec:
-        # Runs written before 0 meant "whole macros" stored None.
-        horizon = values.get("macro_horizon") or 0
-        ppo = PPOConfig.from_dict(values["ppo"])
-        values = {("loop" if name == "decoder" else name): value for name, value in values.items()}
-        return RunSpec(**{**values, "ppo": ppo, "macro_horizon": horizon})
-
-    @property
-    def guided(self) -> bool:
-        return self.prior is not None and self.prior_guide
-
-
-def default_label(
-    agent: Agent, favae: str | os.PathLike | None, guided: bool = False, loop: MacroDecoder = MacroDecoder.OPEN
-) -> str:
-    """``<agent>[+prior][+closed] (<FAVAE file name>)``, without the name for a FAVAE named favae.pt (famarl macros
-    folders)."""
-    if not agent.decodes_macros:
-        return str(agent)
-    name = f"{agent}{'+prior' if guided else ''}{'+closed' if loop == MacroDecoder.CLOSED else ''}"
-    return name if not favae or Path(favae).stem == "favae" else f"{name} ({Path(favae).stem})"
-
-
-def build_mode(spec: RunSpec, env: BatchedEnv, favae: Favae | None, skills: Skills | None = None) -> ActionMode:
-    low, high = env.action_bounds
-    if spec.agent == Agent.PPO:
-        return PrimitiveActions(low, high)
-    if spec.agent == Agent.FIGAR:
-        return RepeatedActions(low, high, spec.max_repeat)
-    try:
-        if spec.loop == MacroDecoder.CLOSED:
-            decoder = skills.decoder.frozen()
-            macros = ClosedLoopMacroActions(favae, decoder, low, high, spec.latent_bound, spec.macro_horizon)
-        else:
-            macros = LatentMacroActions(favae, low, high, spec.latent_bound, spec.macro_horizon)
-    except ValueError as exc:
-        raise UsageError(f"{spec.favae}: {exc}") from exc
-    return HybridActions(macros, spec.residual) if spec.agent == Agent.HYBRID else macros
-
-
-def build_guide(spec: RunSpec, mode: ActionMode, skills: Skills | None) -> PriorGuide | None:
-    """The prior's guidance of the latent outputs (the last ones, for FaMARL all of them), where the run has it."""
-    if skills is None or not spec.prior_guide:
-        return None
-    size, latent = mode.policy_action_size, skills.config.latent_size
-    return PriorGuide(skills.prior.frozen(), size, slice(size - latent, size), spec.prior_weight, spec.prior_target_kl)
+from famarl_cli.rl.action_modes import build_mode
+from famarl_cli.rl.ppo import Member, PPOTrainer
+from famarl_cli.rl.prior_guide import build_guide
+from famarl_cli.rl.spec import RunSpec
 
 
 def check_skills(spec: RunSpec, skills: Skills, favae: Favae, env: BatchedEnv, favae_path: str | None = None) -> None:
@@ -153,21 +50,21 @@ def check_skills(spec: RunSpec, skills: Skills, favae: Favae, env: BatchedEnv, f
         )
 
 
-def favae_state(favae: Favae | None, skills: Skills | None = None) -> dict:
+def mode_state(favae: Favae | None, skills: Skills | None = None) -> dict:
+    """The checkpoint's ``mode``: what a run decodes its macro actions with, kept in the run (the FAVAE's config and
+    weights, the prior file's networks), so that evaluation and resumes need neither file."""
     state = {} if favae is None else {"favae_config": favae.config.to_dict(), "favae_state_dict": favae.state_dict()}
     return state if skills is None else {**state, "skills": skills.state()}
 
 
-def favae_from_state(state: dict) -> Favae | None:
-    if "favae_config" not in state:
-        return None
-    favae = Favae(FavaeConfig.from_dict(state["favae_config"]))
-    favae.load_state_dict(state["favae_state_dict"])
-    return favae
-
-
-def skills_from_state(state: dict) -> Skills | None:
-    return None if "skills" not in state else Skills.from_state(state["skills"])
+def mode_from_state(state: dict) -> tuple[Favae | None, Skills | None]:
+    """The FAVAE and the prior's networks a checkpoint's ``mode`` holds (:func:`mode_state`); None for either
+    it does not hold."""
+    favae = None
+    if "favae_config" in state:
+        favae = Favae(FavaeConfig.from_dict(state["favae_config"]))
+        favae.load_state_dict(state["favae_state_dict"])
+    return favae, (Skills.from_state(state["skills"]) if "skills" in state else None)
 
 
 class Run:
@@ -212,8 +109,8 @@ class Run:
         spec = RunSpec.from_dict(payload["config"])
         if total_steps is not None:
             spec = replace(spec, ppo=replace(spec.ppo, total_steps=total_steps))
-        mode = payload["mode"]
-        run = Run(spec, favae_from_state(mode), payload["provenance"], payload["trainer"], skills_from_state(mode))
+        favae, skills = mode_from_state(payload["mode"])
+        run = Run(spec, favae, payload["provenance"], payload["trainer"], skills)
         run.wall_s = read_timing(run_dir) or 0.0
         return run
 
@@ -234,7 +131,7 @@ class Run:
             "decisions": own.decisions,
             "updates": own.updates,
         }
-        mode = favae_state(self.favae, self.skills)
+        mode = mode_state(self.favae, self.skills)
         write_run(run_dir, self.spec.to_dict(), self.trainer.state_dict(self.member), mode, self.provenance, status)
         write_timing(run_dir, self.wall_s)
 

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from famarl_cli.artifacts import provenance, write_json
-from famarl_cli.artifacts.made import Replaceable, made_result, making, option_names
+from famarl_cli.artifacts import write_json
+from famarl_cli.artifacts.made import Replaceable, made_result, making, option_names, provenance_of
 from famarl_cli.core.declare import option, same_as
 from famarl_cli.core.errors import UsageError
 from famarl_cli.stages.evaluate import EvaluateOptions
@@ -16,7 +16,7 @@ from famarl_cli.stages.evaluate import EvaluateOptions
 if TYPE_CHECKING:  # named in annotations only: reading this module does not load torch
     from famarl_cli.rl.action_modes import ActionMode
     from famarl_cli.rl.oracle import SearchBatch
-    from famarl_cli.rl.training import RunSpec
+    from famarl_cli.rl.spec import RunSpec
 
 
 @dataclass(frozen=True)
@@ -56,16 +56,14 @@ def searched_space(run: str, plans: int, seed: int) -> tuple[RunSpec, SearchBatc
     of its envs (made from ``seed``, the fastest kind, as training's) that do not reset themselves, the mode that
     decodes its decisions, and the env's time limit (None where it has none). Only the run's action space is
     used, not its policy."""
+    from famarl_cli.envs.vector import make_batch
     from famarl_cli.rl.agent import TrainedAgent
-    from famarl_cli.rl.training import build_mode
-    from famarl_cli.rl.vector import make_batch
 
     agent = TrainedAgent.load(run)
     spec = agent.spec
     batch = make_batch(spec.env_id, plans, seed, spec.env_kwargs, spec.success_return)
     batch.autoreset = False
-    mode = build_mode(spec, batch, agent.favae, agent.skills)
-    return spec, batch, mode, batch.max_episode_steps
+    return spec, batch, agent.mode, batch.max_episode_steps
 
 
 def oracle_run(
@@ -116,9 +114,7 @@ def oracle_run(
         "episodes": [{"success": s.success, "best_return": round(s.best_return, 3), "plans": s.plans} for s in found],
     }
     params = {"layouts": layouts, "seed": seed, "candidates": candidates, "iterations": iterations}
-    prov = provenance(
-        "famarl oracle", {**params, "decisions": decisions}, seed, [Path(run) / CHECKPOINT_FILE], options=stage
-    )
+    prov = provenance_of(made, {**params, "decisions": decisions}, seed)
     write_json(Path(into) / ORACLE_FILE, {**result, "provenance": prov})
     return result
 

@@ -157,7 +157,7 @@ def run_spec(options: TrainOptions):
     """The RunSpec that ``famarl train``'s options describe (shared with ``famarl sweep train``): each setting is
     its option's (:data:`RENAMED`), and those the user left out that depend on the agent are the agent's."""
     from famarl_cli.rl.ppo import PPOConfig
-    from famarl_cli.rl.training import RunSpec, default_label
+    from famarl_cli.rl.spec import RunSpec, default_label
 
     left_out = {name: value for name, value in agent_defaults(options.agent).items() if getattr(options, name) is None}
     o = replace(options, steps=options.steps or DEFAULT_STEPS, **left_out)
@@ -251,7 +251,7 @@ def setting_options() -> dict[str, str]:
 
     from famarl_cli.core.declare import declared
     from famarl_cli.rl.ppo import PPOConfig
-    from famarl_cli.rl.training import RunSpec
+    from famarl_cli.rl.spec import RunSpec
 
     flags = option_names(TrainOptions)
     # a run recorded before a setting was renamed names it by its former name (``decoder``, now ``loop``)
