@@ -170,3 +170,32 @@ def test_the_rule_names_nested_settings_inputs_and_the_version(tmp_path):
     (tmp_path / "plain.h5").write_bytes(np.zeros(4).tobytes())
     with pytest.raises(UsageError, match="does not record"):
         claim_output([tmp_path / "plain.h5"], before, overwrite=False)
+
+
+def test_no_default_output_lies_in_a_dvc_stages_output_of_this_project(monkeypatch):
+    """A command typed with its defaults after the main job (`famarl report` to read every experiment at once)
+    writes beside the pipelines' outputs, which only `dvc repro` writes, and so is never refused by default."""
+    from typer.core import TyperOption
+
+    from famarl_cli.artifacts.tracked import tracked_output
+    from famarl_cli.cli import app
+    from famarl_cli.cli.derived import click_command
+
+    root = Path(__file__).parents[1]
+    monkeypatch.chdir(root)
+    monkeypatch.delenv("DVC_STAGE", raising=False)
+    assert tracked_output("data/report/report.md") is not None, "the main job's report stage is a DVC output"
+    defaults = {}
+
+    def walk(command, path: str) -> None:
+        for name, sub in sorted(getattr(command, "commands", {}).items()):
+            walk(sub, f"{path} {name}".strip())
+        for param in getattr(command, "params", []):
+            if isinstance(param, TyperOption) and param.name in ("out", "summary") and param.default:
+                defaults[f"famarl {path} --{param.name}"] = param.default
+
+    walk(click_command(app), "")
+    written = {typed: Path(out) for typed, out in defaults.items()}
+    written["famarl report --out"] /= "report.md"  # a folder beside the pipelines' own: its files are not theirs
+    inside = {typed: str(out) for typed, out in written.items() if tracked_output(out) is not None}
+    assert inside == {}

@@ -25,8 +25,13 @@ def report(
     ] = None,
     data: Annotated[Path, typer.Option(help="Where the pipelines wrote.", file_okay=False)] = Path("data"),
     out: Annotated[
-        Path, typer.Option(help="Folder for report.md, summary.json and the figures.", file_okay=False)
-    ] = Path("data/report"),
+        Path,
+        typer.Option(
+            help="Folder for report.md, summary.json and the figures (beside the pipelines' reports in data/report, "
+            "which only their DVC stages write).",
+            file_okay=False,
+        ),
+    ] = Path("data/report/all"),
     summary: Annotated[
         Path | None,
         typer.Option(
