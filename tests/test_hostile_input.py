@@ -11,6 +11,7 @@ import struct
 import subprocess
 import sys
 import zipfile
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,7 @@ from waiting import wait_for
 
 from famarl_cli.artifacts import Demos, Episode, write_demos
 from famarl_cli.artifacts.minari_datasets import export_minari
+from famarl_cli.envs import ENV_IDS
 
 OLD = b"the previous output"
 
@@ -371,9 +373,10 @@ def test_a_long_episode_reports_its_steps(tmp_path):
 ENDLESS = ("--env", "user_envs:Endless-v0", "--env-kwargs", '{"max_episode_steps": 1000000000000}')
 
 
-def _interrupted(tmp_path_factory, *args) -> str:
+def _interrupted(tmp_path_factory, *args, ready: Callable[[], bool] | None = None) -> str:
     """Run ``famarl ARGS`` into an endless episode, press Ctrl-C once the env has written its heartbeat (deep into
-    the episode; in a folder of its own, beside the command's), and return its stderr once it has exited 130."""
+    the episode; in a folder of its own, beside the command's), or once ``ready()``, and return its stderr once it
+    has exited 130."""
     tests = Path(__file__).parent
     heartbeat = tmp_path_factory.mktemp("heartbeat") / "beat"
     env = {
@@ -392,7 +395,8 @@ def _interrupted(tmp_path_factory, *args) -> str:
         text=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
-    assert wait_for(lambda: heartbeat.exists() or process.poll() is not None, 120), "no step 1000 in 120 s"
+    ready = ready or heartbeat.exists
+    assert wait_for(lambda: ready() or process.poll() is not None, 120), "not ready in 120 s"
     assert process.poll() is None, process.communicate()
     process.send_signal(signal.SIGINT)
     _, stderr = process.communicate(timeout=30)
@@ -407,6 +411,22 @@ def test_ctrl_c_in_an_endless_episode_is_one_line_and_keeps_the_old_output(tmp_p
     out.write_bytes(OLD)
     _interrupted(tmp_path_factory, "demos", *ENDLESS, "--expert", "user_experts:full_push", "--out", out, "--overwrite")
     assert out.read_bytes() == OLD and sorted(p.name for p in tmp_path.iterdir()) == ["demos.h5"]
+
+
+@pytest.mark.slow
+def test_ctrl_c_while_a_sweeps_job_is_inside_torch_exits_130(tmp_path, tmp_path_factory):
+    """famarl sweep --jobs 1 trains in a daemon thread, most of the time inside torch: the process leaves with 130,
+    not with torch's abort (134) when the interpreter finalises under that thread."""
+    out = tmp_path / "runs"
+    sweep = ("sweep", "train", "--seeds", 0, "--jobs", 1, "--out", out, "--", "--env", ENV_IDS["maze"])
+    train = ("--agent", "ppo", "--steps", 100_000_000, "--checkpoint-every", 4)
+    log = out / "seed0" / "train.csv"
+
+    def training() -> bool:  # some seconds into it: the first updates alone do not show the abort
+        return log.exists() and len(log.read_text().splitlines()) > 40
+
+    stderr = _interrupted(tmp_path_factory, *sweep, *train, ready=training)
+    assert "terminate called" not in stderr
 
 
 @pytest.mark.slow

@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import functools
 import importlib
+import os
 import sys
+import threading
 from collections.abc import Collection, Iterable, Sequence
 from pathlib import Path
 from typing import Annotated, Any
@@ -132,6 +134,13 @@ def reports_errors(command):
                 "sweep continues its work)",
                 err=True,
             )
+            if any(thread.daemon and thread.is_alive() for thread in threading.enumerate()):
+                # A job's daemon thread (famarl sweep --jobs 1, famarl evaluate) is abandoned either way; one inside
+                # torch when the interpreter finalises aborts the process (exit 134, "terminate called without an
+                # active exception"), so leave without finalising.
+                sys.stdout.flush()
+                sys.stderr.flush()
+                os._exit(INTERRUPTED)
             raise typer.Exit(INTERRUPTED) from None
 
     return wrapper
