@@ -51,9 +51,10 @@ def _literal(node: ast.expr) -> bool:
 
 
 def test_the_options_famarl_train_refuses_for_other_agents_are_those_their_help_gives_agents():
-    """An option left out by default whose help opens with the agents it is for (``hybrid: ...``) is refused for the
-    others (AGENT_OPTIONS): a new one missing there would be accepted and ignored. --prior, refused by the options
-    themselves, and --favae, whose help names its agents in brackets, are checked on their own."""
+    """An option whose help opens with the agents it is for (``hybrid: ...``) is refused for the others
+    (AGENT_OPTIONS): a new one missing there would be accepted and ignored. --prior and --loop, refused by the
+    options themselves (--loop closed needs --prior), --favae, whose help names its agents in brackets, and
+    --macro-discount, which every agent but PPO uses (its decisions are one step), are checked on their own."""
     from famarl_cli.stages.train import AGENT_OPTIONS, MACRO_AGENTS
 
     options = {option.name: option for option in declared(TrainOptions)}
@@ -61,11 +62,14 @@ def test_the_options_famarl_train_refuses_for_other_agents_are_those_their_help_
     helped = {
         name: tuple(Agent(agent) for agent in opening[1].split(", "))
         for name, option in options.items()
-        if option.default is None and (opening := re.match(rf"((?:{agent})(?:, (?:{agent}))*): ", option.help))
+        if (opening := re.match(rf"((?:{agent})(?:, (?:{agent}))*): ", option.help))
     }
-    assert helped.pop("prior") == MACRO_AGENTS
-    assert helped == {name: agents for name, agents in AGENT_OPTIONS.items() if name != "favae"}
+    helped.pop("agent")  # its help opens with what each agent searches
+    assert helped.pop("prior") == helped.pop("loop") == MACRO_AGENTS
+    on_their_own = ("favae", "macro_discount")
+    assert helped == {name: agents for name, agents in AGENT_OPTIONS.items() if name not in on_their_own}
     assert AGENT_OPTIONS["favae"] == MACRO_AGENTS and "(famarl and hybrid)" in options["favae"].help
+    assert set(AGENT_OPTIONS["macro_discount"]) == set(Agent) - {Agent.PPO}
     with pytest.raises(UsageError, match="--prior goes with --agent famarl or hybrid, not ppo"):
         TrainOptions(agent=Agent.PPO, prior=Path("p.pt"))
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from famarl_cli.artifacts.made import Replaceable, option_names
-from famarl_cli.core.declare import option, pick, same_as
+from famarl_cli.core.declare import default_of, option, pick, same_as
 from famarl_cli.core.errors import UsageError
 from famarl_cli.envs.external import MakeOptions
 from famarl_cli.envs.success import SuccessOptions
@@ -36,11 +36,18 @@ MACRO_AGENTS = tuple(agent for agent in Agent if agent.decodes_macros)
 AGENT_OPTIONS = {
     "favae": MACRO_AGENTS,
     "macro_horizon": MACRO_AGENTS,
+    "latent_bound": MACRO_AGENTS,
     "residual": (Agent.HYBRID,),
     "type_entropy_floor": (Agent.HYBRID,),
+    "type_entropy_until": (Agent.HYBRID,),
+    "max_repeat": (Agent.FIGAR,),
+    # a PPO decision is one step, so either discount is the same
+    "macro_discount": (Agent.FAMARL, Agent.FIGAR, Agent.HYBRID),
 }
-"""The options of :class:`TrainOptions` that only some agents use, by those agents: options left out by default
-(None), so that :func:`new_run` can tell one given for an agent that ignores it."""
+"""The options of :class:`TrainOptions` that only some agents use, by those agents: :func:`refuse_unused` refuses
+one given (not left out, and not at its default) for an agent that ignores it."""
+PRIOR_OPTIONS = ("prior_guide", "prior_weight", "prior_target_kl", "prior_obs_prefix")
+"""The options that say how a run uses its ``--prior``: refused, where given, for a run without one."""
 
 
 @dataclass(frozen=True)
@@ -183,15 +190,26 @@ def new_run(options: TrainOptions):
 
 
 def refuse_unused(options: TrainOptions) -> None:
-    """A usage error naming the first option given (:data:`AGENT_OPTIONS`) that ``options.agent`` does not use.
-    ``famarl train`` alone refuses them: a sweep's options are every run's, and ``--favae`` beside ``--over
-    agent=famarl,ppo`` is the famarl runs' (the pipelines')."""
+    """A usage error naming the first option given that the run does not use: one of :data:`AGENT_OPTIONS` that
+    ``options.agent`` ignores, or one of :data:`PRIOR_OPTIONS` without ``--prior``. ``famarl train`` alone refuses
+    them: a sweep's options are every run's, and ``--favae`` beside ``--over agent=famarl,ppo`` is the famarl runs'
+    (the pipelines')."""
     flags = option_names(TrainOptions)
+
+    def given(name: str) -> bool:
+        value = getattr(options, name)
+        return value is not None and value != default_of(TrainOptions, name)
+
+    def typed(name: str) -> str:  # a switch turned off is typed --no-<name>
+        return flags[name].replace("--", "--no-", 1) if getattr(options, name) is False else flags[name]
+
     for name, agents in AGENT_OPTIONS.items():
-        if getattr(options, name) is not None and options.agent not in agents:
-            raise UsageError(
-                f"{flags[name]} goes with --agent {' or '.join(agents)}, not {options.agent}, which does not use it"
-            )
+        if given(name) and options.agent not in agents:
+            which = " or ".join([", ".join(agents[:-1]), agents[-1]] if len(agents) > 2 else agents)
+            raise UsageError(f"{typed(name)} goes with --agent {which}, not {options.agent}, which does not use it")
+    for name in PRIOR_OPTIONS:
+        if given(name) and options.prior is None:
+            raise UsageError(f"{typed(name)} says how a run uses its --prior: give --prior, or leave it out")
 
 
 @contextlib.contextmanager
