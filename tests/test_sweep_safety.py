@@ -50,6 +50,28 @@ def test_deleting_or_replacing_runs_is_refused_without_overwrite_and_changes_not
     assert "deleted, no longer in the plan: seed1" in words and "replaced, made otherwise: seed0" in words
 
 
+def test_runs_that_fail_to_replace_the_old_ones_leave_them_as_they_were(tmp_path):
+    """--overwrite with an option every run fails on (an env that is not there, found when the run starts)
+    replaces nothing: each old run is put back once its new one has failed; one that succeeds replaces its old
+    one and keeps nothing of it."""
+    out = tmp_path / "sweep"
+
+    def sweep(*options, overwrite: bool = True):
+        tiny = ("--agent", "ppo", "--steps", 64, "--n-envs", 1, "--n-steps", 64, "--checkpoint-every", 1)
+        ours = ("sweep", "train", "--seeds", "0-1", "--jobs", 1, "--out", out, *(("--overwrite",) if overwrite else ()))
+        return famarl(*ours, "--", *tiny, *options)
+
+    assert sweep(overwrite=False).exit_code == 0
+    before = {name: data for name, data in _tree(out).items() if name != "sweep.json"}
+    failed = sweep("--env", "famarl/NoSuch-v0")
+    assert failed.exit_code == 1 and "2 of 2 runs failed" in failed.stderr and "replaced" not in failed.stdout
+    assert {name: data for name, data in _tree(out).items() if name in before} == before
+    assert not list(out.rglob(".famarl-replaced"))
+    assert sweep("--lr", 0.001).exit_code == 0
+    assert json.loads((out / "seed0" / "run.json").read_text())["spec"]["ppo"]["learning_rate"] == 0.001
+    assert not list(out.rglob(".famarl-replaced"))
+
+
 def test_a_run_folder_holding_files_no_sweep_recorded_is_not_replaced_unasked(tmp_path):
     out = tmp_path / "sweep"
     (out / "seed0").mkdir(parents=True)

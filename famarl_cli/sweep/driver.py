@@ -80,7 +80,7 @@ class SweepState:
     deleted: list[str]
     """Job folders of earlier plans that the sweep deleted."""
     replaced: list[str] = field(default_factory=list)
-    """Jobs whose folder held other work, which the sweep wiped to run them."""
+    """Jobs whose folder held other work, which the sweep replaces (put back where the job fails)."""
 
     def count(self, status: str) -> int:
         return sum(state.status == status for state in self.jobs)
@@ -91,10 +91,11 @@ class SweepState:
 
 
 def prepare(out: Path, jobs: list[Job], overwrite: bool = False) -> tuple[SweepState, dict[str, str]]:
-    """Reconcile ``out`` with the plan: delete what is not in it, wipe what must run afresh, and write each
-    pending job's record and the manifest. Returns the state and what each job is made from (by name), which its
-    record says again when it completes. Deleting a job folder, or replacing one that holds other work, is refused
-    before anything changes, unless ``overwrite`` (:func:`~famarl_cli.sweep.plan.refuse_unasked`)."""
+    """Reconcile ``out`` with the plan: delete what is not in it, set aside what must run afresh (put back where the
+    job fails, :func:`_fail`), and write each pending job's record and the manifest. Returns the state and what each
+    job is made from (by name), which its record says again when it completes. Deleting a job folder, or replacing
+    one that holds other work, is refused before anything changes, unless ``overwrite``
+    (:func:`~famarl_cli.sweep.plan.refuse_unasked`)."""
     named_apart(jobs)
     made = {job.name: made_from(job) for job in jobs}
     keys = {job.name: job_key(job, made[job.name]) for job in jobs}
@@ -108,8 +109,10 @@ def prepare(out: Path, jobs: list[Job], overwrite: bool = False) -> tuple[SweepS
     for job in jobs:
         action = plan.actions[job.name]
         folder = out / job.name
-        if action == Action.RUN and folder.exists():
-            shutil.rmtree(folder)
+        if action == Action.RUN:
+            _set_aside(folder)
+        elif (folder / REPLACED).exists():  # a sweep stopped while it replaced this work: the new is in its place
+            shutil.rmtree(folder / REPLACED)
         if action != Action.SKIP:
             folder.mkdir(parents=True, exist_ok=True)
             write_json(folder / JOB_FILE, job_record(job, complete=False, made=made[job.name]))
@@ -135,34 +138,46 @@ def make_in_folder(
     action = folder_action(folder, job, overwrite, made, names)
     if action == Action.SKIP:
         return False
-    aside = folder / REPLACED
-    if aside.exists():  # left by a process killed while it replaced the folder's work, which it was asked to
-        shutil.rmtree(aside)
-    if old := (held(folder) if action == Action.RUN else []):
-        # Moved aside, not deleted, until the new work is done: work refused or stopped leaves the old as it was.
-        aside.mkdir()
-        for entry in old:
-            entry.rename(aside / entry.name)
+    if action == Action.RUN:
+        _set_aside(folder)
     write_json(folder / JOB_FILE, job_record(job, complete=False, made=made))
     try:
         work()
     except BaseException:
-        if aside.exists():
-            _remove(held(folder))
-            for entry in aside.iterdir():
-                entry.rename(folder / entry.name)
-            aside.rmdir()
-        elif held(folder) == [folder / JOB_FILE]:  # a record of work that wrote nothing is none
+        if not _put_back(folder) and held(folder) == [folder / JOB_FILE]:  # a record of work that wrote nothing
             (folder / JOB_FILE).unlink()
         raise
     write_json(folder / JOB_FILE, job_record(job, complete=True, made=made))
-    if aside.exists():
-        shutil.rmtree(aside)
+    shutil.rmtree(folder / REPLACED, ignore_errors=True)
     return True
 
 
 REPLACED = ".famarl-replaced"
-"""The hidden folder in which :func:`make_in_folder` keeps a folder's old work while new work replaces it."""
+"""The hidden folder in which a job's old work waits while new work replaces it: deleted once the new work is
+complete, put back where it fails, so that work refused or stopped leaves the old as it was."""
+
+
+def _set_aside(folder: Path) -> None:
+    """Move what ``folder`` holds (:func:`~famarl_cli.sweep.plan.held`) into :data:`REPLACED`."""
+    aside = folder / REPLACED
+    if aside.exists():  # left by a process stopped while it replaced the folder's work, which it was asked to
+        shutil.rmtree(aside)
+    if old := held(folder):
+        aside.mkdir()
+        for entry in old:
+            entry.rename(aside / entry.name)
+
+
+def _put_back(folder: Path) -> bool:
+    """The old work set aside in ``folder`` back in its place, the new removed; False where none was set aside."""
+    aside = folder / REPLACED
+    if not aside.exists():
+        return False
+    _remove(held(folder))
+    for entry in aside.iterdir():
+        entry.rename(folder / entry.name)
+    aside.rmdir()
+    return True
 
 
 def _remove(entries: list[Path]) -> None:
@@ -183,7 +198,7 @@ def run_sweep(
     Batched jobs (:attr:`~famarl_cli.sweep.plan.Job.batched`) run in batches spread over the executor's workers,
     at most ``batch`` jobs each (:func:`~famarl_cli.sweep.plan.batches`). The sweep holds ``out`` while it runs: a
     second sweep into the same folder is refused. A job folder of an earlier plan, or one made otherwise, is deleted
-    or wiped only with ``overwrite``; without it the sweep is refused before it changes anything."""
+    or replaced only with ``overwrite``; without it the sweep is refused before it changes anything."""
     out = out.resolve()
     with claim_folder(out):
         return _run(out, jobs, executor, max_attempts, on_update, batch, overwrite)
@@ -273,6 +288,9 @@ def _run(
                     job_state.done, job_state.total = float(progress["done"]), float(progress["total"])
         if on_update is not None:
             on_update(state)
+    for job_state in state.failed:  # its worker has ended: the work it was to replace is what the folder holds again
+        if _put_back(out / job_state.job.name) and job_state.job.name in state.replaced:
+            state.replaced.remove(job_state.job.name)
     if on_update is not None:
         on_update(state)
     return state
@@ -291,5 +309,6 @@ def _complete(out: Path, job_state: JobState, made: dict[str, dict]) -> None:
     (folder / LEASE_FILE).unlink(missing_ok=True)
     (folder / PROGRESS_FILE).unlink(missing_ok=True)
     write_json(folder / JOB_FILE, job_record(job_state.job, complete=True, made=made[job_state.job.name]))
+    shutil.rmtree(folder / REPLACED, ignore_errors=True)
     job_state.status, job_state.finished = "done", time.monotonic()
     job_state.done = job_state.total = max(job_state.total, 1.0)

@@ -14,8 +14,8 @@ missing or empty                              run
 complete, same key                            skipped
 started, same key                             resumed from where it stopped (run again
                                               where the job cannot resume)
-any other key, or files the driver never      replaced: wiped and run again
-marked
+any other key, or files the driver never      replaced: run again, the old work put back
+marked                                        where the new fails
 a job folder that is not in the plan          deleted
 ============================================  ==========================================
 
@@ -242,7 +242,7 @@ class Reconciliation:
     delete: list[Path]
     """Job folders of earlier plans."""
     replace: dict[str, str] = field(default_factory=dict)
-    """Jobs whose folder holds something else, which running them wipes: why, per job name."""
+    """Jobs whose folder holds something else, which running them replaces: why, per job name."""
 
 
 def read_job_record(folder: Path) -> dict | None:
