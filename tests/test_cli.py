@@ -245,7 +245,8 @@ def test_favae_and_traverse_bad_inputs(demos_file, segments_file, tmp_path):
     famarl("favae", "fit", "--segments", segments_file, "--epochs", 1, "--out", model)
     one_line_error(famarl("traverse", "--favae", model, "--ladder", 4), 2, "ladder 4 does not exist")
     one_line_error(famarl("traverse", "--favae", model, "--ladder", 1, "--index", 3), 2, "index 3 does not exist")
-    one_line_error(famarl("traverse", "--favae", model, "--values", "1,x"), 2, "values must be numbers")
+    for values in ("1,x", "-1,nan", "inf", ","):
+        one_line_error(famarl("traverse", "--favae", model, f"--values={values}"), 2, "values must be finite numbers")
 
 
 TINY_TRAINING = ("--steps", 1500, "--n-envs", 4, "--n-steps", 8, "--update-epochs", 1, "--minibatches", 2)
@@ -588,6 +589,7 @@ NOT_TOGETHER = [
     (("train", "--agent", "figar", "--latent-bound", 2), "--latent-bound goes with --agent famarl or hybrid, not"),
     (("train", "--agent", "ppo", "--macro-discount", "steps"), "goes with --agent famarl, figar or hybrid, not ppo"),
     (("train", "--agent", "ppo", "--prior-weight", 0.5), "--prior-weight says how a run uses its --prior: give"),
+    (("train", "--agent", "figar", "--loop", "closed"), "--loop closed goes with --agent famarl or hybrid, not figar"),
     (("train", "--favae", "{favae}", "--no-prior-guide"), "--no-prior-guide says how a run uses its --prior"),
     (("macros", "--demos", "{demos}", "--length", 12), "--length must be a multiple of 8 (2 ** --ladders), got 12"),
     (("macros", "--demos", "{demos}", "--length", 1), "--length must be a multiple of 8 (2 ** --ladders), got 1"),

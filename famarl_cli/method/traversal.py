@@ -17,6 +17,7 @@ learned a factor moves the path; one that learned nothing has an effect near 0.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -188,10 +189,14 @@ def _render(env, env_id: str) -> np.ndarray:
 
 
 def parse_values(text: str) -> list[float]:
+    """``--values``: the finite latent values a traversal gives its variable, at least one."""
+    wanted = f"values must be finite numbers separated by commas, like -3,-1,1,3; got {text!r}"
     try:
         values = [float(v) for v in text.split(",") if v.strip()]
     except ValueError as exc:
-        raise UsageError(f"values must be numbers separated by commas, like -3,-1,1,3; got {text!r}") from exc
+        raise UsageError(wanted) from exc
+    if not values or not all(math.isfinite(v) for v in values):
+        raise UsageError(wanted)
     return values
 
 

@@ -141,6 +141,10 @@ class TrainOptions(RunOptions, PPOOptions):
         return self.favae or inputs.favae("--favae", self.seed)
 
     def __post_init__(self) -> None:
+        if self.loop == MacroDecoder.CLOSED and not self.agent.decodes_macros:
+            raise UsageError(
+                f"--loop closed goes with --agent famarl or hybrid, not {self.agent}: {self.agent} has no macro actions"
+            )
         if self.loop == MacroDecoder.CLOSED and self.prior is None:
             raise UsageError("--loop closed needs --prior: the closed-loop decoder is in the prior file")
         if self.prior is not None and not self.agent.decodes_macros:
