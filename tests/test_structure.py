@@ -94,7 +94,8 @@ def test_reading_artifacts_and_declarations_does_not_load_torch():
 
     code = (
         "import sys, famarl_cli.artifacts.traversal, famarl_cli.stages.method, famarl_cli.stages.macros, "
-        "famarl_cli.stages.train, famarl_cli.stages.prior, famarl_cli.method.traversal, famarl_cli.cli; "
+        "famarl_cli.stages.train, famarl_cli.stages.prior, famarl_cli.method.traversal, famarl_cli.sweep.plan, "
+        "famarl_cli.artifacts.runs, famarl_cli.cli; "
         "print('torch' in sys.modules)"
     )
     assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout == "False\n"

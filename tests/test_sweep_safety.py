@@ -10,6 +10,7 @@ from pathlib import Path
 import yaml
 from cli_helpers import famarl, one_line_error
 
+from famarl_cli.artifacts.runs import CURVES_FILES
 from famarl_cli.sweep.driver import run_sweep
 from famarl_cli.sweep.executors import SerialExecutor
 from famarl_cli.sweep.plan import JOB_FILE, Action, Job, job_record
@@ -70,6 +71,20 @@ def test_runs_that_fail_to_replace_the_old_ones_leave_them_as_they_were(tmp_path
     assert sweep("--lr", 0.001).exit_code == 0
     assert json.loads((out / "seed0" / "run.json").read_text())["spec"]["ppo"]["learning_rate"] == 0.001
     assert not list(out.rglob(".famarl-replaced"))
+
+
+def test_the_curves_famarl_evaluate_draws_beside_a_sweeps_runs_do_not_stop_the_sweep(tmp_path):
+    """famarl evaluate --run SWEEP draws the runs' learning curves into the sweep's folder by default: the sweep
+    takes more seeds there afterwards, and leaves the curves as they are."""
+    out = tmp_path / "sweep"
+    assert _demos(out, "0", 2).exit_code == 0
+    curves = {name: f"{name} of famarl evaluate".encode() for name in CURVES_FILES}
+    for name, data in curves.items():
+        (out / name).write_bytes(data)
+    more = _demos(out, "0-1", 2)
+    assert more.exit_code == 0, more.output
+    assert {name: (out / name).read_bytes() for name in CURVES_FILES} == curves
+    assert (out / "seed1" / JOB_FILE).is_file()
 
 
 def test_a_run_folder_holding_files_no_sweep_recorded_is_not_replaced_unasked(tmp_path):

@@ -30,7 +30,6 @@ from pathlib import Path
 import numpy as np
 
 from famarl_cli.artifacts.base import check, require, write_csv, write_json
-from famarl_cli.artifacts.checkpoints import arrays_to_tensors, load_checkpoint, save_checkpoint, tensors_to_arrays
 from famarl_cli.core.errors import ArtifactError
 
 RUN_SCHEMA = "famarl.run"
@@ -41,6 +40,8 @@ TRAINER_STATE = ("policy", "optimizer", "torch_rng", "sampling_rng", "obs_norm",
 """What a run checkpoint's trainer state must hold to resume or evaluate (famarl_cli.rl.ppo.PPOTrainer)."""
 RUN_FILE, CHECKPOINT_FILE, LOG_FILE, TIMING_FILE = "run.json", "checkpoint.pt", "train.csv", "timing.json"
 EVAL_FILE, ROLLOUTS_FILE, FILM_FILE, STILLS_FILE = "eval.json", "rollouts.png", "episode.gif", "episode.png"
+CURVES_FILES = ("curves.png", "curves.json")
+"""``famarl evaluate``'s learning curves of several runs and their summary, by default beside the run folders."""
 
 
 def write_timing(run_dir: str | os.PathLike, wall_s: float) -> None:
@@ -59,6 +60,9 @@ def write_run(
     run_dir: str | os.PathLike, spec: dict, trainer_state: dict, mode_state: dict, provenance: dict, status: dict
 ) -> None:
     """Checkpoint first, then the log and the run file: a run file never claims more than the checkpoint holds."""
+    # here, not above: reading a run's JSON, CSV and curves (a sweep's plan, the report) does not load torch
+    from famarl_cli.artifacts.checkpoints import arrays_to_tensors, save_checkpoint
+
     run_dir = Path(run_dir)
     save_checkpoint(
         run_dir / CHECKPOINT_FILE,
@@ -209,6 +213,8 @@ def _read_record(
 
 def read_run_checkpoint(run_dir: str | os.PathLike) -> dict:
     """The checkpoint's payload with the trainer state's arrays back in numpy."""
+    from famarl_cli.artifacts.checkpoints import load_checkpoint, tensors_to_arrays
+
     path = Path(run_dir) / CHECKPOINT_FILE
     payload = load_checkpoint(path, CHECKPOINT_SCHEMA, CHECKPOINT_SCHEMA_VERSION)
     found = int(payload["schema_version"])

@@ -198,7 +198,7 @@ def evaluate_runs(
     ``curves`` and its ``.json`` (the summary per label). ``on_note`` hears where the results go when the runs lie
     in a DVC stage's output; ``on_done(done, total)`` follows the runs."""
     from famarl_cli.artifacts.base import prepare_output
-    from famarl_cli.artifacts.runs import expand_run_folders, read_timing, read_training_log
+    from famarl_cli.artifacts.runs import CURVES_FILES, expand_run_folders, read_timing, read_training_log
     from famarl_cli.report.plots import plot_learning_curves
     from famarl_cli.rl.evaluation import summarise
     from famarl_cli.sweep.executors import run_each
@@ -208,7 +208,7 @@ def evaluate_runs(
     out = o.out or beside_tracked(runs, on_note)
     into = {folder: (out / name if out else folder) for folder, name in zip(runs, evaluation_names(runs), strict=True)}
     first = into[runs[0]]
-    curves = o.curves or (first / "curves.png" if len(runs) == 1 else first.parent / "curves.png")
+    curves = o.curves or (first if len(runs) == 1 else first.parent) / CURVES_FILES[0]
     refuse_tracked(curves, "give --curves elsewhere" if o.curves else "give --out elsewhere")
     curves = prepare_output(curves)
     # Every run's evaluation is claimed before any is made: one refused run must not cost the others' work.

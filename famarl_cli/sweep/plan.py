@@ -37,6 +37,7 @@ from pathlib import Path
 from famarl_cli import __version__
 from famarl_cli.artifacts.base import sha256
 from famarl_cli.artifacts.made import JOB_FILE, JOB_SCHEMA, JOB_SCHEMA_VERSION, shown_path, what_changed
+from famarl_cli.artifacts.runs import CURVES_FILES
 from famarl_cli.core.errors import ArtifactError, UsageError
 
 MANIFEST = "sweep.json"
@@ -274,7 +275,8 @@ def reconcile(out: Path, jobs: list[Job], made: dict[str, dict]) -> Reconciliati
     planned = {job.name for job in jobs}
     delete, foreign = [], []
     for entry in sorted(out.iterdir()) if out.is_dir() else []:
-        if entry.name in planned or entry.name == MANIFEST or entry.name.startswith("."):
+        # famarl evaluate's curves of the runs, beside them by default, are theirs: neither foreign nor to delete
+        if entry.name in planned or entry.name in (MANIFEST, *CURVES_FILES) or entry.name.startswith("."):
             continue
         (delete if entry.is_dir() and (entry / JOB_FILE).is_file() else foreign).append(entry)
     if foreign:
