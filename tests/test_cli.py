@@ -595,6 +595,8 @@ NOT_TOGETHER = [
     (("macros", "--demos", "{demos}", "--length", 1), "--length must be a multiple of 8 (2 ** --ladders), got 1"),
     (("macros", "--demos", "{demos}", "--ladders", 4, "--length", 24), "--length must be a multiple of 16"),
     (("macros", "--segments", "{segments}", "--length", 48), "--length goes with --demos"),
+    (("macros", "--segments", "{segments}", "--margin", 0.3), "--margin goes with --demos: it says how they are cut"),
+    (("macros", "--segments", "{segments}", "--segment-epochs", 5), "--segment-epochs goes with --demos"),
 ]
 """Options that do not go together, refused before any work (a run started, demos segmented)."""
 

@@ -24,12 +24,12 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 from famarl_cli.artifacts.made import Replaceable, option_names
 from famarl_cli.artifacts.segments import REPLICATE_FILE as SEGMENTS
-from famarl_cli.core.declare import from_json, option, pick, same_as, to_json, with_paths
+from famarl_cli.core.declare import default_of, from_json, option, pick, same_as, to_json, with_paths
 from famarl_cli.core.errors import UsageError
 from famarl_cli.method.favae import FavaeOptions, FitChoices
 from famarl_cli.method.segment_params import SegmenterOptions, SegmentParams
@@ -38,6 +38,11 @@ from famarl_cli.stages.defaults import REPLICATE_FAVAE
 from famarl_cli.sweep.registry import JobRecipe
 
 FAVAE, TRAVERSAL = REPLICATE_FAVAE, "traverse.h5"
+
+
+SEGMENTATION = (*(f.name for f in fields(SegmentParams) if f.name not in ("seed", "length")), "segment_epochs")
+"""The options of :class:`MacrosConfig` that say how demos are cut, and nothing else (the seed is the FAVAE's
+too): refused with ``--segments``, whose making they would otherwise claim."""
 
 
 @dataclass(frozen=True)
@@ -72,6 +77,10 @@ class MacrosConfig(stages.TraversalPlace, FitChoices, FavaeOptions, SegmentParam
             raise UsageError("--calibration goes with --segments: it is C_last measured on those segments")
         if self.length is not None and self.demos is None:
             raise UsageError("--length goes with --demos: it is where their segmentation cuts; --segments are cut")
+        cut = [name for name in SEGMENTATION if getattr(self, name) != default_of(MacrosConfig, name)]
+        if self.segments is not None and cut:
+            flag = option_names(MacrosConfig)[cut[0]]
+            raise UsageError(f"{flag} goes with --demos: it says how they are cut; --segments are cut already")
         # Refused here, before segmenting: the FAVAE fit would refuse this L only after the segmentation's work.
         # famarl segment takes any --length, as its segments may feed a FAVAE of any --ladders (favae calibrate
         # and fit refuse an L that theirs cannot halve before they train).
