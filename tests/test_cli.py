@@ -1,4 +1,5 @@
 import json
+import re
 
 import numpy as np
 import pytest
@@ -335,6 +336,10 @@ def test_train_same_seed_same_log_and_resume_extends_a_finished_run_or_leaves_it
     assert (
         complete.exit_code == 0 and "holds this run, complete" in complete.output and "nothing to do" in complete.output
     )
+    assert {path.name: path.stat().st_mtime_ns for path in a.iterdir()} == written
+    shorter = famarl("train", "--out", a, "--resume", "--steps", 1000)
+    said = " ".join(shorter.output.split())
+    assert re.search(r"complete \(1,\d{3} env steps, past --steps 1,000\); nothing to do", said)
     assert {path.name: path.stat().st_mtime_ns for path in a.iterdir()} == written
     assert famarl("train", "--out", a, "--resume", "--steps", 3000).exit_code == 0
     assert len((a / "train.csv").read_text().splitlines()) > updates

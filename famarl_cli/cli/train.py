@@ -30,10 +30,14 @@ def train(options: TrainOptions) -> None:
         fresh = new_run(options)
     with claimed_run(options, fresh) as run:
         if run is not fresh and run.complete:
+            steps, budget = run.own.env_steps, run.trainer.config.total_steps
+            # a budget cut below what the run has (--resume --steps 256 of a run at 512) shortens nothing
+            held = f"{steps:,} of {budget:,} env steps"
+            if steps > budget:
+                held = f"{steps:,} env steps, past --steps {budget:,}"
             note(
-                f"{out} holds this run, complete ({run.own.env_steps:,} of "
-                f"{run.trainer.config.total_steps:,} env steps); nothing to do (--resume --steps with a larger budget "
-                "continues it, --overwrite starts afresh)"
+                f"{out} holds this run, complete ({held}); nothing to do (--resume --steps with a larger "
+                "budget continues it, --overwrite starts afresh)"
             )
             return
         log = board(options.tensorboard)
