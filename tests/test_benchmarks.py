@@ -430,3 +430,32 @@ def test_famarl_throughput_refuses_an_env_it_cannot_train_on_before_timing_anyth
     result = run_recording("famarl_throughput.py", measured, "--favae", favae_file, "--out", out, *args)
     one_error_line(result, needle)
     assert not measured.exists() and not out.exists() and not result.stdout
+
+
+def test_a_commands_help_says_how_long_it_takes_only_by_the_record(monkeypatch):
+    """Each command benchmarks/command_times.py times points its help to that record; no help types a time or a
+    machine of its own, a figure that drifts from what was measured."""
+    import re
+
+    from typer.core import TyperGroup
+
+    from famarl_cli.cli import app
+    from famarl_cli.cli.derived import click_command
+
+    helps = {}
+
+    def walk(command, path: str) -> None:
+        if isinstance(command, TyperGroup):
+            for name, sub in command.commands.items():
+                walk(sub, f"{path} {name}".strip())
+        else:
+            helps[path] = " ".join((command.help or "").split())
+
+    walk(click_command(app), "")
+    timed = {
+        "train" if name.startswith("train ") else name
+        for name, _ in benchmark_module("command_times", monkeypatch).STEPS
+    }
+    assert {name for name in timed if '"each command with its defaults"' not in helps[name]} == set()
+    typed = r"\b\d+(\.\d+)? ?(s|seconds?|minutes?)\b|AMD|Intel|EPYC|Xeon"
+    assert {name: match[0] for name, text in helps.items() if (match := re.search(typed, text))} == {}

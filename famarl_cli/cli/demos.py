@@ -17,7 +17,8 @@ from famarl_cli.sweep.registry import sweepable
 def demos(options: DemosOptions) -> None:
     """Record expert demos (with their true phase boundaries and factors, where the expert knows them) to an HDF5
     file: famarl's scripted experts, your expert in any gymnasium env, or a Minari dataset imported. The default
-    100 episodes take about 1.5 s on one core of a 2-core AMD EPYC VM; your env's steps take what they take."""
+    100 episodes' time is in docs/performance.md ("each command with its defaults"); your env's steps take what
+    they take."""
     from famarl_cli.stages.demos import write_made_demos
 
     o = options

@@ -12,9 +12,9 @@ from famarl_cli.stages.evaluate import EvaluateOptions
 def evaluate(options: EvaluateOptions) -> None:
     """Success rate, return, episode length, decisions and macro length of each run; pictures and a GIF of
     rollouts. Each run is evaluated twice on the same episodes: drawing its actions as in training (the policy the
-    verdicts judge, shown first) and acting with the policy's mode (deterministic, shown as "mode"). With the
-    defaults, about 3 s per Maze run on one core of a 2-core AMD EPYC VM (its 100 episodes twice and one filmed),
-    the runs spread over --jobs cores."""
+    verdicts judge, shown first) and acting with the policy's mode (deterministic, shown as "mode"). A Maze
+    run's time with the defaults (its 100 episodes twice and one filmed) is in docs/performance.md ("each command
+    with its defaults"); the runs spread over --jobs cores."""
     from famarl_cli.artifacts.runs import EVAL_FILE, FILM_FILE, ROLLOUTS_FILE, STILLS_FILE
     from famarl_cli.stages.evaluate import evaluate_runs, shown
 

@@ -36,8 +36,8 @@ def _epoch_reporter(progress: Progress, task, phase: str):
 def favae_calibrate(options: CalibrateOptions) -> None:
     """The C_last pre-run: fit with a small beta and C = 0 for the first --pre-run share of the fit's schedule;
     each ladder's mean information (or KL, with --capacity-measure kl) over the pre-run's last third becomes its
-    C_last. With the defaults, about 12 s on one core of a 2-core AMD EPYC VM (450 epochs of 2 batches;
-    docs/performance.md)."""
+    C_last. Its time with the defaults (450 epochs of 2 batches): docs/performance.md, "each command with its
+    defaults"."""
     from famarl_cli.stages import method as stages
 
     options = stages.given_segments(options)
@@ -53,9 +53,9 @@ def favae_calibrate(options: CalibrateOptions) -> None:
 
 @command(favae_app, FitOptions, "fit")
 def favae_fit(options: FitOptions) -> None:
-    """Fit FAVAE on segments (after the C_last pre-run unless --calibration is given) and score it. With the
-    defaults, about 40 s on one core of a 2-core AMD EPYC VM (a pre-run of 450 epochs and a fit of 1500; three
-    quarters of it with --calibration: docs/performance.md)."""
+    """Fit FAVAE on segments (after the C_last pre-run unless --calibration is given) and score it. Its time
+    with the defaults (a pre-run of 450 epochs and a fit of 1500; less with --calibration): docs/performance.md,
+    "each command with its defaults"."""
     from famarl_cli.stages import method as stages
 
     options = stages.given_segments(options)

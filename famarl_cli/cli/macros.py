@@ -23,8 +23,8 @@ def macros(options: MacrosOptions) -> None:
     complete one is left as it is; one made from other inputs or options is refused unless --overwrite. famarl
     sweep macros runs this for many seeds (independent replicates).
 
-    Time with the defaults (100 demos): about 45 s on one core of a 2-core AMD EPYC VM; 10 replicates with famarl
-    sweep macros, about 2.5 minutes on 2 cores (docs/performance.md, docs/pipelines.md).
+    Its time with the defaults (100 demos): docs/performance.md, "each command with its defaults"; the default
+    pipeline's 10 replicates with famarl sweep macros: docs/pipelines.md's wall table.
     """
     from famarl_cli.stages.macros import make_macros
 

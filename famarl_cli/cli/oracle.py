@@ -20,9 +20,9 @@ def oracle(options: OracleStageOptions) -> None:
     reach, with a 95% Wilson interval over the layouts). The run's policy is not used: an agent that fails where
     its space's oracle succeeds has a learner that did not find the solution, not a space without one.
 
-    Time: at most layouts x iterations x candidates episodes per run, fewer where a plan succeeds early; on one
-    core of a 2-core AMD EPYC VM, RobotHand runs took a few seconds per layout on average (the record in
-    docs/robothand.md)."""
+    Time: at most layouts x iterations x candidates episodes per run, fewer where a plan succeeds early: a Maze run's
+    with the defaults in docs/performance.md ("each command with its defaults"), each pipeline's oracle stage in
+    docs/pipelines.md's wall table."""
     from famarl_cli.artifacts.runs import ORACLE_FILE
     from famarl_cli.stages.oracle import oracle_runs
 

@@ -32,8 +32,8 @@ def power(
     Oudeyer 2018: the t test of one arm or of paired differences, Welch's of two arms, one-sided at the interval's
     level, from the observed estimate's distance to its threshold and the spread of the per-replicate values where
     the summary keeps them, else of the interval's half-width and n). An estimate at its threshold needs unbounded
-    n. Undefined claims (their measure has no value) are listed with their reason and no number. Takes about two
-    seconds on a 2-core Intel Xeon VM (docs/verdicts.md, "How many replicates")."""
+    n. Undefined claims (their measure has no value) are listed with their reason and no number
+    (docs/verdicts.md, "How many replicates")."""
     from famarl_cli.stages.report import power as plan
     from famarl_cli.stages.report import power_record
 

@@ -21,8 +21,8 @@ app.add_typer(prior_app, name="prior")
 @command(prior_app, PriorFitOptions, "fit")
 def prior_fit(options: PriorFitOptions) -> None:
     """Fit p(z | s) (which latent the expert used where) and pi(a | s, z) (a macro that looks at the state) on the
-    demos' segments, and score both on held-out episodes. With the defaults (400 steps on 100 demos' segments),
-    about 5 s on one core of a 2-core AMD EPYC VM."""
+    demos' segments, and score both on held-out episodes. Its time with the defaults (400 steps on 100 demos'
+    segments): docs/performance.md, "each command with its defaults"."""
     from famarl_cli.stages.prior import fit_prior
 
     options = options.given()

@@ -44,8 +44,8 @@ def report(
 ) -> None:
     """Gather the evaluations, training logs, FAVAE metrics and traversals of whatever runs exist into report.md:
     a table per experiment of the paper, our numbers beside the paper's claims, and a three-way verdict per claim
-    (reproduces, does not reproduce, inconclusive) from 95% intervals over seeds. A pipeline's report takes
-    3-10 s on one core of a 2-core AMD EPYC VM (its bootstraps and figures; docs/pipelines.md has each stage's)."""
+    (reproduces, does not reproduce, inconclusive) from 95% intervals over seeds. Each pipeline's report stage's
+    time (its bootstraps and figures) is in docs/pipelines.md's wall table."""
     from famarl_cli.stages.report import make_report
 
     sections = make_report(experiment, data, out, summary)

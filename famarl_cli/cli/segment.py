@@ -15,7 +15,7 @@ from famarl_cli.stages.method import SegmentOptions
 @command(app, SegmentOptions, "segment")
 def segment(options: SegmentOptions) -> None:
     """Cut demos into macro actions at the peaks of an autoencoder's code distance (paper Alg. 1). With the
-    defaults (100 demos, 300 segmenter epochs), about 6 s on one core of a 2-core AMD EPYC VM."""
+    defaults (100 demos, 300 segmenter epochs), its time is in docs/performance.md, "each command with its defaults"."""
     from famarl_cli.stages import method as stages
 
     if already_made("famarl segment", options, options.outputs()):

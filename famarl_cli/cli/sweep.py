@@ -114,8 +114,8 @@ def sweep(options: SweepOptions) -> None:
     plan, are replaced or deleted only with --overwrite (or when dvc repro runs the sweep as a pipeline's stage);
     otherwise the sweep names them and changes nothing. A run whose worker dies is resubmitted; a run that fails
     does not stop the others, and the command exits non-zero at the end. It takes about what its runs take one
-    after another, divided by the workers (one per core; the default pipeline's 10 replicates of macros about 3
-    minutes and its 30 Maze runs of 500k steps about 2 minutes on a 2-core AMD EPYC VM: docs/pipelines.md).
+    after another, divided by the workers (one per core; the default pipeline's sweeps in docs/pipelines.md's wall
+    table).
     """
     from famarl_cli.artifacts.tracked import STAGE_VARIABLE, refuse_tracked
     from famarl_cli.sweep.driver import run_sweep

@@ -18,8 +18,7 @@ from famarl_cli.sweep.registry import sweepable
 @command(app, TrainOptions, "train")
 def train(options: TrainOptions) -> None:
     """Train an agent with PPO; writes run.json, checkpoint.pt and train.csv into the run folder. The default 1M
-    env steps on the Maze take, on one core of a 2-core AMD EPYC VM, about 25 s for famarl, 30 s for figar and
-    60 s for ppo (their env steps per second in docs/performance.md)."""
+    env steps on the Maze take, per agent, what docs/performance.md records ("each command with its defaults")."""
     from famarl_cli.artifacts.runs import check_run_destination
 
     one_thread()

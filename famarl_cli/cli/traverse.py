@@ -15,7 +15,8 @@ from famarl_cli.stages.method import TraverseOptions
 @command(app, TraverseOptions, "traverse")
 def traverse(options: TraverseOptions) -> None:
     """Decode sweeps of single latent variables and draw the paths their macro actions take (paper Fig. 5). With
-    the defaults (every variable of a 3-ladder FAVAE, four values), about 3 s on one core of a 2-core AMD EPYC VM."""
+    the defaults (every variable of a 3-ladder FAVAE, four values), its time is in docs/performance.md, "each
+    command with its defaults"."""
     from famarl_cli.stages import defaults
     from famarl_cli.stages import method as stages
 
