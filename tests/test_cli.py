@@ -248,6 +248,9 @@ def test_favae_and_traverse_bad_inputs(demos_file, segments_file, tmp_path):
     one_line_error(famarl("traverse", "--favae", model, "--ladder", 1, "--index", 3), 2, "index 3 does not exist")
     for values in ("1,x", "-1,nan", "inf", ","):
         one_line_error(famarl("traverse", "--favae", model, f"--values={values}"), 2, "values must be finite numbers")
+    # a wrong variable is named as such where the output is there already, not advised away with --overwrite
+    assert famarl("traverse", "--favae", model, "--out", tmp_path / "t.h5").exit_code == 0
+    one_line_error(famarl("traverse", "--favae", model, "--ladder", 4, "--out", tmp_path / "t.h5"), 2, "ladder 4 does")
 
 
 TINY_TRAINING = ("--steps", 1500, "--n-envs", 4, "--n-steps", 8, "--update-epochs", 1, "--minibatches", 2)
@@ -602,6 +605,9 @@ NOT_TOGETHER = [
     (("macros", "--segments", "{segments}", "--length", 48), "--length goes with --demos"),
     (("macros", "--segments", "{segments}", "--margin", 0.3), "--margin goes with --demos: it says how they are cut"),
     (("macros", "--segments", "{segments}", "--segment-epochs", 5), "--segment-epochs goes with --demos"),
+    (("macros", "--demos", "{demos}", "--world", "robot-hand", "--env", "famarl/ContinuousWorld-Maze-v0"), "--world"),
+    (("traverse", "--favae", "{favae}", "--world", "robot-hand", "--env", "famarl/ContinuousWorld-Maze-v0"), "--world"),
+    (("macros", "--demos", "{demos}", "--env-kwargs", '{{"a": 1}}'), "--env-kwargs goes with --env"),
 ]
 """Options that do not go together, refused before any work (a run started, demos segmented)."""
 

@@ -24,6 +24,7 @@ def traverse(options: TraverseOptions) -> None:
     # The default FAVAE is looked up once: the output's name and the traversal take it from the options.
     options = replace(options, favae=options.favae or defaults.favae("--favae"))
     model = options.favae
+    stages.check_traverse(options)
     if already_made("famarl traverse", options, options.outputs()):
         return
     console = results_console()

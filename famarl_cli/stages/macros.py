@@ -69,6 +69,7 @@ class MacrosConfig(stages.TraversalPlace, FitChoices, FavaeOptions, SegmentParam
     def __post_init__(self) -> None:
         super().__post_init__()
         with_paths(self)
+        self.check_place()
         if (self.demos is None) == (self.segments is None):
             raise UsageError("give either --demos (segment them first) or --segments, not both or neither")
         if self.episodes is not None and self.demos is None:

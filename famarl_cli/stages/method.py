@@ -156,6 +156,13 @@ class TraversalPlace:
         parse=parse_dims,
     )
 
+    def check_place(self) -> None:
+        """A usage error where the options of where the macro actions run do not go together."""
+        if self.env is None and self.env_kwargs:
+            raise UsageError("--env-kwargs goes with --env")
+        if self.env is not None and self.world is not None:
+            raise UsageError("--world goes without --env: the macro actions run in --env, not in a world's empty one")
+
 
 @dataclass(frozen=True)
 class TraverseOptions(TraversalPlace, Replaceable):
@@ -459,6 +466,19 @@ def fit_many(options: list[FitOptions], on_epoch: Callable[[int, str, dict], Non
     return results
 
 
+def check_traverse(options: TraverseOptions) -> None:
+    """A usage error where ``options`` do not go together or name a variable the FAVAE ``options.favae`` (given)
+    does not have: checked before a command looks at what its output holds already, so that the output's advice
+    (--overwrite) never stands for a wrong option."""
+    from famarl_cli.method.favae.checkpoint import load_favae
+    from famarl_cli.method.traversal import variables_of
+
+    options.check_place()
+    if options.frames and options.env is None:
+        raise UsageError("--frames goes with --env: the frames are what that env renders")
+    variables_of(load_favae(options.favae)[0], options.ladder, options.index)
+
+
 def traverse(options: TraverseOptions):
     """Traverse the FAVAE ``options.favae`` (:mod:`~famarl_cli.stages.defaults` when None) in the empty ``world``
     of a famarl env family, or in the gymnasium env ``options.env`` when given, drawing observation ``obs_dims``.
@@ -472,11 +492,9 @@ def traverse(options: TraverseOptions):
     from famarl_cli.method.traversal import traverse as run_traversal
     from famarl_cli.method.traversal import variables_of
 
-    if options.env is None and options.env_kwargs:
-        raise UsageError("--env-kwargs goes with --env")
-    if options.frames and options.env is None:
-        raise UsageError("--frames goes with --env: the frames are what that env renders")
-    model, out = options.favae or defaults.favae("--favae"), prepare_output(options.destination)
+    model = options.favae or defaults.favae("--favae")
+    check_traverse(replace(options, favae=model))
+    out = prepare_output(options.destination)
     values, env_id, dims = options.values, options.env, options.obs_dims
     favae, payload = load_favae(model)
     result = run_traversal(
