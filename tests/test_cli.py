@@ -1,6 +1,7 @@
 import json
 import re
 
+import h5py
 import numpy as np
 import pytest
 import torch
@@ -226,6 +227,13 @@ def test_favae_calibrate_then_fit_reuses_c_last_and_is_deterministic(segments_fi
         tmp_path / "c.pt",
     )
     one_line_error(wrong, 1, "c_last must hold 2 numbers (one per ladder)")
+    other = tmp_path / "other.h5"  # the same segments but for one attribute: another file by content
+    other.write_bytes(segments_file.read_bytes())
+    with h5py.File(other, "a") as handle:
+        handle.attrs["edited"] = 1
+    fit = ("favae", "fit", "--segments", other, "--calibration", calibration, "--epochs", 1, "--out", tmp_path / "o.pt")
+    one_line_error(famarl(*fit), 1, f"measured C_last on other segments than {other} (content hashes differ)")
+    assert not (tmp_path / "o.pt").exists()
 
 
 def test_favae_and_traverse_bad_inputs(demos_file, segments_file, tmp_path):

@@ -426,7 +426,7 @@ def fit_many(options: list[FitOptions], on_epoch: Callable[[int, str, dict], Non
         c_lasts[k], logs[k] = c_last, [{"phase": "calibrate", **row} for row in log]
     for k, o in enumerate(options):
         if o.calibration:
-            c_lasts[k] = read_calibration(o.calibration, setups[k][1], params[k])
+            c_lasts[k] = read_calibration(o.calibration, setups[k][1], params[k], o.segments)
     capacities = [allocate_capacity(c, str(o.capacity)) for c, o in zip(c_lasts, options, strict=True)]
     replicates = [
         Replicate(loaded.padded, config, o.beta, c, p)

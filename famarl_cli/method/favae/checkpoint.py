@@ -12,7 +12,7 @@ import json
 import os
 from pathlib import Path
 
-from famarl_cli.artifacts.base import check, write_json
+from famarl_cli.artifacts.base import check, sha256, write_json
 from famarl_cli.artifacts.checkpoints import load_checkpoint, save_checkpoint
 from famarl_cli.core.errors import ArtifactError
 from famarl_cli.method.favae import Measure
@@ -71,9 +71,12 @@ def write_calibration(
     )
 
 
-def read_calibration(path: str | os.PathLike, config: FavaeConfig, params: TrainingParams) -> list[float]:
-    """C_last from a calibration file, checked against the model about to be fitted and what its capacities
-    constrain (``params.measure``)."""
+def read_calibration(
+    path: str | os.PathLike, config: FavaeConfig, params: TrainingParams, segments: str | os.PathLike | None = None
+) -> list[float]:
+    """C_last from a calibration file, checked against the model about to be fitted, what its capacities
+    constrain (``params.measure``) and, given, the ``segments`` it is fitted on: a calibration that records the
+    segments it measured (its provenance's inputs) must have measured these, by content."""
     path = Path(path)
     if not path.is_file():
         raise ArtifactError(f"{path}: no such file")
@@ -104,5 +107,12 @@ def read_calibration(path: str | os.PathLike, config: FavaeConfig, params: Train
         path,
         f"C_last there measures {measure}, but this fit constrains {params.measure} (--capacity-measure); "
         "re-run famarl favae calibrate with the same --capacity-measure",
+    )
+    measured_on = set(((data.get("provenance") or {}).get("inputs") or {}).values())
+    check(
+        segments is None or not measured_on or sha256(segments) in measured_on,
+        path,
+        f"measured C_last on other segments than {segments} (content hashes differ); calibrate on these: famarl "
+        f"favae calibrate --segments {segments}",
     )
     return [float(c) for c in c_last]
