@@ -30,11 +30,9 @@ from famarl_cli.envs.vector import make_batch
 from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.method.prior.checkpoint import load_skills
 from famarl_cli.rl import Agent, MacroDecoder
-from famarl_cli.rl.action_modes import build_mode
 from famarl_cli.rl.policy import ActorCritic
 from famarl_cli.rl.ppo import Minibatch, PPOConfig, PPOTrainer, clip_rows, ppo_loss
-from famarl_cli.rl.prior_guide import build_guide
-from famarl_cli.rl.spec import RunSpec
+from famarl_cli.rl.spec import RunSpec, build_guide, build_mode
 
 MAZE = "famarl/ContinuousWorld-Maze-v0"
 

@@ -67,7 +67,7 @@ def agent_defaults(agent: Agent) -> dict:
     """The settings that depend on the agent, as ``famarl train`` fills them in: ``n_steps``, ``macro_discount``,
     ``type_entropy_floor`` (PPOConfig) and ``macro_horizon``, ``residual`` (RunSpec). A new agent is a member of
     :class:`Agent`, its settings here, an action mode (:class:`~famarl_cli.rl.action_modes.ActionMode`) and its
-    branch of :func:`~famarl_cli.rl.action_modes.build_mode`.
+    branch of :func:`~famarl_cli.rl.spec.build_mode`.
 
     The hybrid's decisions last 1 step or a macro's length, and only the semi-MDP form values them alike
     (:mod:`famarl_cli.rl.semi_mdp`); the other agents keep the paper's convention and run whole macros.

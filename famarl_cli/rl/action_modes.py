@@ -15,24 +15,17 @@ which decisions were macro actions, for the logs.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
 import numpy as np
 
-from famarl_cli.core.errors import UsageError
 from famarl_cli.method.favae.model import Favae
-from famarl_cli.rl import Agent, MacroDecoder
 from famarl_cli.rl.executor import Plan
-
-if TYPE_CHECKING:  # named in annotations only
-    from famarl_cli.envs.vector import BatchedEnv
-    from famarl_cli.method.prior.checkpoint import Skills
-    from famarl_cli.rl.spec import RunSpec
 
 
 class ActionMode(Protocol):
     """What PPO (:mod:`famarl_cli.rl.ppo`), evaluation and the gymnasium wrappers need of an action mode. A new
-    agent's way of acting is a class with these members; :func:`build_mode` makes it from the
+    agent's way of acting is a class with these members; :func:`~famarl_cli.rl.spec.build_mode` makes it from the
     run's spec."""
 
     policy_action_size: int
@@ -206,22 +199,3 @@ class HybridActions:
 
     def macro(self, index: np.ndarray) -> np.ndarray:
         return index == self.MACRO
-
-
-def build_mode(spec: RunSpec, env: BatchedEnv, favae: Favae | None, skills: Skills | None = None) -> ActionMode:
-    """The action mode of a run of ``spec`` on ``env``: its agent's, decoding with ``favae`` (and, closed-loop,
-    the decoder of ``skills``)."""
-    low, high = env.action_bounds
-    if spec.agent == Agent.PPO:
-        return PrimitiveActions(low, high)
-    if spec.agent == Agent.FIGAR:
-        return RepeatedActions(low, high, spec.max_repeat)
-    try:
-        if spec.loop == MacroDecoder.CLOSED:
-            decoder = skills.decoder.frozen()
-            macros = ClosedLoopMacroActions(favae, decoder, low, high, spec.latent_bound, spec.macro_horizon)
-        else:
-            macros = LatentMacroActions(favae, low, high, spec.latent_bound, spec.macro_horizon)
-    except ValueError as exc:
-        raise UsageError(f"{spec.favae}: {exc}") from exc
-    return HybridActions(macros, spec.residual) if spec.agent == Agent.HYBRID else macros

@@ -17,11 +17,10 @@ from famarl_cli.envs.vector import BatchedEnv, make_batch
 from famarl_cli.method.favae.model import Favae
 from famarl_cli.method.prior.checkpoint import Skills
 from famarl_cli.rl import MacroDecoder
-from famarl_cli.rl.action_modes import ActionMode, build_mode
+from famarl_cli.rl.action_modes import ActionMode
 from famarl_cli.rl.normalization import ObservationNormalizer
 from famarl_cli.rl.policy import ActorCritic
-from famarl_cli.rl.prior_guide import build_guide
-from famarl_cli.rl.spec import RunSpec
+from famarl_cli.rl.spec import RunSpec, build_guide, build_mode
 from famarl_cli.rl.training import mode_from_state
 
 
@@ -37,7 +36,7 @@ class TrainedAgent:
     spec: RunSpec
     policy: ActorCritic
     mode: ActionMode
-    """How its decisions become actions (:func:`~famarl_cli.rl.action_modes.build_mode`): the same for any batch of
+    """How its decisions become actions (:func:`~famarl_cli.rl.spec.build_mode`): the same for any batch of
     its env."""
     env: BatchedEnv = field(repr=False, compare=False)
     """One env of its kind: the shape and space of the observations it takes."""

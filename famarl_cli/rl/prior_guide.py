@@ -18,14 +18,8 @@ latent branch only: the primitive outputs have base mean 0 and base log std 0.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 import numpy as np
-
-if TYPE_CHECKING:  # named in annotations only
-    from famarl_cli.method.prior.checkpoint import Skills
-    from famarl_cli.rl.action_modes import ActionMode
-    from famarl_cli.rl.spec import RunSpec
 
 TUNING_RATE = 0.01
 """Change of log(weight) per minibatch and nat of KL above the target: about one e-fold per PPO update (80
@@ -75,11 +69,3 @@ class PriorGuide:
 
     def load_state_dict(self, state: dict) -> None:
         self.log_weight = float(state["log_weight"])
-
-
-def build_guide(spec: RunSpec, mode: ActionMode, skills: Skills | None) -> PriorGuide | None:
-    """The prior's guidance of the latent outputs (the last ones, for FaMARL all of them), where the run has it."""
-    if skills is None or not spec.prior_guide:
-        return None
-    size, latent = mode.policy_action_size, skills.config.latent_size
-    return PriorGuide(skills.prior.frozen(), size, slice(size - latent, size), spec.prior_weight, spec.prior_target_kl)

@@ -1,16 +1,33 @@
 """A run's settings (:class:`RunSpec`): what run.json and the checkpoint record, and all a run needs besides the
-FAVAE (and prior) it decodes with; and the label plots and reports give a kind of run."""
+FAVAE (and prior) it decodes with; the label plots and reports give a kind of run; and what the settings build
+around the policy: its action mode (:func:`build_mode`) and the prior's guidance (:func:`build_guide`)."""
 
 from __future__ import annotations
 
 import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from famarl_cli.core.declare import default_of, plain
+from famarl_cli.core.errors import UsageError
+from famarl_cli.method.favae.model import Favae
 from famarl_cli.rl import Agent, MacroDecoder
+from famarl_cli.rl.action_modes import (
+    ActionMode,
+    ClosedLoopMacroActions,
+    HybridActions,
+    LatentMacroActions,
+    PrimitiveActions,
+    RepeatedActions,
+)
 from famarl_cli.rl.options import RunOptions
 from famarl_cli.rl.ppo import PPOConfig
+from famarl_cli.rl.prior_guide import PriorGuide
+
+if TYPE_CHECKING:  # named in annotations only
+    from famarl_cli.envs.vector import BatchedEnv
+    from famarl_cli.method.prior.checkpoint import Skills
 
 
 @dataclass(frozen=True)
@@ -81,3 +98,30 @@ def default_label(
         return str(agent)
     name = f"{agent}{'+prior' if guided else ''}{'+closed' if loop == MacroDecoder.CLOSED else ''}"
     return name if not favae or Path(favae).stem == "favae" else f"{name} ({Path(favae).stem})"
+
+
+def build_mode(spec: RunSpec, env: BatchedEnv, favae: Favae | None, skills: Skills | None = None) -> ActionMode:
+    """The action mode of a run of ``spec`` on ``env``: its agent's, decoding with ``favae`` (and, closed-loop,
+    the decoder of ``skills``)."""
+    low, high = env.action_bounds
+    if spec.agent == Agent.PPO:
+        return PrimitiveActions(low, high)
+    if spec.agent == Agent.FIGAR:
+        return RepeatedActions(low, high, spec.max_repeat)
+    try:
+        if spec.loop == MacroDecoder.CLOSED:
+            decoder = skills.decoder.frozen()
+            macros = ClosedLoopMacroActions(favae, decoder, low, high, spec.latent_bound, spec.macro_horizon)
+        else:
+            macros = LatentMacroActions(favae, low, high, spec.latent_bound, spec.macro_horizon)
+    except ValueError as exc:
+        raise UsageError(f"{spec.favae}: {exc}") from exc
+    return HybridActions(macros, spec.residual) if spec.agent == Agent.HYBRID else macros
+
+
+def build_guide(spec: RunSpec, mode: ActionMode, skills: Skills | None) -> PriorGuide | None:
+    """The prior's guidance of the latent outputs (the last ones, for FaMARL all of them), where the run has it."""
+    if skills is None or not spec.prior_guide:
+        return None
+    size, latent = mode.policy_action_size, skills.config.latent_size
+    return PriorGuide(skills.prior.frozen(), size, slice(size - latent, size), spec.prior_weight, spec.prior_target_kl)

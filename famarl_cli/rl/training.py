@@ -22,10 +22,8 @@ from famarl_cli.envs.vector import BatchedEnv, make_batch
 from famarl_cli.method.favae.checkpoint import load_favae
 from famarl_cli.method.favae.model import Favae, FavaeConfig
 from famarl_cli.method.prior.checkpoint import Skills, load_skills
-from famarl_cli.rl.action_modes import build_mode
 from famarl_cli.rl.ppo import Member, PPOTrainer
-from famarl_cli.rl.prior_guide import build_guide
-from famarl_cli.rl.spec import RunSpec
+from famarl_cli.rl.spec import RunSpec, build_guide, build_mode
 
 
 def check_skills(spec: RunSpec, skills: Skills, favae: Favae, env: BatchedEnv, favae_path: str | None = None) -> None:
