@@ -192,3 +192,15 @@ def test_status_never_cuts_a_pipeline_name(monkeypatch, tmp_path):
     table = shown.stdout.split("└")[0].splitlines()
     assert any(line.startswith(f"│ {name} │") for line in table)
     assert max(map(len, table)) <= 80, "the other columns make room"
+
+
+def test_a_sweeps_folder_and_a_replicates_are_read_by_what_they_record(tmp_path):
+    """A folder that is no run: a sweep's shows its sweep.json (every job), a job's of another command its job.json."""
+    out = tmp_path / "sweep"
+    made = famarl("sweep", "demos", "--seeds", "0-1", "--jobs", 1, "--out", out, "--", "--episodes", 2, "--no-plot")
+    assert made.exit_code == 0, made.output
+    swept = " ".join(famarl("inspect", out).stdout.split())
+    assert "famarl.sweep" in swept and "seed0 (seed=0)" in swept and "seed1 (seed=1)" in swept
+    job = " ".join(famarl("inspect", out / "seed0").stdout.split())
+    assert "famarl.job" in job and "--episodes 2" in job
+    one_line_error(famarl("inspect", tmp_path), 1, "not a run folder")

@@ -22,7 +22,8 @@ def inspect(
         Path,
         typer.Argument(
             help="Artifact to check: demos, segments or traversal HDF5; a FAVAE, prior or segmenter checkpoint "
-            "(.pt); a run folder (famarl train) or its checkpoint; a JSON file famarl writes (eval.json, oracle.json, "
+            "(.pt); a run folder (famarl train) or its checkpoint; a sweep's folder or a famarl macros folder (what "
+            "its sweep.json or job.json records); a JSON file famarl writes (eval.json, oracle.json, "
             "a calibration, a .metrics.json, timing.json, job.json, sweep.json, curves.json, a report's summary.json "
             "and metrics.json)."
         ),
@@ -45,7 +46,7 @@ def inspect(
         # before reading: the picture of a stage's demos is that stage's output, which only dvc repro writes
         refuse_tracked(path.with_suffix(".png"), "copy the demos file elsewhere to draw it there")
     if path.is_dir():
-        table, made = _run_folder(path)
+        table, made = _folder(path)
     elif kind == "hdf5":
         table, made = _hdf5(path, plot)
     elif kind == "torch":
@@ -118,6 +119,17 @@ def _checkpoint(path: Path) -> tuple[Table, dict]:
     else:
         raise ArtifactError(f"{path}: is a torch file of schema {schema!r}, which famarl inspect does not read")
     return table, payload.get("provenance", {})
+
+
+def _folder(folder: Path) -> tuple[Table, dict]:
+    """A run folder; else a sweep's folder (its sweep.json) or a famarl macros replicate's (its job.json)."""
+    from famarl_cli.artifacts.runs import RUN_FILE
+    from famarl_cli.sweep.plan import JOB_FILE, MANIFEST
+
+    record = next((folder / name for name in (MANIFEST, JOB_FILE) if (folder / name).is_file()), None)
+    if (folder / RUN_FILE).is_file() or record is None:
+        return _run_folder(folder)
+    return _record(record, "json")
 
 
 def _run_folder(folder: Path) -> tuple[Table, dict]:
