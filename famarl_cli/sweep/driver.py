@@ -91,8 +91,8 @@ class SweepState:
 
 
 def prepare(out: Path, jobs: list[Job], overwrite: bool = False) -> tuple[SweepState, dict[str, str]]:
-    """Reconcile ``out`` with the plan: delete what is not in it, set aside what must run afresh (put back where the
-    job fails, :func:`_fail`), and write each pending job's record and the manifest. Returns the state and what each
+    """Reconcile ``out`` with the plan: delete what is not in it, set aside what must run afresh (:data:`REPLACED`,
+    put back where its job fails), and write each pending job's record and the manifest. Returns the state and what each
     job is made from (by name), which its record says again when it completes. Deleting a job folder, or replacing
     one that holds other work, is refused before anything changes, unless ``overwrite``
     (:func:`~famarl_cli.sweep.plan.refuse_unasked`)."""
