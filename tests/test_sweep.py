@@ -7,6 +7,7 @@ import json
 import os
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -449,3 +450,16 @@ def test_two_trainers_started_together_get_the_folder_once(tmp_path):
     second = [err for code, err in outcomes if code == 2 or "nothing to do" in err]
     assert sorted(code for code, _ in outcomes) in ([0, 2], [0, 0]) and len(second) == 1, outcomes
     assert "being written by another famarl process" in second[0] or "holds this run, complete" in second[0]
+
+
+def test_a_ray_address_where_nothing_answers_is_one_line_within_seconds(tmp_path):
+    """ray.init retries an address nothing listens at for minutes; the sweep says so at once and writes nothing."""
+    pytest.importorskip("ray")
+    with socket.socket() as closed:  # a port just freed on this machine: nothing listens there
+        closed.bind(("127.0.0.1", 0))
+        address = f"127.0.0.1:{closed.getsockname()[1]}"
+    start = time.monotonic()
+    out = tmp_path / "runs"
+    result = famarl("sweep", "train", "--seeds", 0, "--ray-address", address, "--out", out, "--", "--agent", "ppo")
+    one_line_error(result, 2, f"cannot connect to the Ray cluster at {address}: nothing answers there")
+    assert time.monotonic() - start < 30 and not out.exists()

@@ -19,6 +19,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import queue
+import socket
 import threading
 from collections.abc import Callable
 from concurrent.futures import Future, ProcessPoolExecutor
@@ -166,6 +167,7 @@ class RayExecutor(Executor):
         except ImportError as exc:
             raise UsageError("a Ray address needs Ray: pip install 'famarl[ray]'") from exc
         self.ray = ray
+        _answers(address)
         try:
             ray.init(address=address, logging_level="WARNING", log_to_driver=False)
         except Exception as exc:  # Ray raises several unrelated types for an unreachable or refusing cluster
@@ -187,6 +189,23 @@ class RayExecutor(Executor):
 
     def close(self) -> None:
         self.ray.shutdown()
+
+
+PROBE_S = 5.0
+"""How long a Ray address has to accept a connection before the sweep gives up on it."""
+
+
+def _answers(address: str) -> None:
+    """A usage error where nothing accepts a connection at ``address`` (``host:port``, or ``ray://host:port`` for
+    Ray Client) within :data:`PROBE_S`: ``ray.init`` itself retries such an address for minutes. Other forms
+    (``auto``) are left to Ray."""
+    host, _, port = address.removeprefix("ray://").rpartition(":")
+    if not host or not port.isdigit():
+        return
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=PROBE_S).close()
+    except OSError as exc:
+        raise UsageError(f"cannot connect to the Ray cluster at {address}: nothing answers there ({exc})") from None
 
 
 def _ray_failure(address: str, exc: Exception) -> str:
