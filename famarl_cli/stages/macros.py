@@ -78,8 +78,8 @@ class MacrosConfig(stages.TraversalPlace, FitChoices, FavaeOptions, SegmentParam
             raise UsageError("--calibration goes with --segments: it is C_last measured on those segments")
         if self.length is not None and self.demos is None:
             raise UsageError("--length goes with --demos: it is where their segmentation cuts; --segments are cut")
-        cut = [name for name in SEGMENTATION if getattr(self, name) != default_of(MacrosConfig, name)]
-        if self.segments is not None and cut:
+        cut = [n for n in SEGMENTATION if getattr(self, n) != default_of(MacrosConfig, n)] if self.segments else []
+        if cut:
             flag = option_names(MacrosConfig)[cut[0]]
             raise UsageError(f"{flag} goes with --demos: it says how they are cut; --segments are cut already")
         # Refused here, before segmenting: the FAVAE fit would refuse this L only after the segmentation's work.

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -27,6 +28,9 @@ from famarl_cli.method.favae import Device, FavaeOptions, FitChoices
 from famarl_cli.method.segment_params import SegmenterOptions, SegmentParams
 from famarl_cli.method.traversal import DRAWS, EMPTY_LADDER_NATS, empty_ladders, parse_dims, parse_values
 from famarl_cli.stages import defaults
+
+if TYPE_CHECKING:  # named in annotations only: reading this module does not load torch
+    from famarl_cli.method.favae.model import Favae
 
 
 @dataclass(frozen=True)
@@ -466,17 +470,18 @@ def fit_many(options: list[FitOptions], on_epoch: Callable[[int, str, dict], Non
     return results
 
 
-def check_traverse(options: TraverseOptions) -> None:
-    """A usage error where ``options`` do not go together or name a variable the FAVAE ``options.favae`` (given)
-    does not have: checked before a command looks at what its output holds already, so that the output's advice
-    (--overwrite) never stands for a wrong option."""
+def check_traverse(options: TraverseOptions, favae: Favae | None = None) -> list[tuple[int, int]]:
+    """The (ladder, index) variables ``options`` traverse, or a usage error where they do not go together or name a
+    variable the FAVAE (``favae``, loaded already, else ``options.favae``, given) does not have: checked before a
+    command looks at what its output holds already, so that the output's advice (--overwrite) never stands for a
+    wrong option."""
     from famarl_cli.method.favae.checkpoint import load_favae
     from famarl_cli.method.traversal import variables_of
 
     options.check_place()
     if options.frames and options.env is None:
         raise UsageError("--frames goes with --env: the frames are what that env renders")
-    variables_of(load_favae(options.favae)[0], options.ladder, options.index)
+    return variables_of(favae or load_favae(options.favae)[0], options.ladder, options.index)
 
 
 def traverse(options: TraverseOptions):
@@ -490,16 +495,15 @@ def traverse(options: TraverseOptions):
     from famarl_cli.method.favae.checkpoint import load_favae
     from famarl_cli.method.plots import plot_traversal, plot_traversal_frames
     from famarl_cli.method.traversal import traverse as run_traversal
-    from famarl_cli.method.traversal import variables_of
 
     model = options.favae or defaults.favae("--favae")
-    check_traverse(replace(options, favae=model))
+    favae, payload = load_favae(model)
+    chosen = check_traverse(options, favae)
     out = prepare_output(options.destination)
     values, env_id, dims = options.values, options.env, options.obs_dims
-    favae, payload = load_favae(model)
     result = run_traversal(
         favae,
-        variables_of(favae, options.ladder, options.index),
+        chosen,
         values,
         options.draw,
         env_id,

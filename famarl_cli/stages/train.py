@@ -46,6 +46,13 @@ AGENT_OPTIONS = {
 }
 """The options of :class:`TrainOptions` that only some agents use, by those agents: :func:`refuse_unused` refuses
 one given (not left out, and not at its default) for an agent that ignores it."""
+
+
+def either(agents: tuple[Agent, ...]) -> str:
+    """``agents`` as a refusal names them: ``famarl or hybrid``, ``famarl, figar or hybrid``."""
+    return " or ".join([", ".join(agents[:-1]), agents[-1]] if len(agents) > 2 else agents)
+
+
 PRIOR_OPTIONS = ("prior_guide", "prior_weight", "prior_target_kl", "prior_obs_prefix")
 """The options that say how a run uses its ``--prior``: refused, where given, for a run without one."""
 
@@ -143,13 +150,14 @@ class TrainOptions(RunOptions, PPOOptions):
     def __post_init__(self) -> None:
         if self.loop == MacroDecoder.CLOSED and not self.agent.decodes_macros:
             raise UsageError(
-                f"--loop closed goes with --agent famarl or hybrid, not {self.agent}: {self.agent} has no macro actions"
+                f"--loop closed goes with --agent {either(MACRO_AGENTS)}, not {self.agent}: {self.agent} has no macro "
+                "actions"
             )
         if self.loop == MacroDecoder.CLOSED and self.prior is None:
             raise UsageError("--loop closed needs --prior: the closed-loop decoder is in the prior file")
         if self.prior is not None and not self.agent.decodes_macros:
             raise UsageError(
-                f"--prior goes with --agent famarl or hybrid, not {self.agent}: {self.agent} has no latent"
+                f"--prior goes with --agent {either(MACRO_AGENTS)}, not {self.agent}: {self.agent} has no latent"
             )
 
 
@@ -209,8 +217,9 @@ def refuse_unused(options: TrainOptions) -> None:
 
     for name, agents in AGENT_OPTIONS.items():
         if given(name) and options.agent not in agents:
-            which = " or ".join([", ".join(agents[:-1]), agents[-1]] if len(agents) > 2 else agents)
-            raise UsageError(f"{typed(name)} goes with --agent {which}, not {options.agent}, which does not use it")
+            raise UsageError(
+                f"{typed(name)} goes with --agent {either(agents)}, not {options.agent}, which does not use it"
+            )
     for name in PRIOR_OPTIONS:
         if given(name) and options.prior is None:
             raise UsageError(f"{typed(name)} says how a run uses its --prior: give --prior, or leave it out")
