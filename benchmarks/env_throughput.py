@@ -1,4 +1,5 @@
-"""Environment throughput in env steps per second: ContinuousWorld single and batched, RobotHand single.
+"""Environment throughput in env steps per second: ContinuousWorld single and batched, RobotHand single and in a
+gymnasium batch (the loop that trains on it).
 
     python benchmarks/env_throughput.py [--seconds 2] [--robot-hand-only] [--out benchmarks/results/env_throughput.json]
 
@@ -16,10 +17,15 @@ import gymnasium as gym
 import numpy as np
 from common import RESULTS, command_line, peak_rss_mib, rate, record, rounded, verdict, write_result
 
+from famarl_cli.core.declare import default_of
 from famarl_cli.envs import ENV_IDS
 from famarl_cli.envs.batched import ContinuousWorldBatch
+from famarl_cli.envs.vector import GymBatch
+from famarl_cli.rl.options import PPOOptions
 
 ROBOT_HANDS = ("robot-hand-base", "robot-hand-reaching", "robot-hand-ball-placing")
+HAND_BATCH = default_of(PPOOptions, "n_envs")
+"""RobotHand envs in the gymnasium batch measured: training's default --n-envs."""
 
 
 def single_env(env_id: str, seconds: float, unwrapped: bool) -> float:
@@ -49,11 +55,23 @@ def batched_env(task: str, n_envs: int, seconds: float) -> float:
     return rate(lambda: batch.step(actions[next(counter) % 8]), n_envs, seconds)
 
 
+def gym_batch(env_id: str, n_envs: int, seconds: float) -> float:
+    """Steps per second of ``n_envs`` envs in famarl's gymnasium batch, which resets each as its episode ends."""
+    batch = GymBatch.make(env_id, n_envs, seed=0)
+    batch.reset()
+    # as many distinct actions per env as single_env's: a short cycle of them pins the hand against things, whose
+    # contacts cost the physics more
+    actions = np.random.default_rng(0).uniform(-1, 1, (1024, n_envs, *batch.envs[0].action_space.shape))
+    counter = iter(range(1 << 62))
+    return rate(lambda: batch.step(actions[next(counter) % 1024]), n_envs, seconds)
+
+
 def records(rows: list[tuple[str, str, int, float]], command: str) -> dict[str, dict]:
     """measured.json's entries from the rows: the Maze's batched worlds, and its single env with RobotHand's."""
     rates = {(task, kind, n_envs): per_s for task, kind, n_envs, per_s in rows}
     batched = [rates["maze", "batched", n] for n in (1, 64, 1024)]
     hands = [rates[task, "single (gym.make)", 1] for task in ROBOT_HANDS]
+    batches = [rates[task, "gymnasium batch", HAND_BATCH] for task in ROBOT_HANDS]
     return {
         "env_throughput_batched": {
             "what": "ContinuousWorld Maze, batched, 1 / 64 / 1024 worlds",
@@ -66,12 +84,18 @@ def records(rows: list[tuple[str, str, int, float]], command: str) -> dict[str, 
         },
         "env_throughput_single": {
             "what": "ContinuousWorld Maze, single env (`gym.make`); RobotHand Base / Reaching / BallPlacing, single "
-            "env (pymunk)",
+            f"env (pymunk), and {HAND_BATCH} in a gymnasium batch (as training steps them)",
             "command": command,
             "measured": f"{rounded(rates['maze', 'single (gym.make)', 1])} env steps/s; RobotHand "
             + " / ".join(rounded(per_s) for per_s in hands)
+            + f" env steps/s; {HAND_BATCH} in a batch "
+            + " / ".join(rounded(per_s) for per_s in batches)
             + " env steps/s",
-            "values": {"maze": rates["maze", "single (gym.make)", 1], **dict(zip(ROBOT_HANDS, hands, strict=True))},
+            "values": {
+                "maze": rates["maze", "single (gym.make)", 1],
+                **dict(zip(ROBOT_HANDS, hands, strict=True)),
+                **{f"{task} batch": per_s for task, per_s in zip(ROBOT_HANDS, batches, strict=True)},
+            },
             "unit": "env steps/s",
         },
     }
@@ -92,6 +116,7 @@ def main() -> None:
             rows.append((task, "batched", n_envs, batched_env(task, n_envs, args.seconds)))
     for task in ROBOT_HANDS:
         rows.append((task, "single (gym.make)", 1, single_env(ENV_IDS[task], args.seconds, unwrapped=False)))
+        rows.append((task, "gymnasium batch", HAND_BATCH, gym_batch(ENV_IDS[task], HAND_BATCH, args.seconds)))
 
     print(f"{'task':<24} {'env':<20} {'worlds':>7} {'env steps/s':>14}")
     for task, kind, n_envs, per_s in rows:

@@ -1,6 +1,8 @@
 """Does this checkout's code make what the code at REV made? The same small chain of commands (demos, macros,
-train for every agent, a batched sweep, evaluate, oracle) run by both, and every output compared: tensors, arrays,
-logs and records, leaving out pictures, timings and what records only to say when, where and by which source.
+train for every agent, a batched sweep, evaluate, oracle on the Maze; train, a batched sweep, evaluate and oracle on
+RobotHand, whose envs step in a gymnasium batch, not the Maze's numpy one) run by both, and every output compared:
+tensors, arrays, logs and records, leaving out pictures, timings and what records only to say when, where and by
+which source.
 
     python benchmarks/same_outputs.py [REV]     (default HEAD: the working tree's changes against the last commit)
 
@@ -24,6 +26,7 @@ import numpy as np
 import torch
 
 ROOT = Path(__file__).resolve().parents[1]
+HAND = "famarl/RobotHand-BallPlacing-v0"
 TINY = ["--n-envs", "4", "--n-steps", "8", "--update-epochs", "1", "--minibatches", "2"]
 CHAIN = [
     ["demos", "--episodes", "12", "--seed", "0", "--out", "demos.h5", "--no-plot"],
@@ -55,13 +58,48 @@ CHAIN = [
         "2000",
         *TINY,
     ],  # fmt: skip
+    ["train", "--env", HAND, "--agent", "figar", "--steps", "2000", *TINY, "--out", "hand-figar"],
+    [
+        "sweep",
+        "train",
+        "--seeds",
+        "0-1",
+        "--out",
+        "hand-sweep",
+        "--jobs",
+        "1",
+        "--",
+        "--env",
+        HAND,
+        "--agent",
+        "ppo",
+        "--steps",
+        "2000",
+        *TINY,
+    ],  # fmt: skip
     ["evaluate", "--run", "famarl", "--run", "ppo", "--run", "hybrid", "--episodes", "4", "--out", "eval", "--no-film"],
+    ["evaluate", "--run", "hand-figar", "--run", "hand-sweep", "--episodes", "4", "--out", "hand-eval", "--no-film"],
     [
         "oracle",
         "--run",
         "famarl",
         "--out",
         "oracle",
+        "--layouts",
+        "2",
+        "--candidates",
+        "8",
+        "--iterations",
+        "1",
+        "--jobs",
+        "1",
+    ],  # fmt: skip
+    [
+        "oracle",
+        "--run",
+        "hand-figar",
+        "--out",
+        "hand-oracle",
         "--layouts",
         "2",
         "--candidates",

@@ -14,6 +14,7 @@ ContinuousWorld has a numpy batch that steps all worlds in one call; any other g
 
 from __future__ import annotations
 
+from functools import partial
 from typing import Protocol
 
 import gymnasium as gym
@@ -71,13 +72,21 @@ class GymBatch:
             raise UsageError(f"{name}: its observation space {obs_space} has no flat form ({exc})") from exc
         self.envs, self.n_envs, self.seed, self.autoreset = envs, len(envs), seed, autoreset
         self.observation_space = obs_space
+        # A Box's flat form is its values cast to the space's dtype: gymnasium's flatten does that cast behind a
+        # dispatch that costs as much as the cast, once per env step.
+        self._flatten = (
+            partial(np.asarray, dtype=obs_space.dtype)
+            if isinstance(obs_space, gym.spaces.Box)
+            else partial(gym.spaces.flatten, obs_space)
+        )
         self.action_bounds = (space.low.astype(np.float64), space.high.astype(np.float64))
         self.obs = np.zeros((self.n_envs, self.observation_size), np.float32)
         self.raw_obs: list = [None] * self.n_envs
         self.last_info: list[dict] = [{} for _ in envs]
         self.rule: SuccessRule = success_rule(envs[0].spec, success_return)
         self.success_rule: str | None = None
-        self.returns = np.zeros(self.n_envs)
+        self.returns = [0.0] * self.n_envs
+        """Each env's episode return so far."""
 
     @staticmethod
     def make(
@@ -93,7 +102,7 @@ class GymBatch:
 
     def _observe(self, i: int, obs) -> None:
         self.raw_obs[i] = obs
-        self.obs[i] = gym.spaces.flatten(self.observation_space, obs)
+        self.obs[i] = self._flatten(obs).reshape(-1)
 
     def reset_one(self, i: int, **reset_kwargs) -> tuple:
         """Reset environment ``i`` with gymnasium's own arguments; its raw observation and info."""
@@ -122,34 +131,35 @@ class GymBatch:
         return spec.max_episode_steps if spec is not None else None
 
     def step(self, actions: np.ndarray, active: np.ndarray | None = None):
-        active = np.ones(self.n_envs, dtype=bool) if active is None else active
-        rewards = np.zeros(self.n_envs)
-        terminated = np.zeros(self.n_envs, dtype=bool)
-        truncated = np.zeros(self.n_envs, dtype=bool)
-        success = np.zeros(self.n_envs)
+        n = self.n_envs
+        # Python lists, made arrays once: a numpy scalar read or written per env step costs more than the step's
+        # own bookkeeping.
+        rewards, terminated, truncated, success = [0.0] * n, [False] * n, [False] * n, [0.0] * n
         final_obs = self.obs.copy()
-        for i in np.flatnonzero(active):
+        for i in range(n) if active is None else np.flatnonzero(active).tolist():
             # The env's own code, which may fail on a value its constructor took (a keyword of the wrong type). Not
             # famarl_cli.core.errors.foreign: a context manager per step costs more than the try, which costs nothing.
             try:
-                obs, rewards[i], terminated[i], truncated[i], self.last_info[i] = self.envs[i].step(actions[i])
-                # gymnasium's TimeLimit sets truncated on a step that also terminates: terminated wins, so that no
-                # learner bootstraps a value through a terminal state
-                truncated[i] = truncated[i] and not terminated[i]
+                obs, reward, ended, cut, self.last_info[i] = self.envs[i].step(actions[i])
                 self._observe(i, obs)
+                rewards[i] = reward = float(reward)
+                self.returns[i] += reward
             except FamarlError:
                 raise
             except Exception as exc:
                 raise ForeignError(f"env {self.name} step raised {one_line(exc)}") from exc
-            self.returns[i] += rewards[i]
-            if terminated[i] or truncated[i]:
+            if ended or cut:
+                # gymnasium's TimeLimit sets truncated on a step that also terminates: terminated wins, so that no
+                # learner bootstraps a value through a terminal state
+                terminated[i], truncated[i] = bool(ended), not ended
                 success[i] = self.rule.judge(self.last_info[i], self.returns[i])
                 self.success_rule = self.success_rule or self.rule.describe(self.last_info[i])
                 final_obs[i] = self.obs[i]
                 if self.autoreset:
                     self.reset_one(i)
-        info = {"final_obs": final_obs, "success": success} if (terminated | truncated).any() else {}
-        return self.obs.copy(), rewards, terminated, truncated, info
+        any_end = any(terminated) or any(truncated)
+        info = {"final_obs": final_obs, "success": np.array(success)} if any_end else {}
+        return self.obs.copy(), np.array(rewards), np.array(terminated), np.array(truncated), info
 
     def state_dict(self) -> None:
         return None  # gymnasium has no general snapshot; a resume starts fresh episodes
