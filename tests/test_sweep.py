@@ -220,6 +220,7 @@ def test_executor_contract(kind, tmp_path, request, monkeypatch):
     assert [s.job.name for s in state.failed] == ["bad"]
     assert by_name["bad"].attempts == 0 and "ValueError: bad data in job 9" in by_name["bad"].error
     assert json.loads((tmp_path / "bad" / JOB_FILE).read_text())["complete"] is False
+    assert not (tmp_path / "bad" / ".lease").exists() and not (tmp_path / "bad" / ".progress").exists()
     # Two workers really overlap (and one does not).
     assert [by_name[f"j{i}"].result["met"] for i in (0, 1)] == [kind != "serial"] * 2
 

@@ -68,6 +68,7 @@ def test_runs_that_fail_to_replace_the_old_ones_leave_them_as_they_were(tmp_path
     assert failed.exit_code == 1 and "2 of 2 runs failed" in failed.stderr and "replaced" not in failed.stdout
     assert {name: data for name, data in _tree(out).items() if name in before} == before
     assert not list(out.rglob(".famarl-replaced"))
+    assert not [*out.rglob(".lease"), *out.rglob(".progress")]  # what only a running attempt needs
     assert sweep("--lr", 0.001).exit_code == 0
     assert json.loads((out / "seed0" / "run.json").read_text())["spec"]["ppo"]["learning_rate"] == 0.001
     assert not list(out.rglob(".famarl-replaced"))

@@ -289,6 +289,7 @@ def _run(
         if on_update is not None:
             on_update(state)
     for job_state in state.failed:  # its worker has ended: the work it was to replace is what the folder holds again
+        _release(out / job_state.job.name)
         if _put_back(out / job_state.job.name) and job_state.job.name in state.replaced:
             state.replaced.remove(job_state.job.name)
     if on_update is not None:
@@ -304,10 +305,16 @@ def _exception(future: Future) -> BaseException | None:
     return future.exception() if future.done() else None
 
 
-def _complete(out: Path, job_state: JobState, made: dict[str, dict]) -> None:
-    folder = out / job_state.job.name
+def _release(folder: Path) -> None:
+    """Take back a job's lease and progress once no attempt of it runs: a job folder keeps only what its runner
+    made (an attempt that outlived its worker finds no lease and stops without writing)."""
     (folder / LEASE_FILE).unlink(missing_ok=True)
     (folder / PROGRESS_FILE).unlink(missing_ok=True)
+
+
+def _complete(out: Path, job_state: JobState, made: dict[str, dict]) -> None:
+    folder = out / job_state.job.name
+    _release(folder)
     write_json(folder / JOB_FILE, job_record(job_state.job, complete=True, made=made[job_state.job.name]))
     shutil.rmtree(folder / REPLACED, ignore_errors=True)
     job_state.status, job_state.finished = "done", time.monotonic()
