@@ -202,6 +202,7 @@ def test_famarl_power_json_lists_each_inconclusive_claim_with_its_need(summary_f
         ("{not json", "missing or unreadable"),
         ("[1, 2]", "not a summary famarl report writes"),
         ("{}", "not a summary famarl report writes (it holds no experiment)"),
+        ('{"schema": "famarl.evaluation", "schema_version": 3}', "a famarl.evaluation record, not a summary"),
         ("BROKEN", "lacks a number among"),
     ],
 )

@@ -162,6 +162,8 @@ def read_summary(path: Path) -> dict:
     loaded = read_json(path, "summary.json")
     if loaded == {}:
         raise ArtifactError(f"{path}: not a summary famarl report writes (it holds no experiment)")
+    if isinstance(loaded, dict) and isinstance(loaded.get("schema"), str):  # another famarl record: say which
+        raise ArtifactError(f"{path}: a {loaded['schema']} record, not a summary famarl report writes")
     for name, section in loaded.items() if isinstance(loaded, dict) else [("", None)]:
         missing = [key for key in COUNTS if not isinstance(section, dict) or not isinstance(section.get(key), int)]
         if missing:
