@@ -204,3 +204,18 @@ def test_a_sweeps_folder_and_a_replicates_are_read_by_what_they_record(tmp_path)
     job = " ".join(famarl("inspect", out / "seed0").stdout.split())
     assert "famarl.job" in job and "--episodes 2" in job
     one_line_error(famarl("inspect", tmp_path), 1, "not a run folder")
+
+
+def test_a_folder_of_evaluations_or_oracle_results_shows_each_runs_result(run, tmp_path, monkeypatch):
+    monkeypatch.setenv("COLUMNS", "200")
+    evaluated, searched = tmp_path / "eval", tmp_path / "oracle"
+    assert famarl("evaluate", "--run", run, "--episodes", 3, "--no-film", "--out", evaluated).exit_code == 0
+    oracle = ("--layouts", 2, "--candidates", 4, "--iterations", 1, "--decisions", 2)
+    assert famarl("oracle", "--run", run, *oracle, "--out", searched).exit_code == 0
+    for folder, kind, needle in ((evaluated, "eval.json", "judged"), (searched, "oracle.json", "of 2 layouts solved")):
+        shown = famarl("inspect", folder)
+        assert shown.exit_code == 0, shown.output
+        line = next(line for line in shown.stdout.splitlines() if f"run/{kind}" in line)
+        assert "ppo, seed 0, famarl/ContinuousWorld-Maze-v0" in line and needle in line, shown.stdout
+    (evaluated / "run" / "eval.json").write_text('{"schema": "famarl.evaluation", "schema_version": 2}')
+    one_line_error(famarl("inspect", evaluated), 1, "eval.json")

@@ -23,7 +23,8 @@ def inspect(
         typer.Argument(
             help="Artifact to check: demos, segments or traversal HDF5; a FAVAE, prior or segmenter checkpoint "
             "(.pt); a run folder (famarl train) or its checkpoint; a sweep's folder or a famarl macros folder (what "
-            "its sweep.json or job.json records); a JSON file famarl writes (eval.json, oracle.json, "
+            "its sweep.json or job.json records); a folder famarl evaluate or famarl oracle wrote into; a JSON file "
+            "famarl writes (eval.json, oracle.json, "
             "a calibration, a .metrics.json, timing.json, job.json, sweep.json, curves.json, a report's summary.json "
             "and metrics.json)."
         ),
@@ -122,14 +123,40 @@ def _checkpoint(path: Path) -> tuple[Table, dict]:
 
 
 def _folder(folder: Path) -> tuple[Table, dict]:
-    """A run folder; else a sweep's folder (its sweep.json) or a famarl macros replicate's (its job.json)."""
-    from famarl_cli.artifacts.runs import RUN_FILE
+    """A run folder; else a sweep's folder (its sweep.json) or a famarl macros replicate's (its job.json); else a
+    folder of results, each run's in its subfolder (what famarl evaluate and famarl oracle write into --out)."""
+    from famarl_cli.artifacts.runs import EVAL_FILE, ORACLE_FILE, RUN_FILE
     from famarl_cli.sweep.plan import JOB_FILE, MANIFEST
 
     record = next((folder / name for name in (MANIFEST, JOB_FILE) if (folder / name).is_file()), None)
-    if (folder / RUN_FILE).is_file() or record is None:
+    results = sorted(folder.glob(f"*/{EVAL_FILE}")) + sorted(folder.glob(f"*/{ORACLE_FILE}"))
+    if (folder / RUN_FILE).is_file() or (record is None and not results):
         return _run_folder(folder)
-    return _record(record, "json")
+    return _record(record, "json") if record is not None else _results(folder, results)
+
+
+def _results(folder: Path, results: list[Path]) -> tuple[Table, dict]:
+    """Each run's evaluation or oracle result in ``results`` on a row of its own, named by its file; what made each
+    is that file's to show (famarl inspect FILE)."""
+    from famarl_cli.artifacts.runs import EVAL_FILE, read_evaluation, read_oracle
+    from famarl_cli.envs.success import shown
+
+    table = Table("file", "run", "success", title=f"results in {folder}")
+    for path in results:
+        if path.name == EVAL_FILE:
+            found = read_evaluation(path)
+            mode = found["deterministic"]["success_rate"]
+            success = f"{shown(found['success_rate'])} judged ({shown(mode)} mode) of {found['episodes']} episodes"
+        else:
+            found = read_oracle(path)
+            interval = f"[{shown(found['success_low'])}, {shown(found['success_high'])}]"
+            success = f"{shown(found['success_rate'])} {interval} of {len(found['episodes'])} layouts solved"
+        agent = "" if found["agent"] == found["label"] else f" ({found['agent']})"
+        table.add_row(
+            str(path.relative_to(folder)), f"{found['label']}{agent}, seed {found['seed']}, {found['env']}", success
+        )
+    commands = sorted({"famarl evaluate" if path.name == EVAL_FILE else "famarl oracle" for path in results})
+    return table, {"command": " and ".join(commands)}
 
 
 def _run_folder(folder: Path) -> tuple[Table, dict]:
