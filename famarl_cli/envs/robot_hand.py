@@ -279,9 +279,9 @@ class Hand:
         self._fingers = tuple(finger._body for finger in self.fingers)
         self._motors = tuple(motor._constraint for motor in self.motors)
 
-    def step(self, space: pymunk.Space, action) -> None:
+    def step(self, space: pymunk.Space, action) -> list[float]:
         """One environment step of ``space`` with the hand driven by ``action``'s four numbers (clipped to the action
-        bounds)."""
+        bounds); the hand's part of the observation after it (:meth:`observe`)."""
         x, y, turn, grasp = [-1.0 if a < -1.0 else 1.0 if a > 1.0 else float(a) for a in action]
         _set_velocity(self._control, (x * HAND_SPEED, y * HAND_SPEED))
         _set_angular_velocity(self._control, turn * TURN_SPEED)
@@ -293,12 +293,16 @@ class Hand:
         handle, dt = space._space, DT / SUBSTEPS
         for _ in range(SUBSTEPS):
             _space_step(handle, dt)
-        self.keep_on_leash()
+        # the palm read once: the leash moves only the control body
+        at, angle = _position(self._palm), _angle(self._palm)
+        self._keep_on_leash(at, angle)
+        return self._observed(at, angle)
 
-    def keep_on_leash(self) -> None:
-        """Bring the control body back within LEASH of the palm, in position and in angle, and into the world."""
-        control, palm = self._control, self._palm
-        pull, at = _position(control), _position(palm)
+    def _keep_on_leash(self, at, palm_angle: float) -> None:
+        """Bring the control body back within LEASH of the palm (at ``at``, turned by ``palm_angle``), in position and
+        in angle, and into the world."""
+        control = self._control
+        pull = _position(control)
         x, y = pull.x, pull.y
         # never pull the palm out of the world
         dx = (0.0 if x < 0.0 else WIDTH if x > WIDTH else x) - at.x
@@ -308,7 +312,6 @@ class Hand:
         distance = abs(complex(dx, dy))
         scale = LEASH / distance if distance > LEASH else 1.0
         _set_position(control, (at.x + dx * scale, at.y + dy * scale))
-        palm_angle = _angle(palm)
         turn = _angle(control) - palm_angle
         if abs(turn) > LEASH:
             _set_angle(control, palm_angle + copysign(LEASH, turn))
@@ -317,11 +320,26 @@ class Hand:
     def grip(self) -> np.ndarray:
         return np.array(_grip(_position(self._palm), _angle(self._palm)))
 
-    def closure(self, palm_angle: float) -> float:
-        """The fingers' closure as observed (0 open .. 1 closed), given the palm's angle, read already."""
-        inward = (_angle(self._fingers[0]) - palm_angle) - (_angle(self._fingers[1]) - palm_angle)
-        # scaled by this hand's own open limit, so that 0 is open whatever the setting
-        return (inward / 2 - self.finger_open) / (FINGER_CLOSED - self.finger_open)
+    def observe(self) -> list[float]:
+        """The hand's part of the observation (OBSERVATION_NAMES' first eight), in double precision."""
+        return self._observed(_position(self._palm), _angle(self._palm))
+
+    def _observed(self, at, angle: float) -> list[float]:
+        """:meth:`observe` of a palm at ``at`` turned by ``angle``, read already: the grip point, the palm's velocity,
+        the sine and cosine of its angle and its angular velocity, and the fingers' closure (0 open .. 1 closed)."""
+        palm, (left, right) = self._palm, self._fingers
+        velocity = _velocity(palm)
+        inward = (_angle(left) - angle) - (_angle(right) - angle)
+        return [
+            *_grip(at, angle),
+            velocity.x,
+            velocity.y,
+            sin(angle),
+            cos(angle),
+            _angular_velocity(palm),
+            # scaled by this hand's own open limit, so that 0 is open whatever the setting
+            (inward / 2 - self.finger_open) / (FINGER_CLOSED - self.finger_open),
+        ]
 
 
 def _grip(palm, angle: float) -> tuple[float, float]:
@@ -518,7 +536,7 @@ class RobotHandEnv(gym.Env):
         self.layout = Layout(grip=grip, target=target, source=source)
         self.hand = Hand(self.space, tuple(grip), self.finger_open)
         self.steps = 0
-        return self._observe(), self._info(False)
+        return self._observe(), {"success": False}
 
     def _add_rod(self, x: float, floor_y: float) -> pymunk.Body:
         rod = pymunk.Body(ROD_MASS, pymunk.moment_for_box(ROD_MASS, ROD_SIZE))
@@ -547,26 +565,16 @@ class RobotHandEnv(gym.Env):
         values = np.asarray(action).reshape(4).tolist()
         if not all(map(isfinite, values)):
             raise ValueError(f"action must be finite, got {np.asarray(values)}")
-        self.hand.step(self.space, values)
         self.steps += 1
-        state = self._state()
+        state = self._state(self.hand.step(self.space, values))
         reward, terminated, success = self._outcome(state)
-        return np.array(state, dtype=np.float32), reward, terminated, False, self._info(success)
+        return np.array(state, dtype=np.float32), reward, terminated, False, {"success": success}
 
     # A step reads the world once, into Python floats: numpy's arrays of two cost more to make than the arithmetic.
-    def _state(self) -> list[float]:
-        """The observation's values (OBSERVATION_NAMES), in double precision."""
-        palm = self.hand._palm
-        at, velocity, angle = _position(palm), _velocity(palm), _angle(palm)
-        state = [
-            *_grip(at, angle),
-            velocity.x,
-            velocity.y,
-            sin(angle),
-            cos(angle),
-            _angular_velocity(palm),
-            self.hand.closure(angle),
-        ]
+    def _state(self, hand: list[float] | None = None) -> list[float]:
+        """The observation's values (OBSERVATION_NAMES), in double precision, after the hand's own (its
+        :meth:`Hand.observe`, where read already)."""
+        state = hand or self.hand.observe()
         if self.object is None:
             state += NO_OBJECT
         else:
@@ -596,9 +604,6 @@ class RobotHandEnv(gym.Env):
 
     def _observe(self) -> np.ndarray:
         return np.array(self._state(), dtype=np.float32)
-
-    def _info(self, success: bool) -> dict:
-        return {"success": bool(success)}
 
     # -- drawing ----------------------------------------------------------------------------------------------
     def render(self):
