@@ -7,6 +7,7 @@ import torch
 from ppo_reference import autograd_ppo_loss
 from torch.distributions import Categorical, Normal
 
+from famarl_cli.core.errors import ForeignError
 from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.envs.vector import GymBatch
 from famarl_cli.method.favae.model import Favae, FavaeConfig
@@ -187,6 +188,54 @@ def test_a_step_that_terminates_at_the_time_limit_is_terminated_and_bootstraps_n
     trainer.policy.params["b_value"].fill_(5.0)
     rollout = trainer.collect_rollout()
     np.testing.assert_allclose(rollout.rewards, 1.0)
+
+
+class Shaped(gym.Env):
+    """Observes a (2, 3) float64 Box, or a Dict of two Boxes, and rewards each step with ``reward(t)`` as the env hands
+    it over (a numpy scalar, an int, a 0-d array, or something that is no number)."""
+
+    action_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
+
+    def __init__(self, reward, dict_obs: bool = False) -> None:
+        self.reward, self.dict_obs = reward, dict_obs
+        box = gym.spaces.Box(-9.0, 9.0, (2, 3), np.float64)
+        self.observation_space = gym.spaces.Dict({"b": box, "a": gym.spaces.Box(0.0, 1.0, (1,))}) if dict_obs else box
+
+    def _obs(self):
+        values = np.arange(6.0).reshape(2, 3) / 7 + self.t
+        return {"b": values, "a": np.float32([0.5])} if self.dict_obs else values
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.t = 0
+        return self._obs(), {}
+
+    def step(self, action):
+        self.t += 1
+        return self._obs(), self.reward(self.t), self.t == 2, False, {}
+
+
+@pytest.mark.parametrize("dict_obs", [False, True])
+def test_a_gymnasium_batch_flattens_as_gymnasium_does_and_takes_any_number_as_a_reward(dict_obs):
+    rewards = (lambda t: np.float32(0.1) * t, lambda t: t, lambda t: np.array(-0.5 * t))
+    for reward in rewards:
+        envs = [Shaped(reward, dict_obs) for _ in range(2)]
+        batch = GymBatch(envs, seed=0)
+        first = batch.reset()
+        flat = gym.spaces.flatten(envs[0].observation_space, envs[0]._obs()).astype(np.float32)
+        np.testing.assert_array_equal(first[0], flat)
+        obs, got, terminated, truncated, _ = batch.step(np.zeros((2, 1)))
+        assert obs.dtype == np.float32 and got.dtype == np.float64 and got.tolist() == [float(reward(1))] * 2
+        np.testing.assert_array_equal(
+            obs[1], gym.spaces.flatten(envs[1].observation_space, envs[1]._obs()).astype(np.float32)
+        )
+        _, _, terminated, truncated, info = batch.step(np.zeros((2, 1)))
+        assert terminated.dtype == truncated.dtype == bool and terminated.all() and not truncated.any()
+        assert list(batch.returns) == [0.0, 0.0] and np.isnan(info["success"]).all()  # no rule judges these: NaN
+    broken = GymBatch([Shaped(lambda t: None)], seed=0)
+    broken.reset()
+    with pytest.raises(ForeignError, match="env Shaped step raised TypeError"):
+        broken.step(np.zeros((1, 1)))
 
 
 @pytest.mark.parametrize("choices", [0, 4])
