@@ -234,7 +234,7 @@ def test_a_gymnasium_batch_flattens_as_gymnasium_does_and_takes_any_number_as_a_
         assert list(batch.returns) == [0.0, 0.0] and np.isnan(info["success"]).all()  # no rule judges these: NaN
     broken = GymBatch([Shaped(lambda t: None)], seed=0)
     broken.reset()
-    with pytest.raises(ForeignError, match="env Shaped step raised TypeError"):
+    with pytest.raises(ForeignError, match="env Shaped: its step returned a reward that is no number, None"):
         broken.step(np.zeros((1, 1)))
 
 

@@ -142,12 +142,16 @@ class GymBatch:
             try:
                 obs, reward, ended, cut, self.last_info[i] = self.envs[i].step(actions[i])
                 self._observe(i, obs)
-                rewards[i] = reward = float(reward)
-                self.returns[i] += reward
             except FamarlError:
                 raise
             except Exception as exc:
                 raise ForeignError(f"env {self.name} step raised {one_line(exc)}") from exc
+            try:
+                rewards[i] = reward = float(reward)
+            except (TypeError, ValueError):
+                no_number = f"env {self.name}: its step returned a reward that is no number, {reward!r}"
+                raise ForeignError(no_number) from None
+            self.returns[i] += reward
             if ended or cut:
                 # gymnasium's TimeLimit sets truncated on a step that also terminates: terminated wins, so that no
                 # learner bootstraps a value through a terminal state
