@@ -139,7 +139,7 @@ def _results(folder: Path, results: list[Path]) -> tuple[Table, dict]:
     """Each run's evaluation or oracle result in ``results`` on a row of its own, named by its file; what made each
     is that file's to show (famarl inspect FILE)."""
     from famarl_cli.artifacts.runs import EVAL_FILE, read_evaluation, read_oracle
-    from famarl_cli.envs.success import shown
+    from famarl_cli.stages.evaluate import shown
 
     table = Table("file", "run", "success", title=f"results in {folder}")
     for path in results:
