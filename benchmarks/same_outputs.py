@@ -27,6 +27,7 @@ import torch
 
 ROOT = Path(__file__).resolve().parents[1]
 HAND = "famarl/RobotHand-BallPlacing-v0"
+SEARCH = ["--layouts", "2", "--candidates", "8", "--iterations", "1", "--jobs", "1"]
 TINY = ["--n-envs", "4", "--n-steps", "8", "--update-epochs", "1", "--minibatches", "2"]
 CHAIN = [
     ["demos", "--episodes", "12", "--seed", "0", "--out", "demos.h5", "--no-plot"],
@@ -79,36 +80,8 @@ CHAIN = [
     ],  # fmt: skip
     ["evaluate", "--run", "famarl", "--run", "ppo", "--run", "hybrid", "--episodes", "4", "--out", "eval", "--no-film"],
     ["evaluate", "--run", "hand-figar", "--run", "hand-sweep", "--episodes", "4", "--out", "hand-eval", "--no-film"],
-    [
-        "oracle",
-        "--run",
-        "famarl",
-        "--out",
-        "oracle",
-        "--layouts",
-        "2",
-        "--candidates",
-        "8",
-        "--iterations",
-        "1",
-        "--jobs",
-        "1",
-    ],  # fmt: skip
-    [
-        "oracle",
-        "--run",
-        "hand-figar",
-        "--out",
-        "hand-oracle",
-        "--layouts",
-        "2",
-        "--candidates",
-        "8",
-        "--iterations",
-        "1",
-        "--jobs",
-        "1",
-    ],  # fmt: skip
+    ["oracle", "--run", "famarl", "--out", "oracle", *SEARCH],
+    ["oracle", "--run", "hand-figar", "--out", "hand-oracle", *SEARCH],
 ]
 WHEN_AND_WHERE = {"provenance", "code", "key", "wall", "seconds", "platform", "host", "machine", "revision"}
 """Record keys that say when, where or by which source (the job key hashes famarl's source), not what was made."""
