@@ -132,11 +132,12 @@ class GymBatch:
 
     def step(self, actions: np.ndarray, active: np.ndarray | None = None):
         n = self.n_envs
-        # Python lists, made arrays once: a numpy scalar read or written per env step costs more than the step's
-        # own bookkeeping.
-        rewards, terminated, truncated, success = [0.0] * n, [False] * n, [False] * n, [0.0] * n
-        final_obs = self.obs.copy()
-        for i in range(n) if active is None else np.flatnonzero(active).tolist():
+        # The rewards in a Python list, made an array once: a numpy scalar written per env step costs more than the
+        # step's own bookkeeping. The ends, rare, are written into their arrays as they come.
+        rewards = [0.0] * n
+        terminated, truncated, success = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool), np.zeros(n)
+        final_obs, any_end = self.obs.copy(), False
+        for i in range(n) if active is None else active.nonzero()[0].tolist():
             # The env's own code, which may fail on a value its constructor took (a keyword of the wrong type). Not
             # famarl_cli.core.errors.foreign: a context manager per step costs more than the try, which costs nothing.
             try:
@@ -155,15 +156,14 @@ class GymBatch:
             if ended or cut:
                 # gymnasium's TimeLimit sets truncated on a step that also terminates: terminated wins, so that no
                 # learner bootstraps a value through a terminal state
-                terminated[i], truncated[i] = bool(ended), not ended
+                terminated[i], truncated[i], any_end = bool(ended), not ended, True
                 success[i] = self.rule.judge(self.last_info[i], self.returns[i])
                 self.success_rule = self.success_rule or self.rule.describe(self.last_info[i])
                 final_obs[i] = self.obs[i]
                 if self.autoreset:
                     self.reset_one(i)
-        any_end = any(terminated) or any(truncated)
-        info = {"final_obs": final_obs, "success": np.array(success)} if any_end else {}
-        return self.obs.copy(), np.array(rewards), np.array(terminated), np.array(truncated), info
+        info = {"final_obs": final_obs, "success": success} if any_end else {}
+        return self.obs.copy(), np.array(rewards), terminated, truncated, info
 
     def state_dict(self) -> None:
         return None  # gymnasium has no general snapshot; a resume starts fresh episodes
