@@ -326,7 +326,11 @@ def test_robot_hand_trains_and_evaluates_through_the_gymnasium_loop(tmp_path):
     env = "famarl/RobotHand-BallPlacing-v0"
     result = famarl("train", "--env", env, "--favae", favae, *TINY_TRAINING, "--out", out)
     assert result.exit_code == 0, result.output
-    assert famarl("evaluate", "--run", out, "--episodes", 2).exit_code == 0
+    evaluated = famarl("evaluate", "--run", out, "--episodes", 2)
+    assert evaluated.exit_code == 0, evaluated.output
+    # what it wrote, and only that: no rollouts.png outside ContinuousWorld
+    said = " ".join(evaluated.stdout.split())
+    assert "written eval.json, episode.gif, episode.png for 1 of 1 runs" in said and not (out / "rollouts.png").exists()
     metrics = json.loads((out / "eval.json").read_text())
     assert metrics["episodes"] == 2 and 1 <= metrics["macro_length"] <= 16
     # the layouts it was judged on, drawn from the evaluation's seed with the run's
@@ -374,7 +378,7 @@ def test_an_env_that_cannot_render_is_evaluated_and_not_filmed_with_one_note(tmp
     assert "pygame is not installed" in evaluation["not_filmed"] and "--no-film" in evaluation["not_filmed"]
     written = json.loads((tmp_path / "eval" / "eval.json").read_text())
     assert written["not_filmed"] == evaluation["not_filmed"] and 0 <= written["success_rate"] <= 1
-    assert not (tmp_path / "eval" / "episode.gif").exists()
+    assert not (tmp_path / "eval" / "episode.gif").exists() and evaluation["drawn"] == []
 
 
 def test_train_and_evaluate_bad_inputs(tmp_path, favae_file, segments_file):

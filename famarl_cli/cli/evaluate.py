@@ -81,10 +81,11 @@ def evaluate(options: EvaluateOptions) -> None:
     if len(reused) == runs:
         console.print(f"nothing written (every evaluation was there); learning curves in {curves}")
         return
-    files = [EVAL_FILE, *([f"{ROLLOUTS_FILE} (ContinuousWorld runs only)"] if o.rollouts else [])]
-    files += [FILM_FILE, STILLS_FILE] if o.film and not unfilmed else []
+    made = runs - len(reused)
+    drawn = {name: sum(name in names for names in done.drawn) for name in (ROLLOUTS_FILE, FILM_FILE, STILLS_FILE)}
+    files = [EVAL_FILE, *(name if n == made else f"{name} ({n} of them)" for name, n in drawn.items() if n)]
     console.print(
-        f"written {', '.join(files)} for {runs - len(reused)} of {runs} runs in {done.out or 'each run folder'}, "
+        f"written {', '.join(files)} for {made} of {runs} runs in {done.out or 'each run folder'}, "
         f"{curves}, {curves.with_suffix('.json')}"
     )
 

@@ -107,8 +107,8 @@ def evaluate_run(
     ``film``, one rendered episode (where the env cannot render for want of its extra, eval.json's ``not_filmed``
     says why and the rest is written). Success follows :mod:`famarl_cli.envs.success` (``success_return``
     overrides the run's); ``success_rule`` says which rule judged it. Returns what eval.json holds, less
-    provenance, with ``state`` (:func:`evaluation_state`): where it holds this evaluation already, nothing is run or
-    rewritten."""
+    provenance, with ``state`` (:func:`evaluation_state`) and ``drawn``, the pictures made (none where it holds this
+    evaluation already: then nothing is run or rewritten)."""
     from famarl_cli.artifacts.runs import (
         CHECKPOINT_FILE,
         EVAL_FILE,
@@ -161,7 +161,9 @@ def evaluate_run(
     }
     prov = provenance("famarl evaluate", params, seed, [run_folder / CHECKPOINT_FILE], options=options)
     write_json(into_folder / EVAL_FILE, {**evaluation, "provenance": prov})
+    drawn = []
     if mode.traces:
+        drawn.append(ROLLOUTS_FILE)
         title = (
             f"{agent.spec.label}, seed {agent.spec.seed}: deterministic episodes, one colour per decision "
             "(black dots: single primitive steps)"
@@ -169,7 +171,8 @@ def evaluate_run(
         plot_rollouts(mode.traces, into_folder / ROLLOUTS_FILE, title)
     if filmed is not None:
         save_film(filmed, into_folder / FILM_FILE, into_folder / STILLS_FILE)
-    return {**evaluation, "state": state}
+        drawn += [FILM_FILE, STILLS_FILE]
+    return {**evaluation, "state": state, "drawn": drawn}
 
 
 @dataclass(frozen=True)
@@ -181,6 +184,8 @@ class Evaluated:
     """Each run's eval.json, less provenance (:func:`evaluate_run`)."""
     states: list[str]
     """Each run's evaluation: ``"reuse"``, ``"make"`` or ``"remake"`` (:func:`evaluation_state`)."""
+    drawn: list[list[str]]
+    """The pictures made in each run's folder (rollouts.png for ContinuousWorld, the film), none where reused."""
     summary: dict[str, dict]
     """Per label, each metric's mean, min and max over its runs (:func:`~famarl_cli.rl.evaluation.summarise`)."""
     walls: dict[str, list[float]]
@@ -219,6 +224,7 @@ def evaluate_runs(
     calls = {folder: (str(folder), str(into[folder]), *args) for folder in runs}
     evaluations = run_each(evaluate_run, calls, o.jobs, "evaluation", on_done)
     states = [evaluation.pop("state") for evaluation in evaluations]
+    drawn = [evaluation.pop("drawn", []) for evaluation in evaluations]
     summary = summarise(evaluations)
     # The curves show every run's training: made again unless every run's evaluation was there already.
     if states.count("reuse") < len(runs) or not (curves.exists() and curves.with_suffix(".json").exists()):
@@ -231,7 +237,7 @@ def evaluate_runs(
     for folder, evaluation in zip(runs, evaluations, strict=True):
         if (wall := read_timing(folder)) is not None:
             walls[evaluation["label"]].append(wall)
-    return Evaluated(runs, evaluations, states, summary, walls, out, curves)
+    return Evaluated(runs, evaluations, states, drawn, summary, walls, out, curves)
 
 
 def beside_tracked(runs: list[Path], on_note: Callable[[str], None]) -> Path | None:
