@@ -128,11 +128,13 @@ def _folder(folder: Path) -> tuple[Table, dict]:
     from famarl_cli.artifacts.runs import EVAL_FILE, ORACLE_FILE, RUN_FILE
     from famarl_cli.sweep.plan import JOB_FILE, MANIFEST
 
-    record = next((folder / name for name in (MANIFEST, JOB_FILE) if (folder / name).is_file()), None)
-    results = sorted(folder.glob(f"*/{EVAL_FILE}")) + sorted(folder.glob(f"*/{ORACLE_FILE}"))
-    if (folder / RUN_FILE).is_file() or (record is None and not results):
+    if (folder / RUN_FILE).is_file():
         return _run_folder(folder)
-    return _record(record, "json") if record is not None else _results(folder, results)
+    record = next((folder / name for name in (MANIFEST, JOB_FILE) if (folder / name).is_file()), None)
+    if record is not None:
+        return _record(record, "json")
+    results = sorted(folder.glob(f"*/{EVAL_FILE}")) + sorted(folder.glob(f"*/{ORACLE_FILE}"))
+    return _results(folder, results) if results else _run_folder(folder)  # the latter's error: not a run folder
 
 
 def _results(folder: Path, results: list[Path]) -> tuple[Table, dict]:

@@ -289,9 +289,10 @@ def _run(
         if on_update is not None:
             on_update(state)
     for job_state in state.failed:  # its worker has ended: the work it was to replace is what the folder holds again
-        _release(out / job_state.job.name)
-        if _put_back(out / job_state.job.name) and job_state.job.name in state.replaced:
-            state.replaced.remove(job_state.job.name)
+        name = job_state.job.name
+        _release(out / name)
+        if _put_back(out / name) and name in state.replaced:
+            state.replaced.remove(name)
     if on_update is not None:
         on_update(state)
     return state
