@@ -13,6 +13,7 @@ from famarl_cli.envs.batched import ContinuousWorldBatch
 from famarl_cli.envs.continuous_world import GOAL_RADIUS, distance_to_goal
 from famarl_cli.envs.vector import GymBatch, make_batch
 from famarl_cli.rl.action_modes import HybridActions, LatentMacroActions, PrimitiveActions, RepeatedActions
+from famarl_cli.rl.agent import RunActionSpace, TrainedAgent
 from famarl_cli.rl.oracle import OracleOptions, by_chance, draw, initial, rollout, search, start_of
 
 REACHING = "famarl/RobotHand-Reaching-v0"
@@ -116,6 +117,11 @@ def test_famarl_oracle_writes_each_runs_share_of_solved_layouts(tmp_path):
     assert all(e["plans"] in (8, 16) for e in found["episodes"])
     assert found["provenance"]["params"]["candidates"] == 8
     one_line_error(famarl("oracle", "--out", out), 2, "give --run")
+    # What the search acts through is the run's action space on a batch of the search's own, without its policy.
+    space, agent = RunActionSpace.load(run, 3, seed=5), TrainedAgent.load(run)
+    assert space.env.n_envs == 3 and space.env.seed == 5 and space.spec == agent.spec
+    assert isinstance(space.mode, RepeatedActions) and space.mode.choices == agent.mode.choices
+    np.testing.assert_array_equal(space.env.action_bounds, agent.env.action_bounds)
 
 
 @pytest.mark.parametrize(

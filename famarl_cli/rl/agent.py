@@ -24,6 +24,32 @@ from famarl_cli.rl.spec import RunSpec, build_guide, build_mode
 from famarl_cli.rl.training import mode_from_state
 
 
+@dataclass(frozen=True)
+class RunActionSpace:
+    """What a run folder's decisions act through, without its policy (:meth:`load`): its spec, a batch of its env,
+    the mode that decodes its decisions and the networks the mode decodes with. ``famarl oracle`` searches this
+    space; :class:`TrainedAgent` adds the policy that acts in it."""
+
+    spec: RunSpec
+    env: BatchedEnv
+    mode: ActionMode
+    favae: Favae | None
+    skills: Skills | None
+    payload: dict = field(repr=False, compare=False)
+    """The checkpoint it was read from (:func:`~famarl_cli.artifacts.runs.read_run_checkpoint`)."""
+
+    @classmethod
+    def load(cls, run_dir: str | os.PathLike, n_envs: int = 1, seed: int | None = None) -> RunActionSpace:
+        """The action space of the run folder ``run_dir`` on a batch of ``n_envs`` of its envs, made from ``seed``
+        (default: the run's own)."""
+        payload = read_run_checkpoint(run_dir)
+        spec = RunSpec.from_dict(payload["config"])
+        favae, skills = mode_from_state(payload["mode"])
+        seed = spec.seed if seed is None else seed
+        env = make_batch(spec.env_id, n_envs, seed, spec.env_kwargs, spec.success_return)
+        return cls(spec, env, build_mode(spec, env, favae, skills), favae, skills, payload)
+
+
 @dataclass
 class TrainedAgent:
     """A trained run (:meth:`load`): the policy, its frozen observation statistics and its action mode.
@@ -56,17 +82,14 @@ class TrainedAgent:
     @classmethod
     def load(cls, run_dir: str | os.PathLike) -> TrainedAgent:
         """The agent a run folder (``famarl train``) holds, as its checkpoint left it."""
-        payload = read_run_checkpoint(run_dir)
-        spec = RunSpec.from_dict(payload["config"])
-        favae, skills = mode_from_state(payload["mode"])
-        trainer = payload["trainer"]
-        env = make_batch(spec.env_id, 1, spec.seed, spec.env_kwargs, spec.success_return)
-        mode = build_mode(spec, env, favae, skills)
+        space = RunActionSpace.load(run_dir)
+        spec, env, mode, trainer = space.spec, space.env, space.mode, space.payload["trainer"]
         policy = ActorCritic(
             env.observation_size, mode.policy_action_size, mode.choices, spec.ppo.hidden, mode.branches
         )
         policy.load_state_dict(trainer["policy"])
-        return cls(spec, policy, mode, env, trainer["obs_norm"], favae, int(trainer["counters"]["env_steps"]), skills)
+        counters = trainer["counters"]
+        return cls(spec, policy, mode, env, trainer["obs_norm"], space.favae, int(counters["env_steps"]), space.skills)
 
     def act(
         self, observation: np.ndarray | dict, deterministic: bool = False, rng: np.random.Generator | None = None

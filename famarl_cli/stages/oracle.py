@@ -56,14 +56,11 @@ def searched_space(run: str, plans: int, seed: int) -> tuple[RunSpec, SearchBatc
     of its envs (made from ``seed``, the fastest kind, as training's) that do not reset themselves, the mode that
     decodes its decisions, and the env's time limit (None where it has none). Only the run's action space is
     used, not its policy."""
-    from famarl_cli.envs.vector import make_batch
-    from famarl_cli.rl.agent import TrainedAgent
+    from famarl_cli.rl.agent import RunActionSpace
 
-    agent = TrainedAgent.load(run)
-    spec = agent.spec
-    batch = make_batch(spec.env_id, plans, seed, spec.env_kwargs, spec.success_return)
-    batch.autoreset = False
-    return spec, batch, agent.mode, batch.max_episode_steps
+    space = RunActionSpace.load(run, plans, seed)
+    space.env.autoreset = False
+    return space.spec, space.env, space.mode, space.env.max_episode_steps
 
 
 def oracle_run(
