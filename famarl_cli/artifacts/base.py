@@ -222,6 +222,17 @@ def require(found: Any, keys: Iterable[str], path: str | os.PathLike, message: s
     check(missing is None, path, message.format(missing))
 
 
+def read_object(path: str | os.PathLike) -> dict | None:
+    """The JSON object the file ``path`` holds, or None where it is gone, unreadable or holds no object: for the
+    records that processes leave for each other (a sweep's leases, progress and job records), which a reader may
+    find before they are written or after they are taken back."""
+    try:
+        found = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return None
+    return found if isinstance(found, dict) else None
+
+
 def write_json(path: str | os.PathLike, data: dict) -> None:
     """Write ``data`` as indented JSON, atomically (metrics files that DVC reads)."""
     with atomic_path(path) as temp:

@@ -53,7 +53,7 @@ import gymnasium as gym
 import numpy as np
 
 from famarl_cli.artifacts.base import TEMP_MARKER
-from famarl_cli.artifacts.demos import SCHEMA, SCHEMA_VERSION, TRUTH, Demos, Episode, content_fault
+from famarl_cli.artifacts.demos import SCHEMA, SCHEMA_VERSION, STEPS, TRUTH, Demos, Episode, content_fault
 from famarl_cli.artifacts.made import provenance
 from famarl_cli.core.errors import ArtifactError, FamarlError, UsageError
 from famarl_cli.envs.success import SuccessRule, as_bool, reported, success_rule
@@ -208,10 +208,11 @@ def export_minari(
                 EpisodeBuffer(
                     seed=None if episode.seed == -1 else int(episode.seed),
                     observations=observations,
-                    actions=episode.actions.astype(np.float32),
-                    rewards=episode.rewards.astype(np.float64),
-                    terminations=episode.terminations.astype(bool),
-                    truncations=episode.truncations.astype(bool),
+                    **{
+                        key: getattr(episode, key).astype(dtype)
+                        for key, dtype in STEPS.items()
+                        if key != "observations"
+                    },
                 )
                 for episode, observations in zip(demos.episodes, spaces.observations, strict=True)
             ]

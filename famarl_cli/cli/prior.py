@@ -55,11 +55,8 @@ def prior_fit(options: PriorFitOptions) -> None:
         f"closed-loop {value('held_out_closed_mse', '.5f')}, FAVAE open-loop {value('held_out_open_mse', '.5f')}",
     )
     table.add_row("action MSE, train", f"closed-loop {value('train_closed_mse', '.5f')}")
-    out = options.destination
-    written = [out, out.with_suffix(".log.csv"), out.with_suffix(".metrics.json")]
-    written += [out.with_suffix(".png")] if options.plot else []
     results_console().print(table)
-    print_written(written)
+    print_written(options.outputs())
 
 
 sweepable("prior", PriorFitOptions, owned=("--out", "--overwrite"), runs="prior fit")(prior_job)

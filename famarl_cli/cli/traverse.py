@@ -30,7 +30,6 @@ def traverse(options: TraverseOptions) -> None:
     console = results_console()
     if defaults.is_main_jobs(model):
         console.print(f"traversing {model}: a FAVAE of the default pipeline (dvc repro)")
-    out = options.destination
     result, carried = stages.traverse(options)
     table = Table(title=f"traversal of {model}", show_header=True)
     table.add_column("(ladder, index)")
@@ -50,7 +49,4 @@ def traverse(options: TraverseOptions) -> None:
             f"ladder {lad} is empty: its variables carry {total:.3f} nats ({measure}) of the training data (under "
             f"{carried.EMPTY_BELOW:g}), so traversing them changes almost nothing"
         )
-    written = [out, out.with_suffix(".png"), out.with_suffix(".json")] + (
-        [out.with_suffix(".frames.png")] if options.frames else []
-    )
-    print_written(written)
+    print_written(options.outputs())

@@ -22,7 +22,7 @@ import numpy as np
 from famarl_cli.core.errors import ArtifactError
 from famarl_cli.core.statistics import LEVEL, Interval
 from famarl_cli.report.kinds import DUPLICATE, OURS, PAPER, Kind, kinds
-from famarl_cli.report.results import head, read_json, recorded
+from famarl_cli.report.results import PAPER_AGENTS, head, read_json, recorded
 from famarl_cli.report.section import COUNTS
 from famarl_cli.report.verdicts import family
 
@@ -467,8 +467,6 @@ def studies_table(root: Path) -> str:
     return "\n".join(f"### {script}\n\n{_rows_table(scripts[script])}" for script in sorted(scripts))
 
 
-PAPER_AGENTS = ("famarl", "ppo", "figar")
-"""The paper's three agents, compared over its tasks in the aggregate table."""
 PAPER_TASKS = ("maze", "robothand")
 """The experiments that run all three on the paper's tasks (the Maze; RobotHand's Reaching and BallPlacing)."""
 FAILED_SUCCESS = 0.5

@@ -47,6 +47,9 @@ from famarl_cli.core.statistics import RATE, THRESHOLD, Interval, mean_interval,
 DATA = Path("data")
 """The folder the pipelines write into, from the checkout's root: the paths their records hold start with it."""
 
+PAPER_AGENTS = ("famarl", "ppo", "figar")
+"""The paper's three agents, as the pipelines label their runs: FaMARL, then its two baselines."""
+
 EDGE_FRACTION = 0.1
 """Share of a run's logged updates averaged for the 'start' and the 'end' of its learning curve."""
 

@@ -81,8 +81,9 @@ class Section:
         return "\n".join(lines).rstrip() + "\n"
 
     def judged(self) -> list[dict]:
-        """Each claim as summary.json records it: its verdict, rule, the reason where undefined, and every estimate
-        (:func:`estimate_record`)."""
+        """Each claim as summary.json records it: its verdict, rule, the reason where undefined, every estimate
+        (:func:`estimate_record`) and its measure (what one seed contributes, for the table of every claim that
+        ``famarl docs`` writes)."""
         return [
             {
                 "claim": c.paper,
@@ -91,6 +92,7 @@ class Section:
                 **({"reason": c.judgement.reason} if c.judgement.reason else {}),
                 **({"look": list(c.look)} if c.look else {}),
                 "estimates": [estimate_record(e) for e in c.judgement.estimates],
+                "measure": c.measure,
             }
             for c in self.claims
         ]

@@ -12,7 +12,7 @@ from famarl_cli.core.errors import ArtifactError
 from famarl_cli.core.reproducibility import machine
 from famarl_cli.report.experiments import experiments
 from famarl_cli.report.plots import plot_intervals
-from famarl_cli.report.results import write_curves
+from famarl_cli.report.results import PAPER_AGENTS, write_curves
 from famarl_cli.report.section import COUNTS, Section
 from famarl_cli.report.verdicts import Verdict, family
 
@@ -71,21 +71,12 @@ def write_report(
     # the same kind give the same summary, byte for byte (when and at which revision the runs were made is in
     # benchmarks/pipeline_walls.json, which famarl docs shows beside the verdicts).
     made = {"machine": machine(), "famarl": version}
-    write_json(summary, {name: {**_summary(s), "made": made} for name, s in built.items()})
+    write_json(summary, {name: {**s.summary(), "made": made} for name, s in built.items()})
     write_json(summary.with_name(METRICS_FILE), compared(list(built.values())))
     return built
 
 
-def _summary(section: Section) -> dict:
-    """The section's summary with each judged claim's measure (what one seed contributes) beside its rule, for the
-    table of every claim (``famarl docs``)."""
-    summary = section.summary()
-    judged = zip(summary.get("judged", []), section.claims, strict=True)
-    return {**summary, "judged": [{**entry, "measure": claim.measure} for entry, claim in judged]}
-
-
 METRICS_FILE = "metrics.json"
-COMPARED_AGENTS = ("famarl", "ppo", "figar")
 
 
 def compared(sections: list[Section]) -> dict:
@@ -97,5 +88,5 @@ def compared(sections: list[Section]) -> dict:
     keys = ("claims", "reproduce", "do_not", "inconclusive")
     metrics = {key: sum(count[name] for count in counts) for key, name in zip(keys, COUNTS, strict=True)}
     headline = counts[0].get("headline", {}) if len(counts) == 1 else {}
-    success = {agent: headline[agent]["success"] for agent in COMPARED_AGENTS if agent in headline}
+    success = {agent: headline[agent]["success"] for agent in PAPER_AGENTS if agent in headline}
     return {**metrics, **({"success": success} if success else {})}

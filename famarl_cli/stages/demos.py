@@ -13,7 +13,7 @@ import gymnasium as gym
 import numpy as np
 
 from famarl_cli.artifacts import Demos, Episode, provenance
-from famarl_cli.artifacts.demos import content_fault
+from famarl_cli.artifacts.demos import STEPS, content_fault
 from famarl_cli.artifacts.made import Replaceable
 from famarl_cli.core.declare import from_json, option, same_as, to_json
 from famarl_cli.core.errors import FamarlError, UsageError, foreign
@@ -144,32 +144,25 @@ def record_episode(
     with foreign(f"env {name} reset"):
         observation, info = env.reset(seed=int(seed))
     expert.reset(observation)
-    observations, actions, rewards, terminations, truncations = [observation], [], [], [], []
+    steps: dict[str, list] = {key: [] for key in STEPS}  # in STEPS' order, as each step fills them below
+    steps["observations"].append(observation)
     done = False
     while not done:
         action = expert.act(observation)
         with foreign(stepping):
             observation, reward, terminated, truncated, info = env.step(action)
-        if on_step is not None and len(rewards) % STEP_REPORT == STEP_REPORT - 1:
-            on_step(len(rewards) + 1)
-        for store, value in zip(
-            (observations, actions, rewards, terminations, truncations),
-            (observation, action, reward, terminated, truncated),
-            strict=True,
-        ):
+        if on_step is not None and len(steps["rewards"]) % STEP_REPORT == STEP_REPORT - 1:
+            on_step(len(steps["rewards"]) + 1)
+        for store, value in zip(steps.values(), (observation, action, reward, terminated, truncated), strict=True):
             store.append(value)
         done = terminated or truncated
-    space = env.observation_space
+    steps["observations"] = [gym.spaces.flatten(env.observation_space, o) for o in steps["observations"]]
     episode = Episode(
-        observations=np.array([gym.spaces.flatten(space, o) for o in observations], dtype=np.float32),
-        actions=np.array(actions, dtype=np.float32),
-        rewards=np.array(rewards, dtype=np.float64),
-        terminations=np.array(terminations, dtype=bool),
-        truncations=np.array(truncations, dtype=bool),
+        **{key: np.array(values, dtype=STEPS[key]) for key, values in steps.items()},
         seed=int(seed),
         segment_starts=np.array(expert.phase_starts, dtype=np.int64),
         factors=np.asarray(expert.phase_factors, dtype=np.float64),
-        success=as_bool(rule.judge(info, float(np.sum(rewards)))),
+        success=as_bool(rule.judge(info, float(np.sum(steps["rewards"])))),
     )
     # What a user's env or expert returned is checked as a demos file is when read: nothing unreadable is written.
     fault = content_fault(episode, episode.factors.shape[1] if episode.factors.ndim == 2 else 0)
@@ -364,10 +357,9 @@ def write_made_demos(options: DemosOptions, recorded: Demos) -> list[Path]:
     recorded = replace(recorded, provenance={**recorded.provenance, "made_from": making("famarl demos", options)})
     out = prepare_output(options.destination)
     write_demos(out, recorded)
-    if not options.plot:
-        return [out]
-    plot_demos(recorded, out.with_suffix(".png"))
-    return [out, out.with_suffix(".png")]
+    if options.plot:
+        plot_demos(recorded, out.with_suffix(".png"))
+    return options.outputs()
 
 
 def demos_job(options: DemosOptions) -> JobRecipe:

@@ -35,7 +35,7 @@ from enum import StrEnum
 from pathlib import Path
 
 from famarl_cli import __version__
-from famarl_cli.artifacts.base import sha256
+from famarl_cli.artifacts.base import read_object, sha256
 from famarl_cli.artifacts.made import JOB_FILE, JOB_SCHEMA, JOB_SCHEMA_VERSION, shown_path, what_changed
 from famarl_cli.artifacts.runs import CURVES_FILES
 from famarl_cli.core.errors import ArtifactError, UsageError
@@ -248,13 +248,8 @@ class Reconciliation:
 
 def read_job_record(folder: Path) -> dict | None:
     """The driver's record in a job folder, or None when there is none (or it is unreadable)."""
-    try:
-        record = json.loads((folder / JOB_FILE).read_text())
-    except (OSError, ValueError):
-        return None
-    if not isinstance(record, dict) or record.get("schema") != JOB_SCHEMA:
-        return None
-    return record
+    record = read_object(folder / JOB_FILE)
+    return record if record is not None and record.get("schema") == JOB_SCHEMA else None
 
 
 def reconcile(out: Path, jobs: list[Job], made: dict[str, dict]) -> Reconciliation:

@@ -17,6 +17,7 @@ from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from famarl_cli.artifacts.base import read_object
 from famarl_cli.core.errors import FamarlError
 
 LEASE_FILE = ".lease"
@@ -32,10 +33,7 @@ class LeaseLost(FamarlError):
 
 
 def read_token(path: Path) -> str | None:
-    try:
-        return json.loads(path.read_text()).get("token")
-    except (OSError, ValueError, AttributeError):
-        return None
+    return (read_object(path) or {}).get("token")
 
 
 @dataclass
@@ -74,11 +72,7 @@ class JobContext:
 
 
 def read_progress(folder: Path) -> dict | None:
-    try:
-        values = json.loads((folder / PROGRESS_FILE).read_text())
-    except (OSError, ValueError):
-        return None
-    return values if isinstance(values, dict) else None
+    return read_object(folder / PROGRESS_FILE)
 
 
 def name_of(function) -> str:

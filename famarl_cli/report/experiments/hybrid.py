@@ -28,6 +28,7 @@ from famarl_cli.report.experiments.common import (
 )
 from famarl_cli.report.experiments.robothand import BALL_PLACING, REACHING
 from famarl_cli.report.results import (
+    PAPER_AGENTS,
     Group,
     RunResult,
     by_agent,
@@ -170,7 +171,7 @@ def hybrid(data: Path, out: Path):
     if not mine:
         return None
     results = gather([data / "maze" / "eval", data / "robothand" / "eval"], data) + mine
-    order = ["famarl", "ppo", "figar", "hybrid", *VARIANTS]
+    order = [*PAPER_AGENTS, "hybrid", *VARIANTS]
     maze = in_order(group(results, MAZE), order)
     reaching, ball = (in_order(by_agent(group(results, env)), order) for env in (REACHING, BALL_PLACING))
     claims = goals(maze, reaching)

@@ -17,7 +17,7 @@ from famarl_cli.report.experiments.common import (
     oracle_table,
     solves_claim,
 )
-from famarl_cli.report.results import by_agent, copy_figure, gather, group, macros_folders, results_table
+from famarl_cli.report.results import PAPER_AGENTS, by_agent, copy_figure, gather, group, macros_folders, results_table
 
 COMPLETES = "FaMARL with pushed-down-only macro actions completes the Maze"
 """The paper's claim of Fig. 4a that the scripts experiment re-judges on these runs."""
@@ -32,7 +32,7 @@ def maze(data: Path, out: Path):
     if not results:
         return None
     agents = by_agent(group(results, MAZE))
-    famarl, ppo, figar = (agents.get(name) for name in ("famarl", "ppo", "figar"))
+    famarl, ppo, figar = (agents.get(name) for name in PAPER_AGENTS)
     present = [g for g in (famarl, ppo, figar) if g is not None]
     rivals = [g for g in (ppo, figar) if g is not None]
     claims = [

@@ -22,7 +22,17 @@ from famarl_cli.report.experiments.common import (
     success_measure,
     success_of,
 )
-from famarl_cli.report.results import Group, bounds, copy_figure, gather, group, head, recorded, results_table
+from famarl_cli.report.results import (
+    PAPER_AGENTS,
+    Group,
+    bounds,
+    copy_figure,
+    gather,
+    group,
+    head,
+    recorded,
+    results_table,
+)
 from famarl_cli.report.verdicts import (
     Claim,
     Judgement,
@@ -46,8 +56,6 @@ CONTROLS = {"reaching": "reaching.h5", "ballplacing": "ball-placing.h5"}
 ``--script ball-placing``: :mod:`famarl_cli.experts.robot_hand_tasks`)."""
 CONTROL_BAR = 0.95
 """A task is a test of the agents where its controller succeeds in at least this share of the episodes."""
-PAPER = ("famarl", "ppo", "figar")
-"""The paper's agents, as the pipeline labels their runs."""
 PER_DECISION = "famarl-per-decision"
 """Label of FaMARL under the other reading of the paper's silence on discounting (pipelines/robothand, params
 ``per_decision``; ``data/robothand/per-decision``): the same macros and budget, gamma per macro action whatever its
@@ -195,13 +203,13 @@ def robothand(data: Path, out: Path):
         tables.append(controls_table(found, returns))
     searched = oracle(shares)
     tables.append(oracle_table(searched))
-    order = [*PAPER, PER_DECISION]
+    order = [*PAPER_AGENTS, PER_DECISION]
     labels = sorted(
         {label for by in tasks.values() for label in by},
         key=lambda label: (order.index(label) if label in order else len(order), label),
     )
     complete = [label for label in labels if all(label in by for by in tasks.values())]
-    paper = [label for label in complete if label in PAPER]
+    paper = [label for label in complete if label in PAPER_AGENTS]
     if "famarl" in paper and len(paper) > 1:
         scores = {label: [tasks[t][label].values("success") for t in tasks] for label in complete}
         claims.append(only_one_completes_both(tasks, [a for a in paper if a != "famarl"]))

@@ -34,7 +34,17 @@ from famarl_cli.report.experiments.common import (
     success_of,
 )
 from famarl_cli.report.experiments.robothand import REACHING
-from famarl_cli.report.results import Group, copy_figure, gather, group, head, in_order, read_json, results_table
+from famarl_cli.report.results import (
+    PAPER_AGENTS,
+    Group,
+    copy_figure,
+    gather,
+    group,
+    head,
+    in_order,
+    read_json,
+    results_table,
+)
 from famarl_cli.report.verdicts import (
     Claim,
     Estimate,
@@ -57,7 +67,6 @@ SKILLS = (
 )
 """The skill agents, by label (pipelines/skills): the prior (its KL's weight fixed, tuned, or 0: the start alone),
 the closed-loop decoder, both, and re-deciding after 10 steps (FaMARL's cheap form of feedback)."""
-BASELINES = ("famarl", "ppo", "figar")
 POINTMAZE_LARGE = "PointMaze_Large-v3"
 BIPEDAL = "BipedalWalker-v3"
 POINTMAZE_RATIO = 2.0
@@ -81,7 +90,7 @@ class Place:
     env: str
     baselines: tuple[str, ...]
     skills: str
-    kept: tuple[str, ...] = BASELINES
+    kept: tuple[str, ...] = PAPER_AGENTS
     """The baselines' labels taken from their pipelines."""
 
 
@@ -111,7 +120,7 @@ def gather_place(data: Path, place: Place) -> dict[str, Group]:
     skills = group(gather([data / "skills" / "eval" / place.skills], data), place.env)
     groups = {label: g for label, g in baselines.items() if label in place.kept}
     groups.update(skills)
-    return in_order(groups, [*BASELINES, *SKILLS])
+    return in_order(groups, [*PAPER_AGENTS, *SKILLS])
 
 
 def skill_groups(groups: dict[str, Group]) -> list[Group]:
@@ -294,7 +303,7 @@ def skills(data: Path, out: Path):
         figures.append(copy_figure(proposals, out / f"skills-{place.name}-prior.png"))
         if place.name == "pointmaze-large":
             # same env as the UMaze demos' runs: named apart in the curves and numbers, the baselines once
-            every += [Group(f"{g.label}, Large demos", g.runs) for g in groups if g.label not in BASELINES[1:]]
+            every += [Group(f"{g.label}, Large demos", g.runs) for g in groups if g.label not in PAPER_AGENTS[1:]]
         else:
             every += groups
     tables += [cost_table(list(maze.values())), prior_table(data)]
