@@ -204,6 +204,15 @@ def test_a_sweeps_folder_and_a_replicates_are_read_by_what_they_record(tmp_path)
     job = " ".join(famarl("inspect", out / "seed0").stdout.split())
     assert "famarl.job" in job and "--episodes 2" in job
     one_line_error(famarl("inspect", tmp_path), 1, "not a run folder")
+    # a folder of a stage's files is none of these: the error names the files to give instead
+    (tmp_path / "favaes").mkdir()
+    for name in ("b.pt", "a.json", "c.h5", "d.json", "e.json", "f.json", "g.json"):
+        (tmp_path / "favaes" / name).write_text("{}")
+    (tmp_path / "favaes" / "picture.png").write_bytes(b"\x89PNG\r\n\x1a\n")
+    one_line_error(
+        famarl("inspect", tmp_path / "favaes"), 1, "give one of its files instead: a.json, b.pt, c.h5, d.json, e.json,"
+    )
+    assert "f.json and 1 more" in famarl("inspect", tmp_path / "favaes").output
 
 
 def test_a_folder_of_evaluations_or_oracle_results_shows_each_runs_result(run, tmp_path, monkeypatch):

@@ -124,8 +124,11 @@ def _checkpoint(path: Path) -> tuple[Table, dict]:
 
 def _folder(folder: Path) -> tuple[Table, dict]:
     """A run folder; else a sweep's folder (its sweep.json) or a famarl macros replicate's (its job.json); else a
-    folder of results, each run's in its subfolder (what famarl evaluate and famarl oracle write into --out)."""
+    folder of results, each run's in its subfolder (what famarl evaluate and famarl oracle write into --out); else
+    an error that names the files in it famarl inspect would read."""
+    from famarl_cli.artifacts.base import file_kind
     from famarl_cli.artifacts.runs import EVAL_FILE, ORACLE_FILE, RUN_FILE
+    from famarl_cli.core.errors import ArtifactError
     from famarl_cli.sweep.plan import JOB_FILE, MANIFEST
 
     if (folder / RUN_FILE).is_file():
@@ -134,7 +137,22 @@ def _folder(folder: Path) -> tuple[Table, dict]:
     if record is not None:
         return _record(record, "json")
     results = sorted(folder.glob(f"*/{EVAL_FILE}")) + sorted(folder.glob(f"*/{ORACLE_FILE}"))
-    return _results(folder, results) if results else _run_folder(folder)  # the latter's error: not a run folder
+    if results:
+        return _results(folder, results)
+    # A folder of a stage's files (famarl traverse --out d/t.h5 writes d/t.h5, t.png, t.json): inspect reads files.
+    files = sorted(p.name for p in folder.iterdir() if p.is_file() and file_kind(p) in ("hdf5", "torch", "json"))
+    if files:
+        more = len(files) - FILES_NAMED
+        named = ", ".join(files[:FILES_NAMED]) + (f" and {more} more" if more > 0 else "")
+        raise ArtifactError(
+            f"{folder}: not a run folder (no {RUN_FILE}), a sweep's or a folder of results; give one of its files "
+            f"instead: {named}"
+        )
+    return _run_folder(folder)  # its error: not a run folder
+
+
+FILES_NAMED = 6
+"""A folder that holds files, not a run: how many of them its error names."""
 
 
 def _results(folder: Path, results: list[Path]) -> tuple[Table, dict]:
