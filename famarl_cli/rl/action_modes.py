@@ -94,10 +94,15 @@ class LatentMacroActions:
         self.favae, self.low, self.high, self.bound, self.horizon = favae, low, high, bound, horizon
         self.policy_action_size = favae.config.latent_size
 
+    def decode(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The latents ``u`` clipped to the box, the FAVAE's open-loop actions for them, and their lengths (cut at
+        ``horizon``)."""
+        latents = np.clip(u, -self.bound, self.bound)
+        actions, lengths = self.favae.decode_macro_actions(latents)
+        return latents, actions, (np.minimum(lengths, self.horizon) if self.horizon else lengths)
+
     def to_sequences(self, u: np.ndarray, index: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-        actions, lengths = self.favae.decode_macro_actions(np.clip(u, -self.bound, self.bound))
-        if self.horizon:
-            lengths = np.minimum(lengths, self.horizon)
+        _, actions, lengths = self.decode(u)
         return np.clip(actions, self.low, self.high), lengths
 
     def macro(self, index: np.ndarray) -> np.ndarray:
@@ -144,10 +149,7 @@ class ClosedLoopMacroActions(LatentMacroActions):
 
     def plan(self, u: np.ndarray, rows: np.ndarray, fixed: np.ndarray, offset: np.ndarray | float = 0.0):
         """The plan and lengths of the latents ``u`` (M, Z) played by ``rows`` (N,) of the batch."""
-        latents = np.clip(u, -self.bound, self.bound)
-        open_loop, lengths = self.favae.decode_macro_actions(latents)
-        if self.horizon:
-            lengths = np.minimum(lengths, self.horizon)
+        latents, open_loop, lengths = self.decode(u)
         return ClosedLoopPlan(self.decoder, latents, open_loop, rows, fixed, self.low, self.high, offset), lengths
 
     def to_sequences(self, u: np.ndarray, index: np.ndarray | None) -> tuple[Plan, np.ndarray]:

@@ -466,29 +466,16 @@ class PPOTrainer:
                 member.obs = result.obs
             self._bootstrap_truncations(members, finals, rewards[:, t], discounts[:, t])
         next_values = self._values(members, [m.obs for m in members])
+        stacked = {"obs": obs, "u": u, "index": index, "logp": logp, "values": values, "rewards": rewards}
+        stacked |= {"dones": dones, "macro_lengths": lengths, "macro": macro, "steps": steps}
+        stacked |= {"base_mean": base_mean, "base_log_std": base_log_std}
         rollouts = []
         for k in range(len(members)):
             advantages, returns = compute_gae(
                 rewards[k], values[k], dones[k], discounts[k], next_values[k], cfg.gae_lambda
             )
-            rollouts.append(
-                Rollout(
-                    obs[k],
-                    u[k],
-                    index[k],
-                    logp[k],
-                    values[k],
-                    rewards[k],
-                    dones[k],
-                    advantages,
-                    returns,
-                    lengths[k],
-                    macro[k],
-                    steps[k],
-                    None if base_mean is None else base_mean[k],
-                    None if base_log_std is None else base_log_std[k],
-                )
-            )
+            own = {name: None if array is None else array[k] for name, array in stacked.items()}
+            rollouts.append(Rollout(**own, advantages=advantages, returns=returns))
         return rollouts
 
     def _run(self, members: list[Member], sequences: list, lengths: np.ndarray) -> list[SequenceResult]:
