@@ -16,10 +16,9 @@ from famarl_cli.report.experiments.common import (
     demos_and_traversal,
     fails_claim,
     favae_table,
-    first_runs,
+    in_blocks,
     per_seed,
     sampled_return,
-    sequential,
 )
 from famarl_cli.report.results import Group, by_agent, gather, group, results_table
 from famarl_cli.report.verdicts import Claim, beats, not_run
@@ -66,11 +65,8 @@ def bipedal(data: Path, out: Path):
     # the block's replicates answer the claim they were added for; the others compare the pipeline's own seeds
     blocks = gather([data / "bipedal" / "block" / "eval"], data)
     every_famarl = Group(famarl.label, famarl.runs + blocks) if famarl and blocks else famarl
-    own, replicates = (len(famarl.runs), len(every_famarl.runs)) if famarl else (0, 0)
     claims = [
-        sequential(lambda k, level: fails_claim(FAILS, first_runs(every_famarl, k), level), own, replicates)
-        if every_famarl
-        else fails_claim(FAILS, None),
+        in_blocks(fails_claim, FAILS, every_famarl, len(famarl.runs) if famarl else 0),
         walks_further(
             "The failure is a lack of feedback control: PPO's primitive actions walk further on the same budget",
             ppo,

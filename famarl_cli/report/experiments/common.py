@@ -127,6 +127,15 @@ def first_runs(g: Group, k: int) -> Group:
     return Group(g.label, g.runs[:k])
 
 
+def in_blocks(judge: Callable[..., Claim], paper: str, g: Group | None, first: int) -> Claim:
+    """``judge(paper, group, level)``'s claim about one group whose replicates may have been added in blocks, its
+    first ``first`` runs the pipeline's own (:func:`sequential` over its first runs); ``judge(paper, None)`` where
+    there is no group."""
+    if g is None:
+        return judge(paper, None)
+    return sequential(lambda k, level: judge(paper, first_runs(g, k), level), first, len(g.runs))
+
+
 def by_seed(g: Group, measure: Callable[[RunResult], float]) -> dict[int, float]:
     """``measure(run)`` of each of ``g``'s runs, by the run's seed (its replicate)."""
     return {int(run.evaluation["seed"]): float(measure(run)) for run in g.runs}

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from famarl_cli.core.errors import ArtifactError
 from famarl_cli.report.experiments import experiment
-from famarl_cli.report.experiments.common import curves, first_runs, sequential, solves_claim
+from famarl_cli.report.experiments.common import curves, in_blocks, solves_claim
 from famarl_cli.report.results import Group, RunResult, gather, results_table
 from famarl_cli.report.verdicts import Verdict
 
@@ -57,14 +57,7 @@ def robothand_calibration(data: Path, out: Path):
         settings.setdefault(setting_of(kwargs), []).append(run)
     ordered = sorted(settings, key=protocol_order)
     groups = [Group(f"ppo, {name}", settings[name]) for name in ordered]
-    claims = [
-        sequential(
-            lambda k, level, g=g, name=name: solves_claim(f"{CONTROL} [{name}]", first_runs(g, k), level),
-            FIRST,
-            len(g.runs),
-        )
-        for name, g in zip(ordered, groups, strict=True)
-    ]
+    claims = [in_blocks(solves_claim, f"{CONTROL} [{name}]", g, FIRST) for name, g in zip(ordered, groups, strict=True)]
     chosen = next((name for name, c in zip(ordered, claims, strict=True) if c.verdict == Verdict.REPRODUCES), None)
     undecided = sum(c.verdict != Verdict.DOES_NOT for c in claims)
     choice = (

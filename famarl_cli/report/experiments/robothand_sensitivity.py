@@ -12,7 +12,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from famarl_cli.report.experiments import experiment
-from famarl_cli.report.experiments.common import curves, fails_claim, first_runs, sequential, solves_claim
+from famarl_cli.report.experiments.common import curves, fails_claim, first_runs, in_blocks, sequential, solves_claim
 from famarl_cli.report.experiments.robothand import BALL_PLACING, FIGAR_FAILS, REACHING, figar_contrast_claim
 from famarl_cli.report.results import Group, RunResult, by_agent, gather, group, results_table
 from famarl_cli.report.verdicts import Claim
@@ -28,11 +28,7 @@ def of_agent(judge: Callable[..., Claim], agent: str) -> Judge:
 
     def judged(paper: str, named: dict[str, Group], own: dict[str, int]) -> Claim:
         g = named.get(agent)
-        if g is None:
-            return judge(paper, None)
-        return sequential(
-            lambda k, level: judge(paper, first_runs(g, k), level), own.get(agent, len(g.runs)), len(g.runs)
-        )
+        return in_blocks(judge, paper, g, own.get(agent, len(g.runs) if g else 0))
 
     return judged
 
