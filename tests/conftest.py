@@ -12,6 +12,7 @@ torch.set_num_threads(1)
 
 FIRST = (
     "test_pipelines.py",
+    "test_pipelines_gym.py",
     "test_sweep.py",
     "test_faults.py",
     "test_cli.py",
