@@ -8,11 +8,14 @@ from scipy import stats
 
 from famarl_cli.core.statistics import (
     aggregate_interval,
+    censored_difference,
+    censored_ratio,
     difference_interval,
     floored_variance,
     iqm,
     mean_interval,
     normalised_auc,
+    paired_difference_interval,
     performance_profile,
     probability_of_improvement,
     steps_to_threshold,
@@ -240,3 +243,16 @@ def test_a_controllers_success_interval_is_wilsons_over_its_episodes():
     assert every.high == 1.0 and 0.96 < every.low < 0.97 and none.low == 0.0 and 0.03 < none.high < 0.04
     with pytest.raises(ValueError):
         proportion_interval(5, 4)
+
+
+@pytest.mark.parametrize(
+    "interval",
+    [
+        paired_difference_interval,
+        lambda a, b: censored_difference(a, b, paired=True),
+        lambda a, b: censored_ratio(a, b, paired=True),
+    ],
+)
+def test_paired_intervals_refuse_arms_of_other_replicates(interval):
+    with pytest.raises(ValueError, match="one value per replicate on each side, got 3 and 2"):
+        interval([0.1, 0.2, 0.3], [0.1, 0.2])

@@ -191,8 +191,7 @@ def paired_difference_interval(
     variances together: what each rate's own episodes add, which pairing does not remove (an upper bound of it,
     so the floor errs wide), and the interval is cut to [-1, 1]."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    if a.shape != b.shape:
-        raise ValueError(f"paired values need one value per replicate on each side, got {len(a)} and {len(b)}")
+    _check_paired(a, b)
     differences = a - b
     estimate = float(differences.mean())
     bounds = (-1.0, 1.0) if episodes else None
@@ -233,8 +232,7 @@ def censored_difference(
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     a_early, b_early = np.where(np.isinf(a), budget, a), np.where(np.isinf(b), budget, b)
     if paired:
-        if a.shape != b.shape:
-            raise ValueError(f"paired values need one value per replicate on each side, got {len(a)} and {len(b)}")
+        _check_paired(a, b)
         with np.errstate(invalid="ignore"):
             low, high = b_early - a, b - a_early  # each pair's least and greatest possible difference
             nearest = np.where(np.isinf(a) & np.isinf(b), 0.0, np.where(low > 0, low, np.where(high < 0, high, 0.0)))
@@ -279,13 +277,17 @@ def censored_ratio(
     if len(a) < 2 or len(b) < 2:
         return Interval(estimate, 0.0, np.inf, level)
     if paired:
-        if a.shape != b.shape:
-            raise ValueError(f"paired values need one value per replicate on each side, got {len(a)} and {len(b)}")
+        _check_paired(a, b)
         resampled = [ends(d, d) for d in _resamples(len(a), seed)]
     else:
         draws = zip(_resamples(len(a), seed), _resamples(len(b), seed + 1), strict=True)
         resampled = [ends(da, db) for da, db in draws]
     return _bounded([r[0] for r in resampled], [r[1] for r in resampled], estimate, level)
+
+
+def _check_paired(a: np.ndarray, b: np.ndarray) -> None:
+    if a.shape != b.shape:
+        raise ValueError(f"paired values need one value per replicate on each side, got {len(a)} and {len(b)}")
 
 
 def _median(values: np.ndarray) -> float:
