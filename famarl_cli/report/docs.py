@@ -20,10 +20,9 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 
 from famarl_cli.core.errors import ArtifactError
-from famarl_cli.core.statistics import LEVEL, Interval
 from famarl_cli.report.kinds import DUPLICATE, OURS, PAPER, Kind, kinds
 from famarl_cli.report.results import PAPER_AGENTS, head, read_json, recorded
-from famarl_cli.report.section import COUNTS
+from famarl_cli.report.section import COUNTS, estimate_interval
 from famarl_cli.report.verdicts import family
 
 FILES = (
@@ -182,7 +181,12 @@ def _made(pipeline: Pipeline) -> str:
     wall = pipeline.timed
     if wall is None:
         return "(not timed: benchmarks/pipeline_walls.py)"
-    return f"{wall['date']}, `{wall['revision']}`, {wall['machine']}"
+    return _when(wall)
+
+
+def _when(record: dict) -> str:
+    """When, at which revision and on which machine a record (a pipeline's wall, a benchmark's row) was made."""
+    return f"{record['date']}, `{record['revision']}`, {record['machine']}"
 
 
 def _status(pipeline: Pipeline) -> str:
@@ -239,8 +243,7 @@ def _estimates(claim: dict) -> str:
     parts = []
     for e in claim["estimates"]:
         n = f"n={e['n']}: " if e["n"] else ""
-        interval = Interval(e["estimate"], e["low"], e["high"], e.get("level", LEVEL))
-        parts.append(f"{e['name']}: {n}{interval.text()}")
+        parts.append(f"{e['name']}: {n}{estimate_interval(e).text()}")
     parts += [f"undefined: {claim['reason']}"] if claim.get("reason") else []
     return "<br>".join(parts) or "(no runs)"
 
@@ -389,10 +392,7 @@ def walls_table(found: list[Pipeline]) -> str:
         total += wall["total_s"]
         stages = ", ".join(f"{name.rpartition(':')[2]} {seconds:.0f}" for name, seconds in wall["stages"].items())
         note = f"; {wall['note']}" if wall.get("note") else ""
-        lines.append(
-            f"| {pipeline.link} | {wall['total_s'] / 60:.1f} min | {stages} | {wall['date']}, "
-            f"`{wall['revision']}`, {wall['machine']}{note} |"
-        )
+        lines.append(f"| {pipeline.link} | {wall['total_s'] / 60:.1f} min | {stages} | {_when(wall)}{note} |")
     measured = sum(p.timed is not None for p in found)
     lines += ["", f"Measured: {measured} of {len(found)} pipelines, {total / 60:.0f} minutes together."]
     return "\n".join(lines) + "\n"
@@ -447,10 +447,7 @@ def performance_table(root: Path, subject: str | None = None) -> str:
 def _rows_table(measured: dict[str, dict]) -> str:
     lines = head("what | command | measured | target | date, revision, machine")
     for row in measured.values():
-        lines.append(
-            f"| {row['what']} | `{row['command']}` | {row['measured']} | {row['target']} | {row['date']}, "
-            f"`{row['revision']}`, {row['machine']} |"
-        )
+        lines.append(f"| {row['what']} | `{row['command']}` | {row['measured']} | {row['target']} | {_when(row)} |")
     return "\n".join(lines) + "\n"
 
 

@@ -43,7 +43,8 @@ from famarl_cli.core.power import (
     spread_from_interval,
     times_today,
 )
-from famarl_cli.core.statistics import LEVEL, Interval, floored_variance, paired_variance, success_interval
+from famarl_cli.core.statistics import Interval, floored_variance, paired_variance, success_interval
+from famarl_cli.report.section import estimate_interval
 
 INCONCLUSIVE, UNDEFINED = "inconclusive", "undefined"
 NUMBER = r"(-?\d+(?:\.\d+)?(?:e-?\d+)?|1/2)"
@@ -230,12 +231,7 @@ def _beyond(needed: float | None, basis: str) -> str:
 def part(estimate: dict, rule: str) -> Part | None:
     """What one estimate of an inconclusive claim needs, or None where its interval already decides it."""
     try:
-        interval = Interval(
-            float(estimate["estimate"]),
-            float(estimate["low"]),
-            float(estimate["high"]),
-            float(estimate.get("level", LEVEL)),
-        )
+        interval = estimate_interval(estimate)
         name = str(estimate["name"])
         reference = estimate.get("reference")
         threshold = float(reference) if reference is not None else threshold_in_words(rule)

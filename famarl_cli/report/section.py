@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
 
+from famarl_cli.core.statistics import LEVEL, Interval
 from famarl_cli.report.results import Group, head, headline, scores
 from famarl_cli.report.verdicts import Claim, Estimate, Verdict, family
 
@@ -123,6 +124,13 @@ VALUE_DIGITS = 6
 
 def _values(values: tuple[float, ...]) -> list[float]:
     return [round(v, VALUE_DIGITS) for v in values]
+
+
+def estimate_interval(record: dict) -> Interval:
+    """The interval of an estimate as summary.json records it (:func:`estimate_record`; 95% where a record is older
+    than its level); KeyError where a number is missing, TypeError or ValueError where one is no number."""
+    numbers = (record["estimate"], record["low"], record["high"], record.get("level", LEVEL))
+    return Interval(*map(float, numbers))
 
 
 def estimate_record(e: Estimate) -> dict:
