@@ -213,6 +213,9 @@ def test_a_sweeps_folder_and_a_replicates_are_read_by_what_they_record(tmp_path)
         famarl("inspect", tmp_path / "favaes"), 1, "give one of its files instead: a.json, b.pt, c.h5, d.json, e.json,"
     )
     assert "f.json and 1 more" in famarl("inspect", tmp_path / "favaes").output
+    (tmp_path / "report").mkdir()
+    (tmp_path / "report" / "report.md").write_text("# famarl report\n")
+    one_line_error(famarl("inspect", tmp_path / "report"), 1, "a report (report.md), not a run folder; its verdicts")
 
 
 def test_a_folder_of_evaluations_or_oracle_results_shows_each_runs_result(run, tmp_path, monkeypatch):

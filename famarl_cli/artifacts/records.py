@@ -10,6 +10,9 @@ from famarl_cli.artifacts.made import read_provenance
 from famarl_cli.artifacts.runs import RUN_FILE, TIMING_FILE
 from famarl_cli.core.errors import ArtifactError
 
+REPORT_FILE = "report.md"
+"""What ``famarl report`` writes into its folder, beside its figures; its summary.json goes where ``--summary`` says."""
+
 
 def unschemed_record(path: Path, record: dict) -> tuple[str, dict, dict]:
     """What a JSON file that famarl writes without a schema is, in words, what of it to show, and the provenance of

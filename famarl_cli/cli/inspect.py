@@ -127,6 +127,7 @@ def _folder(folder: Path) -> tuple[Table, dict]:
     folder of results, each run's in its subfolder (what famarl evaluate and famarl oracle write into --out); else
     an error that names the files in it famarl inspect would read."""
     from famarl_cli.artifacts.base import file_kind
+    from famarl_cli.artifacts.records import REPORT_FILE
     from famarl_cli.artifacts.runs import EVAL_FILE, ORACLE_FILE, RUN_FILE
     from famarl_cli.core.errors import ArtifactError
     from famarl_cli.sweep.plan import JOB_FILE, MANIFEST
@@ -147,6 +148,11 @@ def _folder(folder: Path) -> tuple[Table, dict]:
         raise ArtifactError(
             f"{folder}: not a run folder (no {RUN_FILE}), a sweep's or a folder of results; give one of its files "
             f"instead: {named}"
+        )
+    if (folder / REPORT_FILE).is_file():
+        raise ArtifactError(
+            f"{folder}: a report ({REPORT_FILE}), not a run folder; its verdicts are in the summary.json famarl "
+            "report wrote at --summary (a pipeline's: summary.json or pipelines/<name>/summary.json): inspect that"
         )
     return _run_folder(folder)  # its error: not a run folder
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from famarl_cli.artifacts import atomic_path
 from famarl_cli.artifacts.base import write_json
+from famarl_cli.artifacts.records import REPORT_FILE
 from famarl_cli.core.errors import ArtifactError
 from famarl_cli.core.reproducibility import machine
 from famarl_cli.report.experiments import experiments
@@ -65,7 +66,7 @@ def write_report(
         parts.append(
             "## Not run yet\n\n" + "\n".join(f"- {name}: `dvc repro {known[name].pipeline}`" for name in missing) + "\n"
         )
-    with atomic_path(out / "report.md") as temp:
+    with atomic_path(out / REPORT_FILE) as temp:
         temp.write_text("\n".join(parts))
     # What made the numbers, and nothing that changes with the day or the commit: the same runs on a machine of
     # the same kind give the same summary, byte for byte (when and at which revision the runs were made is in
