@@ -12,7 +12,7 @@ from rich.table import Table
 from famarl_cli.cli import app, reports_errors, results_console
 from famarl_cli.cli.demos import demos_table
 from famarl_cli.cli.segment import segments_table
-from famarl_cli.core.errors import UsageError
+from famarl_cli.core.errors import ArtifactError, UsageError
 
 
 @app.command()
@@ -36,7 +36,6 @@ def inspect(
     """Check that a file or folder is a valid famarl artifact, and print what it holds and what made it."""
     from famarl_cli.artifacts.base import file_kind
     from famarl_cli.artifacts.tracked import refuse_tracked
-    from famarl_cli.core.errors import ArtifactError
 
     if not path.exists():
         raise ArtifactError(f"{path}: no such file or folder")
@@ -68,7 +67,6 @@ def _hdf5(path: Path, plot: bool) -> tuple[Table, dict]:
     from famarl_cli.artifacts.segments import read_segments
     from famarl_cli.artifacts.traversal import SCHEMA as TRAVERSAL
     from famarl_cli.artifacts.traversal import read_traversal
-    from famarl_cli.core.errors import ArtifactError
 
     schema = peek_schema(path)
     if plot and schema != DEMOS:
@@ -99,7 +97,6 @@ def _checkpoint(path: Path) -> tuple[Table, dict]:
     import torch
 
     from famarl_cli.artifacts.runs import CHECKPOINT_FILE
-    from famarl_cli.core.errors import ArtifactError
 
     try:
         payload = torch.load(path, map_location="cpu", weights_only=True)
@@ -129,7 +126,6 @@ def _folder(folder: Path) -> tuple[Table, dict]:
     from famarl_cli.artifacts.base import file_kind
     from famarl_cli.artifacts.records import REPORT_FILE
     from famarl_cli.artifacts.runs import EVAL_FILE, ORACLE_FILE, RUN_FILE
-    from famarl_cli.core.errors import ArtifactError
     from famarl_cli.sweep.plan import JOB_FILE, MANIFEST
 
     if (folder / RUN_FILE).is_file():
@@ -187,7 +183,6 @@ def _results(folder: Path, results: list[Path]) -> tuple[Table, dict]:
 
 def _run_folder(folder: Path) -> tuple[Table, dict]:
     from famarl_cli.artifacts.runs import EVAL_FILE, RUN_FILE, check_run_folder, read_evaluation
-    from famarl_cli.core.errors import ArtifactError
     from famarl_cli.stages.evaluate import judged_success
 
     run = check_run_folder(folder)
@@ -234,7 +229,6 @@ def _record(path: Path, kind: str | None) -> tuple[Table, dict]:
     """A JSON file of ``kind`` (:func:`~famarl_cli.artifacts.base.file_kind`'s, read already)."""
     from famarl_cli.artifacts.records import unschemed_record
     from famarl_cli.artifacts.runs import EVAL_SCHEMA, RUN_SCHEMA
-    from famarl_cli.core.errors import ArtifactError
     from famarl_cli.sweep.plan import JOB_FILE, JOB_SCHEMA
 
     if kind == "empty":
