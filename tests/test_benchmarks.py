@@ -200,6 +200,29 @@ def test_robothand_grasp_finds_the_window_the_control_holds_in(tmp_path):
     assert picture.read_bytes()[:4] == b"\x89PNG"
 
 
+def test_robothand_physics_finds_today_s_setting_alike_itself_and_one_substep_a_different_task(tmp_path):
+    """Against itself today's physics drifts 0 m and ends every episode alike; one chipmunk step per env step (a
+    quarter of today's) drops the pegging grasp: the record says it changes the task. The study leaves the env's
+    physics as it found it."""
+    import json
+
+    from famarl_cli.envs import robot_hand
+
+    out, measured = tmp_path / "physics.json", tmp_path / "measured.json"
+    args = ["--settings", "1x20", "--layouts", 1, "--steps", 100, "--rounds", 1, "--out", out]
+    result = run_recording("robothand_physics.py", measured, *args)
+    assert result.returncode == 0, result.stderr
+    task = json.loads(out.read_text())["task"]
+    assert task["4x20"]["keeps_the_task"] and set(task["4x20"]["drift_m"].values()) == {0.0}
+    assert task["4x20"]["alike"] == {"pegging-phases": 1, "reaching": 1, "ball-placing": 1}
+    assert not task["1x20"]["keeps_the_task"] and task["1x20"]["solved"]["pegging-phases"] == 0
+    rows = json.loads(measured.read_text())
+    assert set(rows) == {"robothand_physics_4x20", "robothand_physics_1x20", "robothand_physics_python"}
+    assert "changes the task" in rows["robothand_physics_1x20"]["measured"]
+    assert (robot_hand.SUBSTEPS, robot_hand.SOLVER_ITERATIONS) == (4, 20)
+    assert robot_hand._space_step is robot_hand.chipmunk.cpSpaceStep
+
+
 def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     out, measured = tmp_path / "result.json", tmp_path / "measured.json"
 
@@ -242,6 +265,9 @@ def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     one_error_line(run_with("robothand_chance.py", "--data", tmp_path), "is not a run folder")
     one_error_line(run_with("robothand_chance.py", "--starts", "famarl+nope"), "unknown start 'famarl+nope'")
     one_error_line(run_with("robothand_grasp.py", "--layouts", 0), "--layouts and --jobs must be at least 1")
+    one_error_line(run_with("robothand_physics.py", "--settings", "4x0"), "expected SUBSTEPSxITERATIONS")
+    one_error_line(run_with("robothand_physics.py", "--settings", "fast"), "--settings 'fast'")
+    one_error_line(run_with("robothand_physics.py", "--rounds", 0), "must be at least 1")
     one_error_line(run_with("robothand_grasp.py", "--dx=0.1,0.2"), "must include 0")
     one_error_line(run_with("robothand_grasp.py", "--dy=0,up"), "expected finite numbers")
     one_error_line(run_with("robothand_grasp.py", "--dx=0,nan"), "expected finite numbers")
