@@ -323,8 +323,15 @@ def ratio_interval(a: Sequence[float], b: Sequence[float], level: float = LEVEL,
 
 
 def iqm(values: Sequence[float]) -> float:
-    """Interquartile mean: the mean of the middle 50% of the values (rliable's robust aggregate)."""
-    return float(stats.trim_mean(np.asarray(values, dtype=float), 0.25))
+    """Interquartile mean: the mean of the middle 50% of the values (rliable's robust aggregate), NaN of none.
+
+    scipy's ``trim_mean(values, 0.25)`` step by step (the same partition and the same mean, so the same bits) without
+    its array-API wrapper, which costs twenty times the arithmetic: a bootstrap calls this thousands of times."""
+    values = np.asarray(values, dtype=float).ravel()
+    if not len(values):
+        return float("nan")
+    cut = len(values) // 4
+    return float(np.partition(values, (cut, len(values) - cut - 1))[cut : len(values) - cut].mean())
 
 
 def aggregate_interval(
