@@ -1,5 +1,5 @@
 """What RobotHand's physics costs a step, and what cheaper physics would change. Each setting of chipmunk's steps per
-env step and solver iterations (``SUBSTExITERATIONS``; today's ``4x20``, famarl_cli/envs/robot_hand.py's SUBSTEPS and
+env step and solver iterations (``SUBSTEPSxITERATIONS``; today's ``4x20``, famarl_cli/envs/robot_hand.py's SUBSTEPS and
 SOLVER_ITERATIONS) is timed and run against today's:
 
     python studies/robothand_physics.py [--settings 4x20,4x10,4x5,2x20,2x10,1x20] [--layouts 20] [--steps 20000]
