@@ -122,16 +122,14 @@ def random_sequence(env_id: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 def controller_episode(script: str, seed: int) -> tuple[int, bool]:
-    """The steps and success of the controller's episode on layout ``seed``."""
+    """The steps and success of the controller's episode on layout ``seed``, recorded as famarl demos records one."""
+    from famarl_cli.envs.success import success_rule
+    from famarl_cli.stages.demos import record_episode
+
     spec = demonstration(script)
-    env, expert = gym.make(spec.env_id, **spec.env_kwargs), make_expert(script)
-    obs, _ = env.reset(seed=seed)
-    expert.reset(obs)
-    for steps in range(1, 1 << 30):
-        obs, _, terminated, truncated, info = env.step(expert.act(obs))
-        if terminated or truncated:
-            return steps, bool(info["success"])
-    raise AssertionError("unreachable")
+    env = gym.make(spec.env_id, **spec.env_kwargs)
+    episode, _ = record_episode(env, make_expert(script), seed, success_rule(env.spec))
+    return len(episode.rewards), bool(episode.success)
 
 
 def drift(got: tuple[np.ndarray, np.ndarray], today: tuple[np.ndarray, np.ndarray]) -> tuple[float, bool]:
