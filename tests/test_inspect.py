@@ -216,6 +216,10 @@ def test_a_sweeps_folder_and_a_replicates_are_read_by_what_they_record(tmp_path)
     (tmp_path / "report").mkdir()
     (tmp_path / "report" / "report.md").write_text("# famarl report\n")
     one_line_error(famarl("inspect", tmp_path / "report"), 1, "a report (report.md), not a run folder; its verdicts")
+    # famarl report --out writes its summary and metrics beside report.md: still a report, not a folder of files
+    for name in ("summary.json", "metrics.json"):
+        (tmp_path / "report" / name).write_text("{}")
+    one_line_error(famarl("inspect", tmp_path / "report"), 1, "a report (report.md), not a run folder; its verdicts")
 
 
 def test_a_folder_of_evaluations_or_oracle_results_shows_each_runs_result(run, tmp_path, monkeypatch):

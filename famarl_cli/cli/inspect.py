@@ -122,7 +122,7 @@ def _checkpoint(path: Path) -> tuple[Table, dict]:
 def _folder(folder: Path) -> tuple[Table, dict]:
     """A run folder; else a sweep's folder (its sweep.json) or a famarl macros replicate's (its job.json); else a
     folder of results, each run's in its subfolder (what famarl evaluate and famarl oracle write into --out); else
-    an error that names the files in it famarl inspect would read."""
+    an error that says where a report's verdicts are, or names the files in the folder famarl inspect would read."""
     from famarl_cli.artifacts.base import file_kind
     from famarl_cli.artifacts.records import REPORT_FILE
     from famarl_cli.artifacts.runs import EVAL_FILE, ORACLE_FILE, RUN_FILE
@@ -136,6 +136,12 @@ def _folder(folder: Path) -> tuple[Table, dict]:
     results = sorted(folder.glob(f"*/{EVAL_FILE}")) + sorted(folder.glob(f"*/{ORACLE_FILE}"))
     if results:
         return _results(folder, results)
+    if (folder / REPORT_FILE).is_file():
+        raise ArtifactError(
+            f"{folder}: a report ({REPORT_FILE}), not a run folder; its verdicts are in the summary.json famarl "
+            "report wrote at --summary (by default beside it; a pipeline's: summary.json or "
+            "pipelines/<name>/summary.json): inspect that"
+        )
     # A folder of a stage's files (famarl traverse --out d/t.h5 writes d/t.h5, t.png, t.json): inspect reads files.
     files = sorted(p.name for p in folder.iterdir() if p.is_file() and file_kind(p) in ("hdf5", "torch", "json"))
     if files:
@@ -144,11 +150,6 @@ def _folder(folder: Path) -> tuple[Table, dict]:
         raise ArtifactError(
             f"{folder}: not a run folder (no {RUN_FILE}), a sweep's or a folder of results; give one of its files "
             f"instead: {named}"
-        )
-    if (folder / REPORT_FILE).is_file():
-        raise ArtifactError(
-            f"{folder}: a report ({REPORT_FILE}), not a run folder; its verdicts are in the summary.json famarl "
-            "report wrote at --summary (a pipeline's: summary.json or pipelines/<name>/summary.json): inspect that"
         )
     return _run_folder(folder)  # its error: not a run folder
 
