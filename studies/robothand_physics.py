@@ -53,6 +53,9 @@ HOLD, SEQUENCE = 10, 400
 TOLERANCE = 0.01
 """Metres: the most a setting that keeps the task may move the grip or the object from today's physics."""
 TARGET = 3.0
+MOST = 100
+"""The most substeps or solver iterations a setting may ask for: the study is of cheaper physics than today's, and a
+dearer setting's steps only take longer."""
 POSITIONS = [OBSERVATION_NAMES.index(name) for name in ("grip_x", "grip_y", "object_x", "object_y")]
 
 
@@ -62,10 +65,12 @@ def parse_settings(text: str) -> list[tuple[int, int]]:
     for part in text.split(","):
         try:
             substeps, iterations = (int(n) for n in part.split("x"))
-            if substeps < 1 or iterations < 1:
+            if not (1 <= substeps <= MOST and 1 <= iterations <= MOST):
                 raise ValueError
         except ValueError:
-            raise SystemExit(f"error: --settings {part!r}: expected SUBSTEPSxITERATIONS, both at least 1") from None
+            raise SystemExit(
+                f"error: --settings {part!r}: expected SUBSTEPSxITERATIONS, both from 1 to {MOST}"
+            ) from None
         settings.append((substeps, iterations))
     return [TODAY, *dict.fromkeys(s for s in settings if s != TODAY)]
 
@@ -190,11 +195,12 @@ def measured_text(name: str, rates: dict, today: dict, task: dict | None, layout
         f"{t} {task['drift_m'][t]:.2g} m{'' if task['same_ends'][t] else ' (an episode ends apart)'}" for t in TASKS
     )
     keeps = "keeps the task" if task["keeps_the_task"] else "changes the task"
-    fast = max(rates[t] / today[t] for t in TASKS) >= TARGET
+    # the target is every task's rate, on the same task
+    met = task["keeps_the_task"] and min(rates[t] / today[t] for t in TASKS) >= TARGET
     return (
         f"env steps/s (against {name_of(TODAY)}): {speed}; controllers' layouts solved: {solved}; random sequences' "
         f"largest drift: {drifted} — {keeps}{'' if name != name_of(TODAY) else ' (today)'}"
-        f"{'; the target reached' if fast else ''}"
+        f"{'; the target reached' if met else ''}"
     )
 
 
@@ -222,14 +228,14 @@ def main() -> None:
         "{}; keeps the task where every controller episode ends as today's and the sequences stay within {} m"
     )
     for name, measured in rates.items():
-        found = task.get(name)
-        print(f"{name:>7}: {measured_text(name, measured, today, found, args.layouts)}")
+        text = measured_text(name, measured, today, task.get(name), args.layouts)
+        print(f"{name:>7}: {text}")
         setting = "chipmunk's step left out" if name == PYTHON else f"{name} (substeps x solver iterations)"
         record(
             f"robothand_physics_{name}",
             what.format(setting, HOLD, args.rounds, args.layouts, SEQUENCE, name_of(TODAY), TOLERANCE),
             command,
-            measured_text(name, measured, today, found, args.layouts),
+            text,
             f"{TARGET:g}x today's env steps/s, the task kept",
         )
     write_result(args.out, {"command": command, "rates": rates, "task": task, "layouts": args.layouts})

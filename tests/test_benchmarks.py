@@ -267,6 +267,8 @@ def test_robothand_benchmarks_refuse_bad_options_before_any_work(tmp_path):
     one_error_line(run_with("robothand_grasp.py", "--layouts", 0), "--layouts and --jobs must be at least 1")
     one_error_line(run_with("robothand_physics.py", "--settings", "4x0"), "expected SUBSTEPSxITERATIONS")
     one_error_line(run_with("robothand_physics.py", "--settings", "fast"), "--settings 'fast'")
+    one_error_line(run_with("robothand_physics.py", "--settings", "4x20,1x100000"), "both from 1 to 100")
+    one_error_line(run_with("robothand_physics.py", "--settings", ""), "expected SUBSTEPSxITERATIONS")
     one_error_line(run_with("robothand_physics.py", "--rounds", 0), "must be at least 1")
     one_error_line(run_with("robothand_grasp.py", "--dx=0.1,0.2"), "must include 0")
     one_error_line(run_with("robothand_grasp.py", "--dy=0,up"), "expected finite numbers")
