@@ -5,6 +5,7 @@ studies/measured.json, through studies/study.py), and famarl's own commands run 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -14,10 +15,14 @@ import resource
 import shlex
 import subprocess
 import sys
+import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from datetime import UTC, datetime
 from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
 
 import famarl_cli
 from famarl_cli.artifacts import atomic_path
@@ -61,6 +66,46 @@ def rate(call: Callable[[], object], items_per_call: int, seconds: float) -> flo
             call()
         calls += 10
     return calls * items_per_call / elapsed
+
+
+def single_env_rate(env_id: str, seconds: float, unwrapped: bool = False) -> float:
+    """Env steps per second of one ``env_id`` env (``gym.make``'s, or the env it wraps) stepping random actions,
+    each episode reset as it ends: resets count, as they do in training."""
+    env = gym.make(env_id)
+    if unwrapped:
+        env = env.unwrapped
+    env.reset(seed=0)
+    actions = np.random.default_rng(0).uniform(-1, 1, (1024, *env.action_space.shape)).astype(np.float32)
+    counter = iter(range(1 << 62))
+    limit = gym.spec(env_id).max_episode_steps
+    elapsed = [0]
+
+    def step():
+        _, _, terminated, truncated, _ = env.step(actions[next(counter) % 1024])
+        elapsed[0] += 1
+        if terminated or truncated or elapsed[0] >= limit:
+            env.reset()
+            elapsed[0] = 0
+
+    return rate(step, 1, seconds)
+
+
+@contextlib.contextmanager
+def checked_out(revision: str) -> Iterator[Path]:
+    """A checkout of this repository at ``revision`` (a git worktree in a temporary folder, removed afterwards); an
+    unknown revision ends the benchmark in one error line."""
+    found = subprocess.run(
+        ["git", "rev-parse", "--verify", "-q", f"{revision}^{{commit}}"], cwd=ROOT, capture_output=True
+    )
+    if found.returncode:
+        raise SystemExit(f"error: {revision}: no such revision in this repository")
+    with tempfile.TemporaryDirectory() as temp:
+        tree = Path(temp) / "code"
+        subprocess.run(["git", "worktree", "add", "--detach", "-q", str(tree), revision], cwd=ROOT, check=True)
+        try:
+            yield tree
+        finally:
+            subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT, check=True)
 
 
 def famarl(*arguments: str) -> None:

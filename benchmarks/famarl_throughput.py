@@ -24,8 +24,18 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from common import RESULTS, command_line, peak_rss_mib, rate, record, rounded, timed, verdict, write_result
-from env_throughput import single_env
+from common import (
+    RESULTS,
+    command_line,
+    peak_rss_mib,
+    rate,
+    record,
+    rounded,
+    single_env_rate,
+    timed,
+    verdict,
+    write_result,
+)
 
 from famarl_cli.core.errors import FamarlError
 from famarl_cli.method.favae.checkpoint import load_favae
@@ -168,7 +178,7 @@ def main() -> None:
     for row in decode_rows:
         print(f"{row['batch']:>16} {row['decisions_per_s']:>12,.0f} {row['ms_per_call']:>12.3f}")
 
-    env_rate = single_env(args.env, args.seconds, unwrapped=False)
+    env_rate = single_env_rate(args.env, args.seconds)
     agents = (Agent.FAMARL, Agent.PPO, Agent.FIGAR)
     train_rows = [training(agent, args.favae, args.steps, args.env, env_rate) for agent in agents]
     print(f"\n{args.env}: {env_rate:,.0f} env steps/s alone")

@@ -24,8 +24,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 import torch
+from common import ROOT, checked_out
 
-ROOT = Path(__file__).resolve().parents[1]
 HAND = "famarl/RobotHand-BallPlacing-v0"
 SEARCH = ["--layouts", "2", "--candidates", "8", "--iterations", "1", "--jobs", "1"]
 TINY = ["--n-envs", "4", "--n-steps", "8", "--update-epochs", "1", "--minibatches", "2"]
@@ -157,18 +157,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("rev", nargs="?", default="HEAD", help="the revision to compare with [default: HEAD]")
     rev = parser.parse_args().rev
-    found = subprocess.run(["git", "rev-parse", "--verify", "-q", f"{rev}^{{commit}}"], cwd=ROOT, capture_output=True)
-    if found.returncode:
-        raise SystemExit(f"error: {rev}: no such revision in this repository")
-    with tempfile.TemporaryDirectory() as temp:
-        old = Path(temp) / "code"
-        subprocess.run(["git", "worktree", "add", "--detach", "-q", str(old), rev], cwd=ROOT, check=True)
-        try:
-            run_chain(old, Path(temp) / "before")
-            run_chain(ROOT, Path(temp) / "after")
-            compared, differ = differences(Path(temp) / "before", Path(temp) / "after")
-        finally:
-            subprocess.run(["git", "worktree", "remove", "--force", str(old)], cwd=ROOT, check=True)
+    with checked_out(rev) as old, tempfile.TemporaryDirectory() as temp:
+        run_chain(old, Path(temp) / "before")
+        run_chain(ROOT, Path(temp) / "after")
+        compared, differ = differences(Path(temp) / "before", Path(temp) / "after")
     for name in differ:
         print(f"differs: {name}")
     print(f"{compared} outputs of {len(CHAIN)} commands compared with {rev}: {len(differ)} differ")

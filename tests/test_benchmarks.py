@@ -108,6 +108,35 @@ def test_pipeline_stages_against_a_revision_that_is_not_there(tmp_path):
     assert not out.exists()
 
 
+def test_env_throughput_refuses_a_revision_that_is_not_there_and_counts_below_one(tmp_path):
+    out = tmp_path / "result.json"
+    one_error_line(run("env_throughput.py", "--against", "no-such-revision", "--out", out), "no such revision")
+    for option in ("--rounds", "--seconds"):
+        one_error_line(run("env_throughput.py", "--against", "HEAD", option, "0", "--out", out), "--rounds")
+    assert not out.exists()
+
+
+@pytest.mark.slow  # a checkout and two interpreters importing famarl
+def test_env_throughput_against_a_revision_steps_its_package_and_this_checkout_s_in_turn(tmp_path):
+    """Each side is stepped in an interpreter of its own that says which package it stepped (an installed famarl
+    found first would measure this checkout twice); the record holds this checkout's rate over the revision's."""
+    import json
+
+    measured, out = tmp_path / "measured.json", tmp_path / "result.json"
+    done = run_recording(
+        "env_throughput.py", measured, "--against", "HEAD", "--rounds", "1", "--seconds", "0.05", "--out", out
+    )
+    assert done.returncode == 0, done.stderr
+    entry = json.loads(measured.read_text())["env_throughput_robot_hand_against"]
+    result = json.loads(out.read_text())
+    tasks = ["robot-hand-base", "robot-hand-reaching", "robot-hand-ball-placing"]
+    assert list(entry["values"]) == tasks and entry["unit"] == "x" and entry["better"] == "higher"
+    for task in tasks:
+        assert result["before"][task] > 0 and result["now"][task] > 0
+        assert entry["values"][task] == pytest.approx(result["now"][task] / result["before"][task], rel=1e-5)
+    assert entry["command"] == "python benchmarks/env_throughput.py --seconds 0.05 --against HEAD --rounds 1"
+
+
 def test_same_outputs_against_a_revision_that_is_not_there():
     one_error_line(run_process("same_outputs.py", "no-such-revision"), "no-such-revision: no such revision")
 
