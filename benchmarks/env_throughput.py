@@ -187,8 +187,8 @@ def main() -> None:
         "env_throughput_against.json with --against)",
     )
     args = parser.parse_args()
-    if args.rounds < 1 or args.seconds <= 0:
-        raise SystemExit("error: --rounds must be at least 1 and --seconds above 0")
+    if args.rounds < 1 or not 0 < args.seconds < float("inf"):
+        raise SystemExit("error: --rounds must be at least 1 and --seconds a finite number above 0")
     if args.against is not None:
         best = against(args.against, args.rounds, args.seconds)
         print(f"{'task':<24} {args.against:>14} {'this checkout':>14} {'ratio':>7}")

@@ -111,8 +111,8 @@ def test_pipeline_stages_against_a_revision_that_is_not_there(tmp_path):
 def test_env_throughput_refuses_a_revision_that_is_not_there_and_counts_below_one(tmp_path):
     out = tmp_path / "result.json"
     one_error_line(run("env_throughput.py", "--against", "no-such-revision", "--out", out), "no such revision")
-    for option in ("--rounds", "--seconds"):
-        one_error_line(run("env_throughput.py", "--against", "HEAD", option, "0", "--out", out), "--rounds")
+    for option, value in (("--rounds", "0"), ("--seconds", "0"), ("--seconds", "nan"), ("--seconds", "inf")):
+        one_error_line(run("env_throughput.py", "--against", "HEAD", option, value, "--out", out), "--rounds")
     assert not out.exists()
 
 
