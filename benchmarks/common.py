@@ -17,9 +17,10 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Collection, Iterator
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import TypeVar
 
 import gymnasium as gym
 import numpy as np
@@ -33,6 +34,8 @@ RESULTS = Path(__file__).parent / "results"
 MEASURED = Path(__file__).parent / "measured.json"
 STUDIES = ROOT / "studies"
 """The research studies (studies/study.py gives them these helpers with their own results folder and record)."""
+Side = TypeVar("Side")
+"""What :func:`fastest_in_turns` measures in turns: a setting, a revision's side."""
 HIGHER, LOWER = "higher", "lower"
 """Which way a recorded number improves (``better``): a rate's up, a time's or a memory's down."""
 
@@ -88,6 +91,20 @@ def single_env_rate(env_id: str, seconds: float, unwrapped: bool = False) -> flo
             elapsed[0] = 0
 
     return rate(step, 1, seconds)
+
+
+def fastest_in_turns(
+    sides: Collection[Side], measure: Callable[[Side], dict[str, float]], rounds: int
+) -> dict[Side, dict[str, float]]:
+    """Each side's fastest rate by name over ``rounds`` rounds in which the sides take turns (``measure(side)``: its
+    rates by name): a shared machine that slows for a while slows each side in turn, and each keeps its best."""
+    best: dict[Side, dict[str, float]] = {}
+    for _ in range(rounds):
+        for side in sides:
+            kept = best.setdefault(side, {})
+            for name, per_s in measure(side).items():
+                kept[name] = max(per_s, kept.get(name, 0.0))
+    return best
 
 
 @contextlib.contextmanager

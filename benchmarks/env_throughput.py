@@ -29,6 +29,7 @@ from common import (
     ROOT,
     checked_out,
     command_line,
+    fastest_in_turns,
     peak_rss_mib,
     rate,
     record,
@@ -137,13 +138,9 @@ def hand_rates(tree: Path, seconds: float) -> dict[str, float]:
 def against(revision: str, rounds: int, seconds: float) -> dict[str, dict[str, float]]:
     """RobotHand's single-env rates of ``revision``'s package and of this checkout's, taking turns for ``rounds``
     rounds, each side's fastest per task: ``{"before": {task: rate}, "now": {task: rate}}``."""
-    best: dict[str, dict[str, float]] = {"before": {}, "now": {}}
     with checked_out(revision) as tree:
-        for _ in range(rounds):
-            for side, where in (("before", tree), ("now", ROOT)):
-                for task, per_s in hand_rates(where, seconds).items():
-                    best[side][task] = max(per_s, best[side].get(task, 0.0))
-    return best
+        where = {"before": tree, "now": ROOT}
+        return fastest_in_turns(where, lambda side: hand_rates(where[side], seconds), rounds)
 
 
 def against_record(revision: str, best: dict[str, dict[str, float]], command: str) -> dict:

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-from study import RESULTS, command_line, record, rounded, write_result
+from study import RESULTS, command_line, fastest_in_turns, record, rounded, write_result
 
 import famarl_cli  # noqa: F401  (registers the envs)
 from famarl_cli.envs import ROBOT_HAND_IDS, robot_hand
@@ -148,14 +148,12 @@ def drift(got: tuple[np.ndarray, np.ndarray], today: tuple[np.ndarray, np.ndarra
 
 def timed(settings: list, steps: int, rounds: int) -> dict[str, dict[str, float]]:
     """Each setting's fastest env steps/s per task over ``rounds`` rounds in which the settings take turns."""
-    best: dict[str, dict[str, float]] = {name_of(s): dict.fromkeys(TASKS, 0.0) for s in settings}
-    for _ in range(rounds):
-        for setting in settings:
-            with physics(setting):
-                for task, env_id in TASKS.items():
-                    rate = steps_per_second(env_id, steps)
-                    best[name_of(setting)][task] = max(best[name_of(setting)][task], rate)
-    return best
+
+    def measure(setting) -> dict[str, float]:
+        with physics(setting):
+            return {task: steps_per_second(env_id, steps) for task, env_id in TASKS.items()}
+
+    return {name_of(setting): rates for setting, rates in fastest_in_turns(settings, measure, rounds).items()}
 
 
 def the_task(settings: list, layouts: int) -> dict[str, dict]:
